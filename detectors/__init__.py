@@ -1,0 +1,1 @@
+"""Detectors: sources of per-frame 2D keypoints (precomputed files, ONNX models) and tracking."""

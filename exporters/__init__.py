@@ -1,0 +1,1 @@
+"""Exporters: npz (source of truth), CSV, BVH and rerun recordings."""

@@ -1,0 +1,1 @@
+"""Lifting: skeleton, cameras, motion prior, guided diffusion sampler, metrics."""

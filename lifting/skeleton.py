@@ -1,0 +1,80 @@
+"""The 17-joint skeleton every part of platypose agrees on (Human3.6M order).
+
+Units are metres, the world is right-handed with Z up. Other skeletons (2D
+keypoint sets, mocap hierarchies) are mapped onto these joints by the recipes
+in :mod:`lifting.joint_maps`, which is the one place that says how each joint
+is obtained from each source.
+
+Joint meanings (what a recipe must produce):
+
+- ``pelvis``: midpoint of the two hip joint centres.
+- hips, knees, ankles: joint centres.
+- ``spine``: mid torso, halfway between pelvis and thorax.
+- ``thorax``: midpoint of the two shoulder joint centres.
+- ``neck``: top of the neck / base of the skull (where the head pivots).
+- ``head``: centre of the head (midpoint of the ears).
+- shoulders, elbows, wrists: joint centres.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+JOINT_NAMES: tuple[str, ...] = (
+    "pelvis",
+    "right_hip",
+    "right_knee",
+    "right_ankle",
+    "left_hip",
+    "left_knee",
+    "left_ankle",
+    "spine",
+    "thorax",
+    "neck",
+    "head",
+    "left_shoulder",
+    "left_elbow",
+    "left_wrist",
+    "right_shoulder",
+    "right_elbow",
+    "right_wrist",
+)
+NUM_JOINTS = len(JOINT_NAMES)
+JOINT_INDEX: dict[str, int] = {name: i for i, name in enumerate(JOINT_NAMES)}
+
+# Parent of each joint in the kinematic tree; the pelvis (root) has -1.
+PARENTS: tuple[int, ...] = (-1, 0, 1, 2, 0, 4, 5, 0, 7, 8, 9, 8, 11, 12, 8, 14, 15)
+
+# Bones as (child, parent) pairs, in joint order.
+BONES: tuple[tuple[int, int], ...] = tuple((j, p) for j, p in enumerate(PARENTS) if p >= 0)
+
+# Index of each joint's mirror image (left <-> right), identity on the midline.
+MIRROR: tuple[int, ...] = (0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13)
+
+# Pairs of bone indices (into BONES) that are left/right mirror images.
+SYMMETRIC_BONES: tuple[tuple[int, int], ...] = tuple(
+    (b, BONES.index((MIRROR[c], MIRROR[p])))
+    for b, (c, p) in enumerate(BONES)
+    if MIRROR[c] > c
+)
+
+ROOT = 0
+
+
+def bone_vectors(joints: np.ndarray) -> np.ndarray:
+    """Bone vectors child - parent, ``(..., 17, 3) -> (..., 16, 3)``."""
+    child = [c for c, _ in BONES]
+    parent = [p for _, p in BONES]
+    return joints[..., child, :] - joints[..., parent, :]
+
+
+def bone_lengths(joints: np.ndarray) -> np.ndarray:
+    """Bone lengths, ``(..., 17, 3) -> (..., 16)``."""
+    return np.linalg.norm(bone_vectors(joints), axis=-1)
+
+
+def mirror_joints(joints: np.ndarray) -> np.ndarray:
+    """Mirror a motion through the world XZ plane (y -> -y) and swap left/right, ``(..., 17, 3)``."""
+    mirrored = joints[..., list(MIRROR), :].copy()
+    mirrored[..., 1] *= -1.0
+    return mirrored
