@@ -89,3 +89,149 @@ def apply_recipe_with_confidence(
         [confidence[..., used[j]].min(axis=-1) for j in range(len(JOINT_NAMES))], axis=-1
     )
     return mapped, conf
+
+
+# --- 2D keypoint layouts of detectors and OpenPose (section owned by detectors/) ---
+# Each layout names its points with the COCO-17 names where they mean the same
+# point, so the COCO-17 recipe applies unchanged; extra points (OpenPose's neck
+# and mid-hip, feet, head top) are named but not used. The one exception is
+# BODY_25B, which observes the base of the skull directly ("upper_neck").
+
+_FEET: tuple[str, ...] = (
+    "left_big_toe", "left_small_toe", "left_heel", "right_big_toe", "right_small_toe", "right_heel",
+)  # fmt: skip
+
+# OpenPose COCO-18 (and the first 18 points of BODY_25 before its mid-hip).
+COCO18_NAMES: tuple[str, ...] = (
+    "nose", "openpose_neck", "right_shoulder", "right_elbow", "right_wrist",
+    "left_shoulder", "left_elbow", "left_wrist", "right_hip", "right_knee", "right_ankle",
+    "left_hip", "left_knee", "left_ankle", "right_eye", "left_eye", "right_ear", "left_ear",
+)  # fmt: skip
+
+# OpenPose BODY_25 (default OpenPose model).
+BODY25_NAMES: tuple[str, ...] = (
+    "nose", "openpose_neck", "right_shoulder", "right_elbow", "right_wrist",
+    "left_shoulder", "left_elbow", "left_wrist", "mid_hip", "right_hip", "right_knee", "right_ankle",
+    "left_hip", "left_knee", "left_ankle", "right_eye", "left_eye", "right_ear", "left_ear",
+) + _FEET  # fmt: skip
+
+# OpenPose experimental BODY_25B: COCO-17 order, then upper neck, head top, feet.
+BODY25B_NAMES: tuple[str, ...] = COCO17_NAMES + ("upper_neck", "head_top") + _FEET
+
+# Halpe-26 (AlphaPose, RTMPose body7 Halpe models): COCO-17, head top, neck, mid-hip, feet.
+HALPE26_NAMES: tuple[str, ...] = COCO17_NAMES + ("head_top", "openpose_neck", "mid_hip") + (
+    "left_big_toe", "right_big_toe", "left_small_toe", "right_small_toe", "left_heel", "right_heel",
+)  # fmt: skip
+
+# BODY_25B -> ours: as COCO-17, but neck is the observed upper neck (base of the skull).
+BODY25B_RECIPE: Recipe = {**COCO17_RECIPE, "neck": {"upper_neck": 1.0}}
+
+# Layout name -> (source point names, recipe), for every 2D keypoint set we read.
+KEYPOINT_LAYOUTS: dict[str, tuple[tuple[str, ...], Recipe]] = {
+    "coco17": (COCO17_NAMES, COCO17_RECIPE),
+    "coco18": (COCO18_NAMES, COCO17_RECIPE),
+    "body25": (BODY25_NAMES, COCO17_RECIPE),
+    "body25b": (BODY25B_NAMES, BODY25B_RECIPE),
+    "halpe26": (HALPE26_NAMES, COCO17_RECIPE),
+}
+
+
+# --- 3D mocap skeletons of the motion importers (section owned by lifting/motion_io/) ---
+# Every mocap skeleton names its 12 limb joint centres; the midline joints are
+# derived from them once, here, for all skeletons:
+#   pelvis = midpoint of the hips, thorax = midpoint of the shoulders,
+#   spine = midpoint of pelvis and thorax, neck = the base of the skull (the
+#   joint the head pivots on, a mocap "Head" joint), head = centre of the head.
+# Where a skeleton has a head-top point (a BVH Head End Site, the end of the CMU
+# "head" bone) the head centre is the midpoint of skull base and head top.
+# Where it has none, the head centre is extrapolated past the skull base along
+# the neck by HEAD_EXTRAPOLATION of the neck length (holosoma: 0.5 x 0.14 m = 7 cm).
+
+LIMB_JOINTS: tuple[str, ...] = (
+    "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee", "left_ankle",
+    "left_shoulder", "left_elbow", "left_wrist", "right_shoulder", "right_elbow", "right_wrist",
+)  # fmt: skip
+
+HEAD_EXTRAPOLATION = 0.5
+
+
+def head_between(skull_base: str, head_top: str) -> dict[str, float]:
+    """Head centre as the midpoint of the skull base and the head top."""
+    return _mid(skull_base, head_top)
+
+
+def head_beyond(skull_base: str, neck_base: str) -> dict[str, float]:
+    """Head centre extrapolated past the skull base along the neck (base -> skull) by HEAD_EXTRAPOLATION."""
+    return {skull_base: 1.0 + HEAD_EXTRAPOLATION, neck_base: -HEAD_EXTRAPOLATION}
+
+
+def mocap_recipe(limbs: Mapping[str, str], neck: Mapping[str, float], head: Mapping[str, float]) -> Recipe:
+    """Recipe from a mocap skeleton: ``limbs`` maps our 12 limb joints to source names; neck and head are weights."""
+    missing = [j for j in LIMB_JOINTS if j not in limbs]
+    if missing:
+        raise KeyError(f"mocap name map lacks {missing}")
+    recipe: dict[str, Mapping[str, float]] = {j: {limbs[j]: 1.0} for j in LIMB_JOINTS}
+    hips = _mid(limbs["left_hip"], limbs["right_hip"])
+    shoulders = _mid(limbs["left_shoulder"], limbs["right_shoulder"])
+    recipe["pelvis"] = hips
+    recipe["thorax"] = shoulders
+    recipe["spine"] = {k: 0.5 * w for k, w in (*hips.items(), *shoulders.items())}
+    recipe["neck"] = dict(neck)
+    recipe["head"] = dict(head)
+    return recipe
+
+
+# holosoma-retargeting "mocap" layout (T, 53, 3): Vicon-style names, hands with fingers.
+HOLOSOMA_MOCAP_NAMES: tuple[str, ...] = (
+    ("Hips", "Spine", "Spine1", "Neck", "Head", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand")
+    + tuple(f"LeftHand{f}{i}" for f in ("Thumb", "Index", "Middle", "Ring", "Pinky") for i in (1, 2, 3))
+    + ("RightShoulder", "RightArm", "RightForeArm", "RightHand")
+    + tuple(f"RightHand{f}{i}" for f in ("Thumb", "Index", "Middle", "Ring", "Pinky") for i in (1, 2, 3))
+    + ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")
+    + ("LeftFootMod", "RightFootMod")
+)
+
+# Limb names shared by Vicon/MotionBuilder/Mixamo/LaFAN style skeletons (holosoma, many BVH files).
+MOTIONBUILDER_LIMBS: dict[str, str] = {
+    "right_hip": "RightUpLeg", "right_knee": "RightLeg", "right_ankle": "RightFoot",
+    "left_hip": "LeftUpLeg", "left_knee": "LeftLeg", "left_ankle": "LeftFoot",
+    "left_shoulder": "LeftArm", "left_elbow": "LeftForeArm", "left_wrist": "LeftHand",
+    "right_shoulder": "RightArm", "right_elbow": "RightForeArm", "right_wrist": "RightHand",
+}  # fmt: skip
+
+HOLOSOMA_MOCAP_RECIPE: Recipe = mocap_recipe(MOTIONBUILDER_LIMBS, {"Head": 1.0}, head_beyond("Head", "Neck"))
+
+# CMU ASF/AMC: each bone's point is its END (lhipjoint ends at the hip joint centre,
+# lfemur at the knee, ...); upperneck ends at the skull base, head at the head top.
+CMU_ASF_LIMBS: dict[str, str] = {
+    "right_hip": "rhipjoint", "right_knee": "rfemur", "right_ankle": "rtibia",
+    "left_hip": "lhipjoint", "left_knee": "lfemur", "left_ankle": "ltibia",
+    "left_shoulder": "lclavicle", "left_elbow": "lhumerus", "left_wrist": "lradius",
+    "right_shoulder": "rclavicle", "right_elbow": "rhumerus", "right_wrist": "rradius",
+}  # fmt: skip
+
+CMU_ASF_RECIPE: Recipe = mocap_recipe(CMU_ASF_LIMBS, {"upperneck": 1.0}, head_between("upperneck", "head"))
+
+# DeepMimic humanoid (pybullet humanoid.urdf): points are joint frames, plus
+# "head_centre", the centre of the head sphere of the neck link. Its single
+# neck joint sits at the neck base (shoulder height), so the skull base is
+# taken halfway between that joint and the head centre.
+DEEPMIMIC_RECIPE: Recipe = mocap_recipe({j: j for j in LIMB_JOINTS}, _mid("neck", "head_centre"), {"head_centre": 1.0})
+
+# BVH: known naming conventions as (limbs, skull-base joint), tried in order;
+# the first whose names all exist in a file is used (a user name map, our 12
+# limb names plus "neck" -> the skull-base joint, overrides). The head centre
+# uses the skull-base joint's End Site when the file has one (head_between),
+# else head_beyond with the joint's parent as the neck base.
+BVH_NAMING: dict[str, tuple[dict[str, str], str]] = {
+    "motionbuilder": (MOTIONBUILDER_LIMBS, "Head"),
+    "mocapbank": (
+        {
+            "right_hip": "RightHip", "right_knee": "RightKnee", "right_ankle": "RightAnkle",
+            "left_hip": "LeftHip", "left_knee": "LeftKnee", "left_ankle": "LeftAnkle",
+            "left_shoulder": "LeftShoulder", "left_elbow": "LeftElbow", "left_wrist": "LeftWrist",
+            "right_shoulder": "RightShoulder", "right_elbow": "RightElbow", "right_wrist": "RightWrist",
+        },
+        "Head",
+    ),  # fmt: skip
+}

@@ -1,0 +1,144 @@
+"""Read an OpenPose JSON folder (one ``*.json`` per frame; BODY_25, BODY_25B, COCO-18, Halpe-26) into tracks.
+
+The frame number of each file is the last group of digits in its name
+(``cam01.0042.json``, ``video_000000000042_keypoints.json``). Frame times are
+``frame_number / fps``. Missing frame numbers between the first and the last
+file are kept as frames with no detection (NaN, confidence 0), so times stay
+right; the gap is reported by :func:`missing_frames`. OpenPose's ``person_id``
+is usually -1, so people are tracked by :mod:`detectors.tracking`. A point
+OpenPose did not find is written as (0, 0, 0) and becomes missing.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from detectors.keypoints import to_our_joints
+from detectors.tracking import TrackerConfig, track_detections
+from detectors.types import PoseTrack2D
+from detectors.video import VIDEO_SUFFIXES, video_info
+from lifting.errors import InputError
+from lifting.joint_maps import KEYPOINT_LAYOUTS
+
+_LAYOUT_BY_COUNT = {17: "coco17", 18: "coco18", 26: "halpe26"}
+
+
+def frame_number(path: Path) -> int:
+    """The frame number in a per-frame file name: its last group of digits."""
+    digits = re.findall(r"\d+", path.stem)
+    if not digits:
+        raise InputError(f"{path}: no frame number in the file name")
+    return int(digits[-1])
+
+
+def _read_people(path: Path) -> list[np.ndarray]:
+    """Each person's ``pose_keypoints_2d`` of one OpenPose file as (S, 3) arrays."""
+    try:
+        people = json.loads(path.read_text())["people"]
+        poses = [np.asarray(person["pose_keypoints_2d"], dtype=np.float64) for person in people]
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise InputError(f"{path}: not an OpenPose keypoint file ({type(err).__name__}: {err})") from None
+    for pose in poses:
+        if pose.ndim != 1 or pose.size == 0 or pose.size % 3:
+            raise InputError(f"{path}: pose_keypoints_2d has {pose.size} numbers, not a multiple of 3")
+    return [pose.reshape(-1, 3) for pose in poses]
+
+
+def guess_layout(poses: list[np.ndarray]) -> str:
+    """The keypoint layout of OpenPose poses (each (S, 3)) from the point count and, for 25 points, geometry.
+
+    Points 15-16 are the ankles in BODY_25B but the eyes in BODY_25, and points
+    11-14 are hips and knees in BODY_25B but ankles, hip and knee in BODY_25: in
+    image coordinates (y down) of upright people, 15-16 lie below 11-14 only in BODY_25B.
+    """
+    count = poses[0].shape[0]
+    if count in _LAYOUT_BY_COUNT:
+        return _LAYOUT_BY_COUNT[count]
+    if count != 25:
+        raise ValueError(f"{count} keypoints per person match no known layout (17, 18, 25, 26)")
+    below = []
+    for pose in poses:
+        upper, lower = pose[15:17], pose[11:15]
+        if (upper[:, 2] > 0).any() and (lower[:, 2] > 0).any():
+            below.append(upper[upper[:, 2] > 0, 1].mean() > lower[lower[:, 2] > 0, 1].mean())
+    if not below:
+        raise ValueError("cannot tell BODY_25 from BODY_25B (no person with points 11-16); pass the layout")
+    return "body25b" if np.mean(below) > 0.5 else "body25"
+
+
+def _find_video(folder: Path) -> Path | None:
+    """The video a JSON folder was made from: ``<name>.<video suffix>`` for ``<name>_json`` beside it or one up."""
+    name = folder.name.removesuffix("_json").removesuffix("_keypoints")
+    for parent in (folder.parent, folder.parent.parent):
+        for suffix in VIDEO_SUFFIXES:
+            if (parent / f"{name}{suffix}").is_file():
+                return parent / f"{name}{suffix}"
+    return None
+
+
+def read_openpose_folder(
+    folder: str | Path,
+    fps: float | None = None,
+    image_size: tuple[int, int] | None = None,
+    layout: str | None = None,
+    tracker: TrackerConfig = TrackerConfig(),
+) -> PoseTrack2D:
+    """Read an OpenPose JSON folder into tracks (T, P, 17, 3) on our joints.
+
+    ``fps`` and ``image_size`` (height, width) not given are read from the video
+    the folder was made from (``cam01.mp4`` for ``cam01_json``, beside the folder
+    or one level up); InputError if there is none. ``layout`` (``body25``,
+    ``body25b``, ``coco18``, ``halpe26``, ``coco17``) is guessed when not given.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: not a folder of OpenPose JSON files")
+    files = sorted(folder.glob("*.json"))
+    if not files:
+        raise InputError(f"{folder}: no .json files")
+    numbers = [frame_number(path) for path in files]
+    if len(set(numbers)) != len(numbers):
+        raise InputError(f"{folder}: two files have the same frame number")
+    if fps is None or image_size is None:
+        video = _find_video(folder)
+        if video is None:
+            raise InputError(f"{folder}: no video beside it to read fps and image size from; pass them")
+        info = video_info(video)
+        fps = info.fps if fps is None else fps
+        image_size = info.image_size if image_size is None else image_size
+    if fps <= 0:
+        raise InputError(f"{folder}: fps must be positive, got {fps}")
+    people = {number: _read_people(path) for number, path in zip(numbers, files)}
+    everyone = [pose for poses in people.values() for pose in poses]
+    if everyone and len({pose.shape[0] for pose in everyone}) > 1:
+        raise InputError(f"{folder}: files disagree on the number of keypoints per person")
+    if layout is None:
+        if not everyone:
+            raise InputError(f"{folder}: no person in any file")
+        try:
+            layout = guess_layout(everyone)
+        except ValueError as err:
+            raise InputError(f"{folder}: {err}") from None
+    if layout not in KEYPOINT_LAYOUTS:
+        raise InputError(f"{folder}: unknown keypoint layout {layout!r}; known: {', '.join(KEYPOINT_LAYOUTS)}")
+    expected = len(KEYPOINT_LAYOUTS[layout][0])
+    if everyone and everyone[0].shape[0] != expected:
+        raise InputError(f"{folder}: layout {layout} has {expected} points, the files have {everyone[0].shape[0]}")
+    frames = np.arange(min(numbers), max(numbers) + 1)
+    empty = np.zeros((0, 17, 3))
+    detections = [
+        to_our_joints(np.stack(people[f]), layout) if people.get(f) else empty for f in frames
+    ]
+    return track_detections(detections, frames / fps, tuple(image_size), str(folder), tracker)
+
+
+def missing_frames(folder: str | Path) -> np.ndarray:
+    """Frame numbers between the first and last file of a per-frame JSON folder that have no file."""
+    numbers = np.array([frame_number(path) for path in Path(folder).glob("*.json")], dtype=np.int64)
+    if numbers.size == 0:
+        return numbers
+    return np.setdiff1d(np.arange(numbers.min(), numbers.max() + 1), numbers)

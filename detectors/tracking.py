@@ -1,0 +1,182 @@
+"""Multi-person tracking: persistent IDs from per-frame detections, gap bridging, fragment repair, selection.
+
+Per frame, each live track predicts its pose with constant per-joint velocity;
+tracks and detections are assigned by the Hungarian method on the median
+keypoint distance divided by the person's size. A track survives unseen for up
+to ``max_gap_s`` (its ID bridges the gap; the gap frames stay missing). After
+the pass, track fragments that end and start close in time and space are
+joined (repairs the ID switches left by occlusions). Tracks with fewer than
+``min_track_frames`` observed frames are dropped.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from detectors.keypoints import missing_persons
+from detectors.types import PoseTrack2D
+from lifting.errors import InputError
+
+_NO_MATCH = 1e6
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """Tracking thresholds; distances are in units of the person's size (square root of box area)."""
+
+    max_cost: float = 0.6
+    max_gap_s: float = 1.0
+    stitch_gap_s: float = 3.0
+    stitch_cost: float = 0.8
+    min_joints: int = 4
+    min_confidence: float = 0.2
+    min_track_frames: int = 3
+
+
+@dataclass
+class _Track:
+    frames: list[int] = field(default_factory=list)
+    poses: list[np.ndarray] = field(default_factory=list)
+
+    def predict(self, time: float, times: np.ndarray) -> np.ndarray:
+        """Constant-velocity prediction of the pose (17, 3) at ``time``."""
+        last = self.poses[-1]
+        if len(self.poses) < 2:
+            return last
+        dt = times[self.frames[-1]] - times[self.frames[-2]]
+        velocity = (last[:, :2] - self.poses[-2][:, :2]) / max(dt, 1e-6)
+        median_velocity = np.nanmedian(velocity, axis=0) if np.isfinite(velocity).any() else np.zeros(2)
+        velocity = np.where(np.isfinite(velocity), velocity, median_velocity)
+        predicted = last.copy()
+        predicted[:, :2] += velocity * (time - times[self.frames[-1]])
+        return predicted
+
+
+def person_size(pose: np.ndarray, min_confidence: float = 0.0) -> np.ndarray:
+    """Square root of the keypoint bounding-box area, ``(..., 17, 3) -> (...)``; NaN without 2 visible joints."""
+    visible = pose[..., 2] > min_confidence
+    xy = np.where(visible[..., None], pose[..., :2], np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        extent = np.nanmax(xy, axis=-2) - np.nanmin(xy, axis=-2)
+    size = np.sqrt(np.maximum(extent[..., 0] * extent[..., 1], 0.0))
+    return np.where(visible.sum(axis=-1) >= 2, np.maximum(size, 1.0), np.nan)
+
+
+def pose_distance(a: np.ndarray, b: np.ndarray, min_confidence: float) -> float:
+    """Median distance over joints visible in both poses (17, 3), in units of ``a``'s size; inf if < 3 shared."""
+    shared = (a[:, 2] > min_confidence) & (b[:, 2] > min_confidence)
+    if shared.sum() < 3:
+        return np.inf
+    scale = person_size(a, min_confidence)
+    distances = np.linalg.norm(a[shared, :2] - b[shared, :2], axis=-1)
+    return float(np.median(distances) / scale)
+
+
+def _assign(tracks: list[_Track], detections: np.ndarray, time: float, times: np.ndarray, gates: np.ndarray,
+            min_confidence: float) -> list[tuple[int, int]]:
+    """Hungarian assignment of live tracks to detections (N, 17, 3) under per-track gates; (track, detection) pairs."""
+    if not tracks or len(detections) == 0:
+        return []
+    cost = np.full((len(tracks), len(detections)), _NO_MATCH)
+    for i, track in enumerate(tracks):
+        predicted = track.predict(time, times)
+        for j, detection in enumerate(detections):
+            c = pose_distance(predicted, detection, min_confidence)
+            if c < gates[i]:
+                cost[i, j] = c
+    rows, cols = linear_sum_assignment(cost)
+    return [(int(r), int(c)) for r, c in zip(rows, cols) if cost[r, c] < _NO_MATCH]
+
+
+def _online_tracks(detections: list[np.ndarray], times: np.ndarray, config: TrackerConfig) -> list[_Track]:
+    """First pass: frame-by-frame assignment with motion prediction and gap bridging."""
+    finished: list[_Track] = []
+    live: list[_Track] = []
+    for t, frame in enumerate(detections):
+        still_live = []
+        for track in live:
+            (finished if times[t] - times[track.frames[-1]] > config.max_gap_s else still_live).append(track)
+        live = still_live
+        gaps = np.array([times[t] - times[track.frames[-1]] for track in live])
+        gates = config.max_cost * (1.0 + gaps / config.max_gap_s)
+        pairs = _assign(live, frame, times[t], times, gates, config.min_confidence)
+        matched = {j for _, j in pairs}
+        for i, j in pairs:
+            live[i].frames.append(t)
+            live[i].poses.append(frame[j])
+        for j, detection in enumerate(frame):
+            if j not in matched and (detection[:, 2] > config.min_confidence).sum() >= config.min_joints:
+                live.append(_Track([t], [detection]))
+    return finished + live
+
+
+def _stitch(tracks: list[_Track], times: np.ndarray, config: TrackerConfig) -> list[_Track]:
+    """Join fragments end-to-start (greedy by cost) when the gap and the pose jump are both small."""
+    candidates = []
+    for a, first in enumerate(tracks):
+        for b, second in enumerate(tracks):
+            gap = times[second.frames[0]] - times[first.frames[-1]]
+            if a != b and 0 < gap <= config.stitch_gap_s:
+                cost = pose_distance(first.poses[-1], second.poses[0], config.min_confidence)
+                if cost < config.stitch_cost:
+                    candidates.append((cost, a, b))
+    successor: dict[int, int] = {}
+    predecessor: dict[int, int] = {}
+    for _, a, b in sorted(candidates):
+        if a in successor or b in predecessor:
+            continue
+        successor[a] = b
+        predecessor[b] = a
+    joined = []
+    for start in range(len(tracks)):
+        if start in predecessor:
+            continue
+        track, node = _Track(), start
+        while True:
+            track.frames += tracks[node].frames
+            track.poses += tracks[node].poses
+            if node not in successor:
+                break
+            node = successor[node]
+        joined.append(track)
+    return joined
+
+
+def track_detections(
+    detections: list[np.ndarray],
+    frame_times: np.ndarray,
+    image_size: tuple[int, int],
+    source: str,
+    config: TrackerConfig = TrackerConfig(),
+) -> PoseTrack2D:
+    """Per-frame detections (list over T of (N_t, 17, 3), our joints) -> tracks with persistent IDs.
+
+    IDs are 0..P-1 in order of first appearance.
+    """
+    times = np.asarray(frame_times, dtype=np.float64)
+    if len(detections) != len(times):
+        raise ValueError(f"{len(detections)} detection frames but {len(times)} frame times")
+    tracks = _stitch(_online_tracks(detections, times, config), times, config)
+    tracks = [track for track in tracks if len(track.frames) >= config.min_track_frames]
+    tracks.sort(key=lambda track: track.frames[0])
+    keypoints = missing_persons(len(times), len(tracks))
+    for p, track in enumerate(tracks):
+        keypoints[track.frames, p] = np.stack(track.poses)
+    return PoseTrack2D(keypoints, times, np.arange(len(tracks)), image_size, source)
+
+
+def select_persons(tracks: PoseTrack2D, persons: str) -> PoseTrack2D:
+    """Keep ``all`` tracks, the ``largest`` one, or the N largest (``persons`` = "N"), by size summed over frames."""
+    if persons == "all":
+        return tracks
+    count = 1 if persons == "largest" else int(persons) if persons.isdigit() and int(persons) > 0 else None
+    if count is None:
+        raise InputError(f"--persons must be 'all', 'largest' or a positive number, got {persons!r}")
+    score = np.nansum(person_size(tracks.keypoints), axis=0)
+    order = np.argsort(-score, kind="stable")[:count]
+    return tracks.select(np.sort(order))

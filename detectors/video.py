@@ -1,0 +1,77 @@
+"""Streaming video decoding with OpenCV: one frame in memory at a time, clear errors for unreadable files."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from lifting.errors import InputError
+
+VIDEO_SUFFIXES: tuple[str, ...] = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg")
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """What the container says: frames per second, (height, width) and frame count (may be an estimate)."""
+
+    fps: float
+    image_size: tuple[int, int]
+    frame_count: int
+
+
+def _open(path: Path):
+    import cv2
+
+    if not path.is_file():
+        raise InputError(f"{path}: video file not found")
+    capture = cv2.VideoCapture(str(path))
+    if not capture.isOpened():
+        raise InputError(f"{path}: OpenCV cannot open this file as a video")
+    return capture
+
+
+def video_info(path: str | Path) -> VideoInfo:
+    """Read fps, size and frame count of a video; InputError if it is missing, unreadable or has no frames."""
+    import cv2
+
+    path = Path(path)
+    capture = _open(path)
+    try:
+        fps = capture.get(cv2.CAP_PROP_FPS)
+        height = int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        width = int(capture.get(cv2.CAP_PROP_FRAME_WIDTH))
+        count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
+        ok, _ = capture.read()
+    finally:
+        capture.release()
+    if not ok or height <= 0 or width <= 0:
+        raise InputError(f"{path}: no decodable frame (corrupt or unsupported video)")
+    if not np.isfinite(fps) or fps <= 0:
+        raise InputError(f"{path}: the video does not state a frame rate")
+    return VideoInfo(float(fps), (height, width), max(count, 0))
+
+
+def iter_frames(path: str | Path, stride: int = 1, max_frames: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
+    """Yield ``(frame_index, BGR image (H, W, 3) uint8)`` one at a time, every ``stride``-th frame."""
+    path = Path(path)
+    capture = _open(path)
+    try:
+        index = emitted = 0
+        while max_frames is None or emitted < max_frames:
+            if index % stride:
+                if not capture.grab():
+                    break
+            else:
+                ok, frame = capture.read()
+                if not ok:
+                    break
+                yield index, frame
+                emitted += 1
+            index += 1
+    finally:
+        capture.release()
+    if index == 0:
+        raise InputError(f"{path}: no decodable frame (corrupt or unsupported video)")
