@@ -1,0 +1,103 @@
+"""Load real 3D human motion from mocap files onto our 17-joint skeleton (metres, Z up, with frame rate).
+
+``load_motion(path)`` picks the reader by extension (and content where an
+extension is shared), fills each clip's source and licence from the nearest
+``SOURCE.json``, and raises :class:`lifting.errors.InputError` with a one-line
+message for a broken or unknown file. ``load_motion_paths`` expands folders.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+
+from lifting.errors import InputError
+from lifting.motion import Motion
+from lifting.motion_io.holosoma import load_holosoma
+from lifting.motion_io.provenance import find_provenance
+
+Loader = Callable[..., list[Motion]]
+
+
+@dataclasses.dataclass(frozen=True)
+class MotionFormat:
+    """One readable format: name, file extensions, one-line description, loader, and a content check.
+
+    ``claims(path)`` says whether a file with one of the extensions is of this
+    format (several formats share ``.npz``; ``.txt``/``.json`` may be licences).
+    """
+
+    name: str
+    extensions: tuple[str, ...]
+    description: str
+    load: Loader
+    claims: Callable[[Path], bool] = lambda path: True
+
+
+FORMATS: tuple[MotionFormat, ...] = (
+    MotionFormat("holosoma", (".npy",), "holosoma-retargeting (T, 53, 3) joint positions, 120 fps unless --fps", load_holosoma),
+)
+
+# Extensions also used by non-motion files (licences, SOURCE.json): such files
+# are skipped unless a format claims them by content.
+GENERIC_EXTENSIONS: frozenset[str] = frozenset({".txt", ".json"})
+
+
+def supported_formats() -> str:
+    """One line per format, for help texts."""
+    return "\n".join(f"{f.name}: {', '.join(f.extensions)} - {f.description}" for f in FORMATS)
+
+
+def _format_of(path: Path) -> MotionFormat | None:
+    """The format of a file, None for a file of no motion format; InputError if it looks like one but is not."""
+    candidates = [f for f in FORMATS if path.suffix.lower() in f.extensions]
+    for fmt in candidates:
+        if fmt.claims(path):
+            return fmt
+    if candidates and path.suffix.lower() not in GENERIC_EXTENSIONS:
+        raise InputError(f"{path}: not a valid {' or '.join(f.name for f in candidates)} file")
+    return None
+
+
+def load_motion(path: str | Path, fps: float | None = None, name_map: Mapping[str, str] | None = None, **options) -> list[Motion]:
+    """All clips in one motion file, with source and licence filled; ``fps`` overrides a file's rate.
+
+    ``name_map`` maps our joint names to a BVH file's joint names; ``options``
+    go to the format's loader (``scale`` for BVH, ``urdf`` for DeepMimic, ``asf`` for AMC).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    fmt = _format_of(path)
+    if fmt is None:
+        known = sorted({e for f in FORMATS for e in f.extensions})
+        raise InputError(f"{path}: unknown motion format '{path.suffix}'; supported: {', '.join(known)}")
+    if fps is not None and not fps > 0:
+        raise InputError(f"{path}: frame rate must be positive, got {fps}")
+    kwargs = dict(options)
+    if name_map is not None:
+        kwargs["name_map"] = name_map
+    try:
+        clips = fmt.load(path, fps=fps, **kwargs)
+    except InputError:
+        raise
+    except (ValueError, KeyError, IndexError, TypeError, OSError, EOFError) as err:
+        raise InputError(f"{path}: cannot read as {fmt.name}: {type(err).__name__}: {err}".replace("\n", " ")) from None
+    source, licence = find_provenance(path)
+    return [dataclasses.replace(c, source=source, licence=licence) for c in clips]
+
+
+def load_motion_paths(paths: Iterable[str | Path], fps: float | None = None) -> list[Motion]:
+    """Clips of all files and folders (recursively, sorted), skipping files of no motion format."""
+    clips: list[Motion] = []
+    for item in map(Path, paths):
+        if item.is_dir():
+            files = sorted(p for p in item.rglob("*") if p.is_file() and _format_of(p))
+        elif item.is_file() or not item.exists():
+            files = [item]
+        else:
+            raise InputError(f"{item}: not a file or folder")
+        for file in files:
+            clips.extend(load_motion(file, fps=fps))
+    return clips
