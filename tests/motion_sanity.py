@@ -41,3 +41,11 @@ def assert_plausible(motion: Motion, rigid_tol_m: float, min_head_rise_m: float 
     rise = np.nanmean(motion.joints[:, JOINT_INDEX["head"], 2] - motion.joints[:, JOINT_INDEX["pelvis"], 2])
     assert rise > min_head_rise_m, f"{motion.name}: head only {rise:.3f} m above pelvis on average"
     assert np.isfinite(motion.joints).all()
+
+
+def facing_agrees_with_travel(motion: Motion) -> float:
+    """Cosine between the mean facing direction (left hip - right hip) x up and the pelvis' net horizontal travel."""
+    left = motion.joints[:, JOINT_INDEX["left_hip"]] - motion.joints[:, JOINT_INDEX["right_hip"]]
+    facing = np.cross(left, [0.0, 0.0, 1.0]).mean(axis=0)[:2]
+    travel = (motion.joints[-1, JOINT_INDEX["pelvis"]] - motion.joints[0, JOINT_INDEX["pelvis"]])[:2]
+    return float(facing @ travel / (np.linalg.norm(facing) * np.linalg.norm(travel)))
