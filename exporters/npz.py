@@ -1,0 +1,98 @@
+"""The npz file, the source of truth: writer and validating reader."""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from exporters.atomic import atomic_path
+from exporters.camera_json import cameras_from_json, cameras_to_json
+from exporters.result import LiftResult
+from lifting.errors import InputError
+from lifting.skeleton import JOINT_NAMES, PARENTS
+
+REQUIRED = (
+    "hypotheses", "median", "keypoints2d", "frame_times", "fps", "joint_names", "parents",
+    "track_ids", "cameras", "units", "up_axis", "meta",
+)  # fmt: skip
+
+
+def result_arrays(result: LiftResult) -> dict[str, np.ndarray]:
+    """The npz fields of ``result`` as plain arrays (no pickled objects)."""
+    arrays = {
+        "hypotheses": result.hypotheses,
+        "median": result.median,
+        "keypoints2d": result.keypoints2d,
+        "frame_times": result.frame_times,
+        "fps": np.float64(result.fps),
+        "joint_names": np.array(JOINT_NAMES),
+        "parents": np.array(PARENTS, dtype=np.int64),
+        "track_ids": result.track_ids,
+        "cameras": np.array(cameras_to_json(result.cameras)),
+        "units": np.array(result.units),
+        "up_axis": np.array(result.up_axis),
+        "meta": np.array(json.dumps(result.meta, sort_keys=True)),
+    }
+    if result.energy is not None:
+        arrays["energy"] = result.energy
+    return arrays
+
+
+def write_npz(result: LiftResult, path: Path | str) -> Path:
+    """Write ``result`` to ``path`` (compressed npz) atomically; meta must be JSON-serialisable."""
+    path = Path(path)
+    try:
+        arrays = result_arrays(result)
+    except TypeError as err:
+        raise InputError(f"{path}: meta is not JSON-serialisable ({err})") from None
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, **arrays)
+    return path
+
+
+def _text(data: np.lib.npyio.NpzFile, key: str) -> str:
+    """A 0-d string field."""
+    value = data[key]
+    if value.dtype.kind != "U" or value.ndim != 0:
+        raise ValueError(f"field {key!r} must be a string")
+    return str(value)
+
+
+def read_npz(path: Path | str) -> LiftResult:
+    """Read and validate a platypose npz; any problem raises InputError naming the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            missing = [k for k in REQUIRED if k not in data.files]
+            if missing:
+                raise ValueError(f"not a platypose result, missing fields {', '.join(missing)}")
+            if [str(n) for n in data["joint_names"]] != list(JOINT_NAMES):
+                raise ValueError("joint_names differ from platypose's 17-joint skeleton")
+            if data["parents"].tolist() != list(PARENTS):
+                raise ValueError("parents differ from platypose's skeleton")
+            if _text(data, "units") != "m" or _text(data, "up_axis") != "z":
+                raise ValueError("units must be 'm' and up_axis 'z'")
+            meta = json.loads(_text(data, "meta"))
+            if not isinstance(meta, dict):
+                raise ValueError("meta must be a JSON object")
+            for key in ("hypotheses", "median", "keypoints2d", "frame_times", "track_ids"):
+                if data[key].dtype.kind not in "fiu":
+                    raise ValueError(f"field {key!r} must be numeric, got {data[key].dtype}")
+            return LiftResult(
+                hypotheses=data["hypotheses"],
+                median=data["median"],
+                keypoints2d=data["keypoints2d"],
+                frame_times=data["frame_times"],
+                fps=float(data["fps"]),
+                track_ids=data["track_ids"],
+                cameras=cameras_from_json(_text(data, "cameras")),
+                energy=data["energy"] if "energy" in data.files else None,
+                meta=meta,
+            )
+    except (ValueError, KeyError, OSError, zipfile.BadZipFile, json.JSONDecodeError) as err:
+        raise InputError(f"{path}: {err}") from None

@@ -1,0 +1,130 @@
+"""BVH export read back by an independent parser (PyPI ``bvh``) and forward kinematics written here."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from bvh import Bvh
+from export_helpers import climb_joints
+
+from exporters.bvh import write_bvh
+from lifting.skeleton import JOINT_NAMES
+
+
+def _axis_rotation(axis: str, degrees: np.ndarray) -> np.ndarray:
+    """Elementary rotations (T, 3, 3) about x, y or z."""
+    a = np.radians(degrees)
+    c, s, one, zero = np.cos(a), np.sin(a), np.ones_like(a), np.zeros_like(a)
+    rows = {
+        "X": [[one, zero, zero], [zero, c, -s], [zero, s, c]],
+        "Y": [[c, zero, s], [zero, one, zero], [-s, zero, c]],
+        "Z": [[c, -s, zero], [s, c, zero], [zero, zero, one]],
+    }[axis]
+    return np.stack([np.stack(r, -1) for r in rows], -2)
+
+
+def parse_positions(path) -> tuple[dict[str, np.ndarray], Bvh]:
+    """Joint positions (T, 3) per joint name in the file's own axes and units, by FK over its channels."""
+    mocap = Bvh(path.read_text())
+    frames = np.array(mocap.frames, dtype=np.float64)
+    rotations: dict[str, np.ndarray] = {}
+    positions: dict[str, np.ndarray] = {}
+    for name in mocap.get_joints_names():
+        start = mocap.get_joint_channels_index(name)
+        channels = mocap.joint_channels(name)
+        values = {ch: frames[:, start + i] for i, ch in enumerate(channels)}
+        local = np.broadcast_to(np.eye(3), (len(frames), 3, 3))
+        for ch in channels:  # channel order = multiplication order
+            if ch.endswith("rotation"):
+                local = local @ _axis_rotation(ch[0], values[ch])
+        offset = np.array(mocap.joint_offset(name))
+        parent = mocap.joint_parent(name)
+        if parent is None:
+            translation = np.stack([values.get(f"{a}position", 0 * frames[:, 0]) for a in "XYZ"], -1)
+            positions[name], rotations[name] = translation + offset, local
+        else:
+            positions[name] = positions[parent.name] + rotations[parent.name] @ offset
+            rotations[name] = rotations[parent.name] @ local
+    return positions, mocap
+
+
+def blender_world(positions: dict[str, np.ndarray]) -> np.ndarray:
+    """Blender's default BVH import (forward -Z, up Y, centimetres to metres): (x, y, z) -> (x, -z, y) / 100."""
+    p = np.stack([positions[n] for n in JOINT_NAMES], axis=1)
+    return np.stack([p[..., 0], -p[..., 2], p[..., 1]], axis=-1) / 100.0
+
+
+@pytest.fixture(scope="module")
+def climb(data_dir):
+    return climb_joints(data_dir, 600)
+
+
+def test_bvh_structure_and_stated_fit_error(climb, tmp_path):
+    joints, fps = climb
+    fit = write_bvh(joints, fps, tmp_path / "clip.bvh")
+    positions, mocap = parse_positions(tmp_path / "clip.bvh")
+    assert mocap.get_joints_names() == list(JOINT_NAMES)
+    assert mocap.nframes == len(joints) and mocap.frame_time == pytest.approx(1 / fps, abs=1e-8)
+    assert mocap.joint_channels("pelvis") == ["Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"]
+    assert mocap.joint_channels("left_elbow") == ["Zrotation", "Xrotation", "Yrotation"]
+    text = (tmp_path / "clip.bvh").read_text()
+    assert text.count("End Site") == 5
+    error = np.linalg.norm(blender_world(positions) - joints, axis=-1)
+    # the file holds exactly what the writer says: the stated error is the independently measured one
+    assert fit.mean_m == pytest.approx(error.mean(), abs=1e-6) and fit.max_m == pytest.approx(error.max(), abs=1e-6)
+    assert fit.mean_m < 0.01 and fit.max_m < 0.06
+    legs = [JOINT_NAMES.index(n) for n in ("pelvis", "right_knee", "left_ankle")]
+    assert error[:, legs].max() < 1e-3
+
+
+def test_clean_motion_round_trips_under_a_millimetre(climb, tmp_path):
+    joints, fps = climb
+    write_bvh(joints, fps, tmp_path / "first.bvh")
+    clean = blender_world(parse_positions(tmp_path / "first.bvh")[0])  # rigid skeleton, real movement
+    fit = write_bvh(clean, fps, tmp_path / "clean.bvh")
+    again = blender_world(parse_positions(tmp_path / "clean.bvh")[0])
+    assert np.linalg.norm(again - clean, axis=-1).max() < 1e-3
+    assert fit.max_m < 1e-3
+
+
+def test_bvh_imports_upright_and_facing_forward(climb, tmp_path):
+    joints, fps = climb
+    write_bvh(joints, fps, tmp_path / "clip.bvh")
+    positions, mocap = parse_positions(tmp_path / "clip.bvh")
+    # rest pose (offsets only) in Blender's frame: stands up +Z, left side +X, faces -Y (Blender's front)
+    rest = {}
+    for name in mocap.get_joints_names():
+        parent = mocap.joint_parent(name)
+        rest[name] = np.array(mocap.joint_offset(name)) + (rest[parent.name] if parent else 0)
+    rest_world = blender_world({k: v[None] for k, v in rest.items()})[0]
+    idx = JOINT_NAMES.index
+    assert rest_world[idx("head"), 2] > rest_world[idx("pelvis"), 2] > rest_world[idx("left_ankle"), 2]
+    assert rest_world[idx("left_hip"), 0] > 0 > rest_world[idx("right_hip"), 0]
+    left = rest_world[idx("left_hip")] - rest_world[idx("right_hip")]
+    facing = np.cross(left, [0.0, 0.0, 1.0])  # a person's front is left x up
+    assert facing / np.linalg.norm(facing) @ [0.0, -1.0, 0.0] > 0.999
+    # the motion imported into Blender is upright (Z) and faces where the real motion faces
+    world = blender_world(positions)
+    assert (world[:, idx("head"), 2] > world[:, idx("pelvis"), 2]).mean() > 0.95
+
+    def facing_of(j):
+        lr = j[:, idx("left_hip")] - j[:, idx("right_hip")]
+        f = np.cross(lr, [0.0, 0.0, 1.0])
+        return f / np.linalg.norm(f, axis=-1, keepdims=True)
+    assert (np.sum(facing_of(world) * facing_of(joints), axis=-1) > 0.999).all()
+
+
+def test_absent_frames_hold_the_nearest_pose(climb, tmp_path):
+    joints, fps = climb
+    gappy = joints[:40].copy()
+    gappy[:3] = np.nan
+    gappy[20:25] = np.nan
+    fit = write_bvh(gappy, fps, tmp_path / "gap.bvh")
+    world = blender_world(parse_positions(tmp_path / "gap.bvh")[0])
+    assert len(world) == 40 and np.isfinite(world).all()
+    np.testing.assert_allclose(world[0], world[3], atol=1e-9)
+    np.testing.assert_allclose(world[22], world[19], atol=1e-9)
+    assert fit.mean_m < 0.01
+    with pytest.raises(ValueError, match="absent throughout"):
+        write_bvh(np.full((5, 17, 3), np.nan), fps, tmp_path / "none.bvh")
+    assert not (tmp_path / "none.bvh").exists()

@@ -1,0 +1,101 @@
+"""npz and CSV exports, read back with np.load and the csv module, on real climbing motion."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from export_helpers import two_person_result
+
+from exporters.csv_export import write_long_csv, write_summary_csv
+from exporters.npz import read_npz, write_npz
+from lifting.errors import InputError
+from lifting.skeleton import JOINT_NAMES, PARENTS
+
+
+@pytest.fixture(scope="module")
+def result(data_dir):
+    return two_person_result(data_dir)
+
+
+def test_npz_has_every_field_and_reads_back(result, tmp_path):
+    path = write_npz(result.with_meta(bvh_fit_error={"0": {"mean_m": 0.004}}), tmp_path / "clip.npz")
+    with np.load(path, allow_pickle=False) as raw:
+        assert {"hypotheses", "median", "keypoints2d", "frame_times", "fps", "joint_names", "parents", "track_ids",
+                "cameras", "units", "up_axis", "meta", "energy"} <= set(raw.files)  # fmt: skip
+        assert raw["hypotheses"].dtype == np.float32 and raw["hypotheses"].shape == (2, 6, 30, 17, 3)
+        np.testing.assert_array_equal(raw["hypotheses"], result.hypotheses)
+        np.testing.assert_array_equal(raw["keypoints2d"], result.keypoints2d)
+        assert list(raw["joint_names"]) == list(JOINT_NAMES) and raw["parents"].tolist() == list(PARENTS)
+        assert str(raw["units"]) == "m" and str(raw["up_axis"]) == "z"
+        meta = json.loads(str(raw["meta"]))
+        assert meta["prior_sha256"] == "0" * 64 and meta["bvh_fit_error"]["0"]["mean_m"] == 0.004
+        calib = json.loads(str(raw["cameras"]))
+        assert calib["format"] == "platypose-calib" and [c["name"] for c in calib["cameras"]] == ["cam01", "cam02"]
+        np.testing.assert_allclose(calib["cameras"][1]["R"], result.cameras[1].R)
+    back = read_npz(path)
+    np.testing.assert_array_equal(back.median, result.median)
+    np.testing.assert_array_equal(back.energy, result.energy)
+    assert back.track_ids.tolist() == [0, 7] and back.fps == result.fps
+    assert back.cameras[0].name == "cam01" and np.allclose(back.cameras[0].K, result.cameras[0].K)
+    assert back.present()[1].tolist() == [False] * 5 + [True] * 25
+
+
+def test_read_npz_rejects_damaged_files(result, tmp_path):
+    good = write_npz(result, tmp_path / "good.npz")
+    with np.load(good) as raw:
+        fields = dict(raw)
+    fields["median"] = fields["median"][:, :-1]
+    np.savez(tmp_path / "short.npz", **fields)
+    with pytest.raises(InputError, match=r"short\.npz: median must be"):
+        read_npz(tmp_path / "short.npz")
+    del fields["meta"]
+    np.savez(tmp_path / "nometa.npz", **fields)
+    with pytest.raises(InputError, match=r"nometa\.npz: .*missing fields meta"):
+        read_npz(tmp_path / "nometa.npz")
+    (tmp_path / "text.npz").write_text("not a zip")
+    with pytest.raises(InputError, match=r"text\.npz"):
+        read_npz(tmp_path / "text.npz")
+    with pytest.raises(InputError, match="no such file"):
+        read_npz(tmp_path / "missing.npz")
+
+
+def test_unserialisable_meta_leaves_no_file(result, tmp_path):
+    with pytest.raises(InputError, match="meta is not JSON"):
+        write_npz(result.with_meta(bad=object()), tmp_path / "clip.npz")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_long_csv_holds_the_npz_numbers(result, tmp_path):
+    path = write_long_csv(result, tmp_path / "clip.csv")
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m"]
+    body = rows[1:]
+    # person 0: 6 x 30 frames, person 7: 6 x 25 present frames, 17 joints each
+    assert len(body) == (6 * 30 + 6 * 25) * 17
+    for row in body[:: len(body) // 97]:
+        p = {0: 0, 7: 1}[int(row[0])]
+        n, t, j = int(row[1]), int(row[2]), JOINT_NAMES.index(row[4])
+        assert float(row[3]) == result.frame_times[t]
+        assert np.array_equal(np.float32([float(v) for v in row[5:8]]), result.hypotheses[p, n, t, j])
+    assert not any(r[0] == "7" and int(r[2]) < 5 for r in body)
+
+
+def test_summary_csv_has_median_and_quantiles(result, tmp_path):
+    path = write_summary_csv(result, tmp_path / "clip_summary.csv")
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == (30 + 25) * 17
+    assert list(rows[0]) == ["person", "frame", "time_s", "joint"] + [
+        f"{s}_{a}_m" for s in ("median", "q05", "q95") for a in "xyz"
+    ]
+    for row in rows[::53]:
+        p, t, j = {0: 0, 7: 1}[int(row["person"])], int(row["frame"]), JOINT_NAMES.index(row["joint"])
+        hyp = result.hypotheses[p, :, t, j]
+        assert np.float32(row["median_y_m"]) == result.median[p, t, j, 1]
+        assert float(row["q05_x_m"]) == pytest.approx(np.quantile(hyp[:, 0], 0.05), abs=1e-6)
+        assert float(row["q95_z_m"]) == pytest.approx(np.quantile(hyp[:, 2], 0.95), abs=1e-6)
+        assert float(row["q05_z_m"]) <= float(row["median_z_m"]) <= float(row["q95_z_m"])
