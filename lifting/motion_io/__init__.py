@@ -15,6 +15,7 @@ from pathlib import Path
 from lifting.errors import InputError
 from lifting.motion import Motion
 from lifting.motion_io.asf_amc import load_amc
+from lifting.motion_io.bvh import load_bvh
 from lifting.motion_io.deepmimic import is_deepmimic, load_deepmimic
 from lifting.motion_io.holosoma import load_holosoma
 from lifting.motion_io.provenance import find_provenance
@@ -38,6 +39,7 @@ class MotionFormat:
 
 
 FORMATS: tuple[MotionFormat, ...] = (
+    MotionFormat("bvh", (".bvh",), "BVH of any hierarchy (known namings or a name map), units detected, Y up", load_bvh),
     MotionFormat("asf_amc", (".amc",), "Acclaim/CMU AMC motion with its .asf skeleton beside it, 120 fps unless --fps", load_amc),
     MotionFormat("holosoma", (".npy",), "holosoma-retargeting (T, 53, 3) joint positions, 120 fps unless --fps", load_holosoma),
     MotionFormat(

@@ -26,6 +26,12 @@ def detect_length_unit(height: float) -> str:
     return min(LENGTH_UNITS, key=lambda u: abs(np.log(height * LENGTH_UNITS[u] / TYPICAL_HEIGHT_M)))
 
 
+def rate_from_step(step: float) -> float:
+    """Frames per second from a frame step in seconds, snapped to a whole rate when within 0.05% (0.033333 s -> 30)."""
+    rate = 1.0 / step
+    return float(round(rate)) if abs(rate - round(rate)) < 5e-4 * rate else rate
+
+
 def forward_kinematics(parents: Sequence[int], offsets: np.ndarray, rotations: np.ndarray) -> np.ndarray:
     """World positions ``(T, J, 3)`` of a joint tree (parents listed before children).
 
