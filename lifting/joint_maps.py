@@ -235,3 +235,36 @@ BVH_NAMING: dict[str, tuple[dict[str, str], str]] = {
         "Head",
     ),  # fmt: skip
 }
+
+# Human3.6M 32-joint mocap (VideoPose3D data_3d_h36m.npz) -> ours: index of each
+# of our joints among the 32. H36M's own definitions apply (its "neck/nose" and
+# "head" points; its pelvis is the root joint, close to the hips' midpoint).
+H36M32_TO_OURS: tuple[int, ...] = (0, 1, 2, 3, 6, 7, 8, 12, 13, 14, 15, 17, 18, 19, 25, 26, 27)
+
+# C3D marker trials (clinical gait labs): for each joint, alternative weightings
+# of named points, most direct first: joint centres exported by the lab's model
+# (RHJC/RKJC/RAJC), then Vicon Plug-in Gait segment points (femur proximal end
+# RFEP = hip centre, femur origin RFEO = knee centre, tibia origin RTIO = ankle
+# centre), then midpoints of lateral/medial epicondyle and malleolus markers.
+# The first alternative whose points a trial has is used; joints with none stay
+# NaN and are reported as missing (no upper body in lower-body trials).
+def _sides(template: tuple[dict[str, float], ...]) -> dict[str, tuple[dict[str, float], ...]]:
+    def side(s: str, full: str) -> tuple[dict[str, float], ...]:
+        return tuple({k.format(s=s, side=full): w for k, w in alt.items()} for alt in template)
+
+    return {"right": side("R", "Right"), "left": side("L", "Left")}
+
+
+_C3D_HIP = _sides(({"{s}HJC": 1.0}, {"{s}FEP": 1.0}))
+_C3D_KNEE = _sides(
+    ({"{s}KJC": 1.0}, {"{s}FEO": 1.0}, _mid("{s}LEK", "{s}MEK"), _mid("{side}_KneeExt", "{side}_KneeInt"))
+)
+_C3D_ANKLE = _sides(
+    ({"{s}AJC": 1.0}, {"{s}TIO": 1.0}, _mid("{s}LM", "{s}MM"), _mid("{side}_AnkleExt", "{side}_AnkleInt"))
+)
+C3D_MARKER_RECIPES: dict[str, tuple[dict[str, float], ...]] = {
+    "pelvis": (_mid("LHJC", "RHJC"), _mid("LFEP", "RFEP")),
+    **{f"{side}_hip": _C3D_HIP[side] for side in ("right", "left")},
+    **{f"{side}_knee": _C3D_KNEE[side] for side in ("right", "left")},
+    **{f"{side}_ankle": _C3D_ANKLE[side] for side in ("right", "left")},
+}

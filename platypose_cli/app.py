@@ -36,7 +36,10 @@ def _root(
 def _register() -> None:
     """Import the sub-command modules, each of which adds its commands to ``app``."""
     # Sub-command modules register themselves on import; keep this list sorted.
+    import platypose_cli.commands_calib  # noqa: F401
+    import platypose_cli.commands_eval  # noqa: F401
     import platypose_cli.commands_info  # noqa: F401
+    import platypose_cli.commands_train  # noqa: F401
 
 
 def main() -> None:

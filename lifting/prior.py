@@ -1,0 +1,163 @@
+"""The motion prior: an MDM-style encoder-only transformer that predicts x0, and its checkpoint.
+
+One token per frame (linear in/out), the diffusion step as an extra first
+token (sinusoidal embedding -> 2 linear layers with SiLU), sinusoidal
+positions, no text conditioning. A checkpoint is one file holding the config,
+frame rate, joint set, normalisation, weights and the data manifest; loading
+is strict and refuses files that are not ours.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import math
+import os
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from lifting.errors import InputError
+from lifting.representation import FEATURES_PER_FRAME, Normalizer
+from lifting.schedule import TRAIN_STEPS
+from lifting.skeleton import JOINT_NAMES
+
+CHECKPOINT_FORMAT = "platypose-prior"
+CHECKPOINT_VERSION = 1
+DEFAULT_PRIOR = Path(__file__).resolve().parent / "priors" / "default.pt"
+
+
+@dataclass(frozen=True)
+class PriorConfig:
+    """Size and data layout of the prior network."""
+
+    layers: int = 4
+    width: int = 256
+    heads: int = 4
+    ff_width: int = 512
+    dropout: float = 0.1
+    max_frames: int = 64
+    fps: float = 30.0
+    diffusion_steps: int = TRAIN_STEPS
+    features: int = FEATURES_PER_FRAME
+
+
+def sinusoidal_embedding(positions: torch.Tensor, width: int) -> torch.Tensor:
+    """Transformer sinusoidal embedding of integer positions ``(...,) -> (..., width)``."""
+    half = width // 2
+    freqs = torch.exp(-math.log(10000.0) * torch.arange(half, device=positions.device, dtype=torch.float32) / half)
+    angles = positions.to(torch.float32)[..., None] * freqs
+    return torch.cat([torch.sin(angles), torch.cos(angles)], dim=-1)
+
+
+class MotionPrior(nn.Module):
+    """Denoiser ``G(x_t, t) -> x0`` over normalised motion windows ``(B, F, D)``."""
+
+    def __init__(self, config: PriorConfig) -> None:
+        super().__init__()
+        self.config = config
+        w = config.width
+        self.input = nn.Linear(config.features, w)
+        self.step_mlp = nn.Sequential(nn.Linear(w, w), nn.SiLU(), nn.Linear(w, w))
+        layer = nn.TransformerEncoderLayer(
+            d_model=w,
+            nhead=config.heads,
+            dim_feedforward=config.ff_width,
+            dropout=config.dropout,
+            activation="gelu",
+            batch_first=True,
+            norm_first=True,
+        )
+        self.encoder = nn.TransformerEncoder(layer, num_layers=config.layers, enable_nested_tensor=False)
+        self.norm = nn.LayerNorm(w)
+        self.output = nn.Linear(w, config.features)
+        positions = sinusoidal_embedding(torch.arange(config.max_frames + 1), w)
+        self.register_buffer("positions", positions, persistent=False)
+
+    def forward(self, x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        """Predict clean windows ``(B, F, D)`` from noisy ones ``(B, F, D)`` at steps ``t`` ``(B,)`` or scalar."""
+        batch, frames, _ = x_t.shape
+        if frames > self.config.max_frames:
+            raise ValueError(f"window of {frames} frames exceeds the prior's maximum {self.config.max_frames}")
+        t = torch.as_tensor(t, device=x_t.device).expand(batch)
+        step_token = self.step_mlp(sinusoidal_embedding(t, self.config.width).to(x_t.dtype))[:, None, :]
+        tokens = torch.cat([step_token, self.input(x_t)], dim=1) + self.positions[: frames + 1].to(x_t.dtype)
+        hidden = self.norm(self.encoder(tokens))
+        return self.output(hidden[:, 1:])
+
+
+@dataclass
+class PriorBundle:
+    """A loaded prior: network, normalisation, manifest and the file's checksum."""
+
+    model: MotionPrior
+    normalizer: Normalizer
+    manifest: dict = field(default_factory=dict)
+    checksum: str = ""
+
+    @property
+    def config(self) -> PriorConfig:
+        """The network's config."""
+        return self.model.config
+
+    @property
+    def fps(self) -> float:
+        """Frame rate the prior runs at."""
+        return self.model.config.fps
+
+
+def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None) -> str:
+    """Write a checkpoint atomically; returns its sha256. ``extra`` holds e.g. optimiser state for resuming."""
+    payload = {
+        "format": CHECKPOINT_FORMAT,
+        "version": CHECKPOINT_VERSION,
+        "config": asdict(bundle.config),
+        "joint_names": list(JOINT_NAMES),
+        "normalizer": {"mean": bundle.normalizer.mean.tolist(), "std": bundle.normalizer.std.tolist()},
+        "manifest": bundle.manifest,
+        "state_dict": bundle.model.state_dict(),
+        "extra": extra or {},
+    }
+    buffer = io.BytesIO()
+    torch.save(payload, buffer)
+    data = buffer.getvalue()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+    return hashlib.sha256(data).hexdigest()
+
+
+def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu") -> tuple[PriorBundle, dict]:
+    """Load a checkpoint strictly (default: the shipped prior); returns the bundle and the ``extra`` dict.
+
+    Raises InputError for a file that is missing, not a torch file, or not a platypose prior.
+    """
+    path = Path(path) if path is not None else DEFAULT_PRIOR
+    if not path.is_file():
+        raise InputError(f"{path}: prior checkpoint not found")
+    data = path.read_bytes()
+    try:
+        payload = torch.load(io.BytesIO(data), map_location=device, weights_only=True)
+    except Exception as err:  # torch raises many types for a file that is not a checkpoint
+        raise InputError(f"{path}: not a platypose prior checkpoint ({type(err).__name__})") from None
+    if not isinstance(payload, dict) or payload.get("format") != CHECKPOINT_FORMAT:
+        raise InputError(f"{path}: not a platypose prior checkpoint (no '{CHECKPOINT_FORMAT}' header)")
+    if payload.get("version") != CHECKPOINT_VERSION:
+        raise InputError(f"{path}: prior checkpoint version {payload.get('version')} is not supported")
+    if list(payload["joint_names"]) != list(JOINT_NAMES):
+        raise InputError(f"{path}: prior was trained on another joint set")
+    config = PriorConfig(**payload["config"])
+    model = MotionPrior(config).to(device)
+    model.load_state_dict(payload["state_dict"], strict=True)
+    model.eval()
+    normalizer = Normalizer(
+        mean=np.asarray(payload["normalizer"]["mean"], dtype=np.float64),
+        std=np.asarray(payload["normalizer"]["std"], dtype=np.float64),
+    )
+    bundle = PriorBundle(model, normalizer, payload.get("manifest", {}), hashlib.sha256(data).hexdigest())
+    return bundle, payload.get("extra", {})

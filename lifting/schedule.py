@@ -1,0 +1,69 @@
+"""Noise schedule, respacing and DDIM re-noising (knows nothing of the network).
+
+Training uses a cosine schedule with ``T = 50`` steps. Sampling keeps
+``n`` steps ``floor(linspace(0, T - 1, n))`` ("ddimN" respacing), skips the
+first ``S`` of them and re-noises deterministically (DDIM, eta = 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+TRAIN_STEPS = 50
+
+
+def cosine_alphas_cumprod(num_steps: int = TRAIN_STEPS, s: float = 0.008, max_beta: float = 0.999) -> np.ndarray:
+    """Cumulative signal fraction ``abar_t`` for t = 0 .. T-1 of the cosine schedule (Nichol & Dhariwal), ``(T,)``."""
+
+    def f(t: float) -> float:
+        return math.cos((t / num_steps + s) / (1 + s) * math.pi / 2) ** 2
+
+    betas = np.array([min(1 - f(i + 1) / f(i), max_beta) for i in range(num_steps)])
+    return np.cumprod(1.0 - betas)
+
+
+def respaced_steps(num_kept: int, num_steps: int = TRAIN_STEPS) -> np.ndarray:
+    """Training steps kept by "ddimN" respacing, ascending, ``(num_kept,)``."""
+    if not 1 <= num_kept <= num_steps:
+        raise ValueError(f"number of sampling steps must be in 1..{num_steps}, got {num_kept}")
+    return np.floor(np.linspace(0, num_steps - 1, num_kept)).astype(int)
+
+
+def sampling_steps(num_kept: int, skip: int, num_steps: int = TRAIN_STEPS) -> np.ndarray:
+    """The training steps visited by the sampler, descending: the kept steps minus the first ``skip`` noisiest.
+
+    ``num_kept = 10, skip = 2`` gives 8 network calls.
+    """
+    if not 0 <= skip < num_kept:
+        raise ValueError(f"skip must be in 0..{num_kept - 1} for {num_kept} steps, got {skip}")
+    kept = respaced_steps(num_kept, num_steps)
+    return kept[: num_kept - skip][::-1].copy()
+
+
+class DiffusionSchedule:
+    """The forward process and DDIM (eta = 0) re-noising over one cosine schedule."""
+
+    def __init__(self, num_steps: int = TRAIN_STEPS) -> None:
+        self.num_steps = num_steps
+        self.alphas_cumprod = torch.as_tensor(cosine_alphas_cumprod(num_steps), dtype=torch.float32)
+
+    def _abar(self, t: torch.Tensor | int, like: torch.Tensor) -> torch.Tensor:
+        abar = self.alphas_cumprod.to(like.device)[torch.as_tensor(t, device=like.device)]
+        return abar.to(like.dtype).reshape(-1, *([1] * (like.dim() - 1))) if abar.dim() else abar.to(like.dtype)
+
+    def add_noise(self, x0: torch.Tensor, t: torch.Tensor | int, noise: torch.Tensor) -> torch.Tensor:
+        """Forward process ``sqrt(abar_t) x0 + sqrt(1 - abar_t) noise``; ``t`` is a scalar or one step per batch row."""
+        abar = self._abar(t, x0)
+        return abar.sqrt() * x0 + (1 - abar).sqrt() * noise
+
+    def ddim_step(self, x_t: torch.Tensor, x0_hat: torch.Tensor, t: int, t_prev: int | None) -> torch.Tensor:
+        """Re-noise the (guided) prediction ``x0_hat`` from step ``t`` to ``t_prev`` (None: the end, returns x0_hat)."""
+        if t_prev is None:
+            return x0_hat
+        abar_t = self._abar(t, x_t)
+        abar_prev = self._abar(t_prev, x_t)
+        eps = (x_t - abar_t.sqrt() * x0_hat) / (1 - abar_t).sqrt()
+        return abar_prev.sqrt() * x0_hat + (1 - abar_prev).sqrt() * eps

@@ -1,0 +1,35 @@
+"""Resampling motion and keypoint tracks between frame rates (linear interpolation in time)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def resample_times(num_frames: int, fps: float, new_fps: float) -> np.ndarray:
+    """Times (s) of frames at ``new_fps`` covering a clip of ``num_frames`` at ``fps``, ``(T',)``."""
+    duration = (num_frames - 1) / fps
+    count = int(np.floor(duration * new_fps + 1e-9)) + 1
+    return np.arange(count) / new_fps
+
+
+def interpolate(values: np.ndarray, times: np.ndarray, new_times: np.ndarray) -> np.ndarray:
+    """Linearly interpolate ``values`` (T, ...) sampled at ``times`` (T,) onto ``new_times`` (T',) -> (T', ...).
+
+    Times outside the sampled range take the nearest end value.
+    """
+    times = np.asarray(times, dtype=np.float64)
+    if len(times) == 1:
+        return np.repeat(values[:1], len(new_times), axis=0)
+    idx = np.clip(np.searchsorted(times, new_times, side="right") - 1, 0, len(times) - 2)
+    span = times[idx + 1] - times[idx]
+    w = np.clip((new_times - times[idx]) / np.where(span > 0, span, 1.0), 0.0, 1.0)
+    w = w.reshape(-1, *([1] * (values.ndim - 1)))
+    return (1 - w) * values[idx] + w * values[idx + 1]
+
+
+def resample(values: np.ndarray, fps: float, new_fps: float) -> np.ndarray:
+    """Resample a uniformly sampled sequence ``(T, ...)`` from ``fps`` to ``new_fps``."""
+    if np.isclose(fps, new_fps):
+        return values.copy()
+    times = np.arange(len(values)) / fps
+    return interpolate(values, times, resample_times(len(values), fps, new_fps))

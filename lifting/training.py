@@ -1,0 +1,233 @@
+"""Training the motion prior: windows from real clips, augmentation, the x0 loss, checkpoints.
+
+Algorithm 2 of the paper: sample a clean window, a step t ~ U(0, T-1) and a
+length f ~ U(1, F_max) (one per batch), noise it and regress x0 with an L2
+loss. Augmentation: random yaw, mirror with left/right swap, time scaling and
+bone-length scaling (symmetric per bone pair plus a global factor).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import torch
+
+from lifting.motion import Motion
+from lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
+from lifting.representation import Normalizer, joints_to_features
+from lifting.schedule import DiffusionSchedule
+from lifting.skeleton import MIRROR, PARENTS, mirror_joints
+from lifting.timebase import interpolate, resample
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Optimisation and augmentation settings."""
+
+    iterations: int = 20000
+    batch_size: int = 64
+    learning_rate: float = 3e-4
+    weight_decay: float = 1e-4
+    validation_fraction: float = 0.15
+    time_scale: tuple[float, float] = (0.8, 1.25)
+    bone_scale: float = 0.15
+    global_scale: float = 0.10
+    mirror_probability: float = 0.5
+    checkpoint_every: int = 1000
+    validate_every: int = 250
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class Clip:
+    """A clip resampled to the prior's rate: ``joints`` (T, 17, 3)."""
+
+    joints: np.ndarray
+    name: str
+    source: str
+    licence: str
+    original_fps: float
+
+
+def prepare_clips(motions: Sequence[Motion], fps: float, min_frames: int = 2) -> list[Clip]:
+    """Resample every motion to ``fps``; drops clips shorter than ``min_frames`` and any frame with NaN."""
+    clips = []
+    for m in motions:
+        joints = m.joints[np.isfinite(m.joints).all(axis=(1, 2))]
+        joints = resample(joints, m.fps, fps)
+        if len(joints) >= min_frames:
+            clips.append(Clip(joints, m.name, m.source, m.licence, m.fps))
+    return clips
+
+
+def split_clips(clips: list[Clip], fraction: float, seed: int) -> tuple[list[Clip], list[Clip]]:
+    """Hold out whole clips (about ``fraction`` of all frames) for validation; at least one clip stays in training."""
+    order = np.random.default_rng(seed).permutation(len(clips))
+    total = sum(len(c.joints) for c in clips)
+    held, frames = [], 0
+    for i in order[:-1]:
+        if frames >= fraction * total:
+            break
+        held.append(int(i))
+        frames += len(clips[i].joints)
+    train = [c for i, c in enumerate(clips) if i not in held]
+    return train, [clips[i] for i in held]
+
+
+def yaw_rotation(angles: np.ndarray) -> np.ndarray:
+    """Rotation matrices about Z for angles ``(B,)`` -> ``(B, 3, 3)``."""
+    c, s = np.cos(angles), np.sin(angles)
+    z, o = np.zeros_like(c), np.ones_like(c)
+    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+
+
+def scale_bones(joints: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    """Rebuild joints ``(B, F, 17, 3)`` with every bone (child of joint j) scaled by ``scales[:, j]`` ``(B, 17)``."""
+    out = joints.copy()
+    for j, p in enumerate(PARENTS):
+        if p >= 0:
+            out[:, :, j] = out[:, :, p] + (joints[:, :, j] - joints[:, :, p]) * scales[:, None, j, None]
+    return out
+
+
+class WindowSampler:
+    """Draws augmented training windows ``(B, F, 17, 3)`` from clips, frames weighted uniformly."""
+
+    def __init__(self, clips: list[Clip], frames: int, config: TrainConfig, rng: np.random.Generator) -> None:
+        self.clips, self.frames, self.config, self.rng = clips, frames, config, rng
+        lengths = np.array([len(c.joints) for c in clips], dtype=np.float64)
+        self.weights = lengths / lengths.sum()
+
+    def window(self, frames: int, time_scale: float) -> np.ndarray:
+        """One window of ``frames`` frames read at ``time_scale`` times the clip's speed ``(F, 17, 3)``."""
+        clip = self.clips[self.rng.choice(len(self.clips), p=self.weights)].joints
+        span = (frames - 1) * time_scale
+        if span > len(clip) - 1:  # a short clip: slow it down at most to 2/3 speed, then hold its last frame
+            time_scale = max((len(clip) - 1) / max(frames - 1, 1), 2 / 3)
+            span = (frames - 1) * time_scale
+        start = self.rng.uniform(0, max(len(clip) - 1 - span, 0.0))
+        return interpolate(clip, np.arange(len(clip)), start + np.arange(frames) * time_scale)
+
+    def batch(self, size: int, frames: int) -> np.ndarray:
+        """A batch of augmented windows ``(B, F, 17, 3)``."""
+        c, rng = self.config, self.rng
+        scales = rng.uniform(*c.time_scale, size=size)
+        joints = np.stack([self.window(frames, s) for s in scales])
+        per_joint = rng.uniform(1 - c.bone_scale, 1 + c.bone_scale, size=(size, 17))
+        symmetric = per_joint[:, np.minimum(np.arange(17), np.array(MIRROR))]  # one factor per left/right pair
+        bone = symmetric * rng.uniform(1 - c.global_scale, 1 + c.global_scale, size=(size, 1))
+        joints = scale_bones(joints, bone)
+        flip = rng.random(size) < c.mirror_probability
+        joints[flip] = mirror_joints(joints[flip])
+        rotation = yaw_rotation(rng.uniform(0, 2 * np.pi, size=size))
+        return np.einsum("bij,bfkj->bfki", rotation, joints - joints[:, :1, :1])
+
+
+def fit_normalizer(sampler: WindowSampler, frames: int, windows: int = 2048) -> Normalizer:
+    """Normalisation statistics from augmented full-length windows."""
+    return Normalizer.fit(joints_to_features(sampler.batch(windows, frames)))
+
+
+def manifest_of(train: list[Clip], validation: list[Clip], config: TrainConfig, prior_config: PriorConfig) -> dict:
+    """The data manifest stored in the checkpoint: every clip's source, frames and licence."""
+
+    def entry(c: Clip, split: str) -> dict:
+        return {"name": c.name, "source": c.source, "licence": c.licence, "frames": len(c.joints),
+                "original_fps": c.original_fps, "split": split}  # fmt: skip
+
+    clips = [entry(c, "train") for c in train] + [entry(c, "validation") for c in validation]
+    return {
+        "clips": clips,
+        "licences": sorted({c.licence for c in train + validation}),
+        "train_seconds": sum(len(c.joints) for c in train) / prior_config.fps,
+        "train_config": asdict(config),
+    }
+
+
+def train_prior(
+    motions: Sequence[Motion],
+    out_path: str,
+    prior_config: PriorConfig,
+    config: TrainConfig,
+    resume: dict | None = None,
+    log: Callable[[dict], None] | None = None,
+    threads: int | None = None,
+) -> PriorBundle:
+    """Train (or resume) a prior on ``motions`` and write checkpoints to ``out_path``; returns the final bundle.
+
+    ``resume`` is the ``extra`` dict of a checkpoint (optimiser state, iteration, RNG).
+    ``log`` receives dicts with iteration, losses and elapsed seconds.
+    """
+    if threads:
+        torch.set_num_threads(threads)
+    rng = np.random.default_rng(config.seed)
+    torch.manual_seed(config.seed)
+    clips = prepare_clips(motions, prior_config.fps, min_frames=2)
+    if not clips:
+        raise ValueError("no usable motion clips to train on")
+    train, validation = split_clips(clips, config.validation_fraction, config.seed)
+    F = prior_config.max_frames
+    sampler = WindowSampler(train, F, config, rng)
+    val_sampler = WindowSampler(validation or train, F, config, np.random.default_rng(config.seed + 1))
+    model = MotionPrior(prior_config)
+    optimiser = torch.optim.AdamW(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
+    start = 0
+    if resume:
+        normalizer = Normalizer(np.asarray(resume["normalizer_mean"]), np.asarray(resume["normalizer_std"]))
+        model.load_state_dict(resume["model"], strict=True)
+        optimiser.load_state_dict(resume["optimiser"])
+        start = int(resume["iteration"])
+        rng.bit_generator.state = resume["rng"]
+    else:
+        normalizer = fit_normalizer(sampler, F)
+    bundle = PriorBundle(model, normalizer, manifest_of(train, validation, config, prior_config))
+    schedule = DiffusionSchedule(prior_config.diffusion_steps)
+    val_batch = torch.as_tensor(normalizer.normalize(joints_to_features(val_sampler.batch(256, F))), dtype=torch.float32)
+    val_gen = torch.Generator().manual_seed(config.seed)
+    val_t = torch.randint(0, prior_config.diffusion_steps, (len(val_batch),), generator=val_gen)
+    val_noise = torch.randn(val_batch.shape, generator=val_gen)
+
+    def lr_at(it: int) -> float:
+        warmup = min(1.0, (it + 1) / 500)
+        return config.learning_rate * warmup * 0.5 * (1 + np.cos(np.pi * min(it / config.iterations, 1.0)))
+
+    def checkpoint(it: int) -> None:
+        extra = {"iteration": it, "model": model.state_dict(), "optimiser": optimiser.state_dict(),
+                 "normalizer_mean": normalizer.mean.tolist(), "normalizer_std": normalizer.std.tolist(),
+                 "rng": rng.bit_generator.state}  # fmt: skip
+        bundle.manifest["iterations"] = it
+        save_prior(out_path, bundle, extra=extra if it < config.iterations else None)
+
+    began = time.time()
+    running = None
+    for it in range(start, config.iterations):
+        model.train()
+        frames = int(rng.integers(1, F + 1))
+        x0 = torch.as_tensor(
+            normalizer.normalize(joints_to_features(sampler.batch(config.batch_size, frames))), dtype=torch.float32
+        )
+        t = torch.randint(0, prior_config.diffusion_steps, (config.batch_size,))
+        x_t = schedule.add_noise(x0, t, torch.randn_like(x0))
+        loss = ((model(x_t, t) - x0) ** 2).mean()
+        for group in optimiser.param_groups:
+            group["lr"] = lr_at(it)
+        optimiser.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+        optimiser.step()
+        running = loss.item() if running is None else 0.98 * running + 0.02 * loss.item()
+        done = it + 1
+        if done % config.validate_every == 0 or done == config.iterations:
+            model.eval()
+            with torch.no_grad():
+                val_loss = ((model(schedule.add_noise(val_batch, val_t, val_noise), val_t) - val_batch) ** 2).mean()
+            if log:
+                log({"iteration": done, "train_loss": running, "val_loss": float(val_loss),
+                     "seconds": time.time() - began})  # fmt: skip
+        if done % config.checkpoint_every == 0 or done == config.iterations:
+            checkpoint(done)
+    model.eval()
+    return bundle

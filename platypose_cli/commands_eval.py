@@ -1,0 +1,79 @@
+"""``platypose eval``: lift known 3D motion projected through cameras and print the paper's metrics."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import typer
+
+from lifting.errors import InputError
+from platypose_cli.app import app
+from platypose_cli.options import int_list, sampler_config
+
+
+@app.command("eval")
+def evaluate_command(
+    motion: list[Path] = typer.Argument(..., help="3D motion files or folders to project and lift."),
+    cams: Path = typer.Option(None, "--cams", help="Calibration file; default: a ring of 4 Human3.6M-like cameras."),
+    views: int = typer.Option(0, help="Use only the first this many cameras (0: all)."),
+    frames: str = typer.Option("1,16,64", help="Window lengths to evaluate, comma-separated."),
+    samples: str = typer.Option("50,200", help="Numbers of hypotheses, comma-separated."),
+    noise_px: float = typer.Option(0.0, help="Gaussian noise (px, std) added to the projected 2D keypoints."),
+    windows: int = typer.Option(2, help="Windows cut from each clip per window length."),
+    heldout: bool = typer.Option(False, "--heldout", help="Only clips the prior held out of training (its manifest)."),
+    baseline: bool = typer.Option(True, help="Also run the frame-by-frame baseline."),
+    prior: Path = typer.Option(None, help="Prior checkpoint (default: the shipped one)."),
+    steps: int = typer.Option(10, help="Respaced diffusion steps T."),
+    skip: int = typer.Option(2, help="Skipped steps S."),
+    guidance_iters: int = typer.Option(10, "--k", help="Guidance steps per diffusion step."),
+    energy_scale: float = typer.Option(1.0, "--lambda", help="Guidance scale."),
+    bone_weight: float = typer.Option(0.0, help="Weight of the constant-bone-length energy (0: off)."),
+    symmetry_weight: float = typer.Option(0.0, help="Weight of the left/right symmetry energy (0: off)."),
+    seed: int = typer.Option(0, help="Random seed."),
+    json_out: Path = typer.Option(None, "--json", help="Also write the table as JSON here."),
+) -> None:
+    """Project motion through cameras, lift it, and print minMPJPE, minMPSPE, PA-*, MPJVE, ECE."""
+    from lifting.camera_rigs import ring_cameras
+    from lifting.evaluation import evaluate, format_header
+    from lifting.motion_io import load_motion_paths
+    from lifting.prior import load_prior
+    from lifting.timebase import resample
+
+    frames_list = int_list(frames, "--frames")
+    samples_list = int_list(samples, "--samples")
+    config = sampler_config(steps=steps, skip=skip, guidance_iters=guidance_iters, energy_scale=energy_scale,
+                            bone_weight=bone_weight, symmetry_weight=symmetry_weight, seed=seed)  # fmt: skip
+    bundle, _ = load_prior(prior)
+    if max(frames_list) > bundle.config.max_frames:
+        raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")
+    if cams is not None:
+        from lifting.calibration import load_calibration
+
+        cameras = list(load_calibration(cams).cameras)
+    else:
+        cameras = ring_cameras(4)
+    if views:
+        if views > len(cameras):
+            raise InputError(f"--views {views}: only {len(cameras)} cameras")
+        cameras = cameras[:views]
+    motions = load_motion_paths(motion)
+    if heldout:
+        names = {c["name"] for c in bundle.manifest.get("clips", []) if c.get("split") == "validation"}
+        motions = [m for m in motions if m.name in names]
+    clips = [resample(m.joints, m.fps, bundle.fps) for m in motions]
+    clips = [c for c in clips if len(c) and not (c != c).any()]
+    if not clips:
+        raise InputError(f"{', '.join(map(str, motion))}: no complete (full-body) clips to evaluate")
+    typer.echo(f"{len(clips)} clips, prior {bundle.checksum[:12]}, {len(cameras)} cameras, noise {noise_px} px, "
+               f"{os.cpu_count()} CPUs")  # fmt: skip
+    typer.echo(format_header())
+    rows = evaluate(bundle, clips, cameras, frames_list, samples_list, config, windows, noise_px, baseline,
+                    progress=typer.echo)  # fmt: skip
+    if json_out:
+        payload = {"prior": bundle.checksum, "cameras": len(cameras), "noise_px": noise_px,
+                   "config": config.__dict__, "rows": [r.as_dict() for r in rows]}  # fmt: skip
+        tmp = json_out.with_name(f".{json_out.name}.tmp")
+        tmp.write_text(json.dumps(payload, indent=2))
+        os.replace(tmp, json_out)
