@@ -16,8 +16,11 @@ from lifting.errors import InputError
 from lifting.motion import Motion
 from lifting.motion_io.asf_amc import load_amc
 from lifting.motion_io.bvh import load_bvh
+from lifting.motion_io.c3d import load_c3d
 from lifting.motion_io.deepmimic import is_deepmimic, load_deepmimic
+from lifting.motion_io.h36m import is_h36m_npz, load_h36m
 from lifting.motion_io.holosoma import load_holosoma
+from lifting.motion_io.plain_npz import is_plain_npz, load_plain_npz
 from lifting.motion_io.provenance import find_provenance
 
 Loader = Callable[..., list[Motion]]
@@ -42,6 +45,9 @@ FORMATS: tuple[MotionFormat, ...] = (
     MotionFormat("bvh", (".bvh",), "BVH of any hierarchy (known namings or a name map), units detected, Y up", load_bvh),
     MotionFormat("asf_amc", (".amc",), "Acclaim/CMU AMC motion with its .asf skeleton beside it, 120 fps unless --fps", load_amc),
     MotionFormat("holosoma", (".npy",), "holosoma-retargeting (T, 53, 3) joint positions, 120 fps unless --fps", load_holosoma),
+    MotionFormat("h36m", (".npz",), "Human3.6M VideoPose3D data_3d_h36m.npz (positions_3d), one clip per subject/action, 50 fps", load_h36m, is_h36m_npz),
+    MotionFormat("plain_npz", (".npz",), "npz with joints (T, 17, 3) metres Z up, fps, optional joint_names", load_plain_npz, is_plain_npz),
+    MotionFormat("c3d", (".c3d",), "C3D marker trial (lower-body joint centres; missing joints NaN and listed)", load_c3d),
     MotionFormat(
         "deepmimic", (".txt", ".json"), "DeepMimic humanoid clip (JSON Frames) + humanoid.urdf beside it", load_deepmimic, is_deepmimic
     ),
@@ -85,6 +91,8 @@ def load_motion(path: str | Path, fps: float | None = None, name_map: Mapping[st
         raise InputError(f"{path}: frame rate must be positive, got {fps}")
     kwargs = dict(options)
     if name_map is not None:
+        if fmt.name != "bvh":
+            raise InputError(f"{path}: a joint name map applies to BVH files only, this is {fmt.name}")
         kwargs["name_map"] = name_map
     try:
         clips = fmt.load(path, fps=fps, **kwargs)
