@@ -1,0 +1,87 @@
+"""Camera calibration: read every supported format, check it, express it Z-up in metres, write the native JSON.
+
+``load_calibration`` dispatches on the path: a folder or ``intri.yml``/``extri.yml`` (EasyMocap),
+``.toml`` (Pose2Sim / anipose / FreeMoCap), ``.yml``/``.yaml``/``.xml`` (OpenCV FileStorage),
+``.json`` (native ``platypose-calib`` or Human3.6M cameras, told apart by content) and ``.txt``
+(intrinsics only).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from lifting.calibration.h36m import is_h36m, read_h36m
+from lifting.calibration.intrinsics_only import read_intrinsics
+from lifting.calibration.model import Calibration
+from lifting.calibration.native import read_native, write_native
+from lifting.calibration.opencv_yml import is_easymocap, read_opencv_yml
+from lifting.calibration.toml_format import read_toml
+from lifting.calibration.world import to_z_up_metres
+from lifting.errors import InputError
+
+__all__ = ["Calibration", "load_calibration", "save_calibration"]
+
+# Cameras farther than this from the world origin (after unit conversion) mean the units are wrong.
+MAX_CAMERA_DISTANCE_M = 100.0
+
+
+def _read_json(path: Path, subject: str | None) -> Calibration:
+    """Native or Human3.6M JSON, by content."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise InputError(f"{path}: not valid JSON ({err})") from None
+    if isinstance(data, dict) and "format" in data:
+        return read_native(path)
+    if is_h36m(data):
+        return read_h36m(path, subject)
+    raise InputError(f"{path}: JSON is neither a platypose-calib file nor Human3.6M camera parameters")
+
+
+def _read_any(path: Path, subject: str | None) -> Calibration:
+    """Read ``path`` in its own world frame, choosing the reader from the path."""
+    suffix = path.suffix.lower()
+    if is_easymocap(path) or suffix in (".yml", ".yaml", ".xml"):
+        return read_opencv_yml(path)
+    if suffix == ".toml":
+        return read_toml(path)
+    if suffix == ".json":
+        return _read_json(path, subject)
+    if suffix == ".txt":
+        return read_intrinsics(path)
+    raise InputError(f"{path}: unknown calibration format (expected .json, .toml, .yml, .txt or an EasyMocap folder)")
+
+
+def _check_distances(calibration: Calibration, units_read: str | float) -> None:
+    """Refuse cameras implausibly far from the origin: the units are almost surely wrong."""
+    distances = [float(np.linalg.norm(c.center)) for c in calibration.cameras]
+    if max(distances) > MAX_CAMERA_DISTANCE_M:
+        source = calibration.meta.get("source", "calibration")
+        raise InputError(
+            f"{source}: a camera is {max(distances):.0f} m from the origin; the units look wrong "
+            f"(file read as {units_read}); pass --units mm, cm or m"
+        )
+
+
+def load_calibration(
+    path: str | Path, world_up: str | None = None, units: str | float | None = None, subject: str | None = None
+) -> Calibration:
+    """Read any supported calibration and return it Z-up in metres; ``world_up``/``units`` override the file.
+
+    ``subject`` picks the extrinsics of a Human3.6M file that holds several subjects.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: calibration file not found")
+    raw = _read_any(path, subject)
+    result = to_z_up_metres(raw, world_up, units)
+    _check_distances(result, units if units is not None else raw.meta["units"])
+    return result
+
+
+def save_calibration(path: str | Path, calibration: Calibration) -> None:
+    """Write the native ``calib.json`` atomically."""
+    write_native(Path(path), calibration)

@@ -1,0 +1,76 @@
+"""Checks on calibration values, each failing with a one-line InputError naming the file and the field."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+
+from lifting.camera import Camera
+from lifting.errors import InputError
+
+ROTATION_TOLERANCE = 1e-5
+
+
+def as_array(value: object, shape: tuple[int, ...], source: str, what: str) -> np.ndarray:
+    """``value`` as a finite float64 array of ``shape`` (elements, not nesting, are checked), else InputError."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{source}: {what} is not a numeric array") from None
+    if arr.size != int(np.prod(shape)):
+        raise InputError(f"{source}: {what} has {arr.size} values, expected shape {shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{source}: {what} contains non-finite values")
+    return arr.reshape(shape)
+
+
+def as_rotation(value: object, source: str, what: str) -> np.ndarray:
+    """A 3x3 rotation from a matrix (9 values) or a Rodrigues vector (3 values), checked orthonormal with det +1."""
+    size = np.asarray(value, dtype=object).size
+    if size == 3:
+        rvec = as_array(value, (3,), source, what)
+        return cv2.Rodrigues(rvec)[0]
+    R = as_array(value, (3, 3), source, what)
+    if np.abs(R @ R.T - np.eye(3)).max() > ROTATION_TOLERANCE or np.linalg.det(R) < 0:
+        raise InputError(f"{source}: {what} is not a rotation matrix (not orthonormal with determinant +1)")
+    return R
+
+
+def as_size(value: object, source: str, what: str) -> tuple[int, int]:
+    """Two positive whole pixel counts."""
+    arr = as_array(value, (2,), source, what)
+    if np.any(arr <= 0) or np.any(arr != np.round(arr)):
+        raise InputError(f"{source}: {what} must be two positive whole pixel counts, got {arr.tolist()}")
+    return int(arr[0]), int(arr[1])
+
+
+def as_distortion(value: object, source: str, what: str) -> np.ndarray:
+    """OpenCV distortion ``k1 k2 p1 p2 [k3]``: 4 or 5 values; more are accepted only if the extra ones are zero."""
+    n = np.asarray(value, dtype=object).size
+    arr = as_array(value, (n,), source, what)
+    if n not in (0, 4, 5) and not (n > 5 and np.all(arr[5:] == 0)):
+        raise InputError(f"{source}: {what} has {n} coefficients; supported: k1 k2 p1 p2 [k3]")
+    return arr[:5]
+
+
+def check_intrinsics(K: np.ndarray, source: str, what: str) -> np.ndarray:
+    """An upper-triangular pinhole matrix with positive focal lengths and last row (0, 0, 1)."""
+    K = as_array(K, (3, 3), source, what)
+    if K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise InputError(f"{source}: {what} has a non-positive focal length")
+    if not np.allclose(K[2], [0.0, 0.0, 1.0]) or K[1, 0] != 0:
+        raise InputError(f"{source}: {what} is not a pinhole camera matrix (expected [[fx,s,cx],[0,fy,cy],[0,0,1]])")
+    return K
+
+
+def check_cameras(cameras: Sequence[Camera], source: str) -> tuple[Camera, ...]:
+    """At least one camera, unique names; returns them as a tuple."""
+    if not cameras:
+        raise InputError(f"{source}: no cameras found")
+    names = [c.name for c in cameras]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise InputError(f"{source}: duplicate camera names {duplicates}")
+    return tuple(cameras)
