@@ -18,16 +18,27 @@ SUBJECT_HELP = "Human3.6M subject whose extrinsics to use (e.g. S9) when the fil
 
 @calib_app.command("convert")
 def convert(
-    source: Path = typer.Argument(..., help="Calibration: .toml, .yml, intri/extri folder, Human3.6M .json, .txt, calib.json."),
+    source: Path = typer.Argument(
+        ..., help="Calibration (.toml, .yml, intri/extri folder, Human3.6M .json, .txt, calib.json) or a video (FOV prior)."
+    ),
     out: Path = typer.Option(..., "--out", "-o", help="Native calib.json to write."),
     world_up: str = typer.Option(None, "--world-up", help=WORLD_UP_HELP),
     units: str = typer.Option(None, "--units", help=UNITS_HELP),
     subject: str = typer.Option(None, "--subject", help=SUBJECT_HELP),
 ) -> None:
-    """Read a calibration in any supported format and write the native calib.json (Z up, metres)."""
-    from lifting.calibration import load_calibration, save_calibration
+    """Read a calibration in any supported format and write the native calib.json (Z up, metres).
 
-    calibration = load_calibration(source, world_up=world_up, units=units, subject=subject)
+    Given a video instead, write a one-camera calibration from its size: field-of-view prior, level camera at the origin.
+    """
+    from detectors.video import VIDEO_SUFFIXES, video_info
+    from lifting.calibration import load_calibration, save_calibration
+    from lifting.calibration.defaults import default_calibration
+
+    if source.suffix.lower() in VIDEO_SUFFIXES:
+        height, width = video_info(source).image_size
+        calibration = default_calibration(source.stem, height, width, str(source))
+    else:
+        calibration = load_calibration(source, world_up=world_up, units=units, subject=subject)
     save_calibration(out, calibration)
     typer.echo(f"wrote {out}: {len(calibration.cameras)} camera(s) {', '.join(calibration.names)}")
     for note in calibration.meta["assumptions"] + calibration.meta["conversions"]:

@@ -44,6 +44,15 @@ def test_convert_with_world_up_and_units(tmp_path: Path, monkeypatch, capsys):
     assert np.allclose(cam["R"], [[1, 0, 0], [0, 0, 1], [0, -1, 0]])
 
 
+def test_convert_video_uses_fov_prior(data_dir: Path, tmp_path: Path, monkeypatch, capsys):
+    out = tmp_path / "demo.json"
+    code, stdout, _ = run(monkeypatch, capsys, "calib", "convert", str(data_dir / "video/sports2d-demo/demo.mp4"), "--out", str(out))
+    assert code == 0 and "53.1 degree diagonal FOV prior" in stdout and "no extrinsics" in stdout
+    cam = json.loads(out.read_text())["cameras"][0]
+    assert cam["name"] == "demo" and cam["size"] == [994, 1768]
+    assert cam["K"][0][0] == pytest.approx(np.hypot(1768, 994)) and cam["K"][0][2] == 884.0 and cam["t"] == [0.0, 0.0, 0.0]
+
+
 def test_check_prints_cameras_warns_sizes_and_triangulates(data_dir: Path, monkeypatch, capsys):
     demo = data_dir / DEMO
     code, stdout, _ = run(monkeypatch, capsys, "calib", "check", str(demo / "calib_pose2sim.toml"),

@@ -88,6 +88,21 @@ def test_millimetre_file_needs_units(data_dir: Path, tmp_path: Path):
     assert np.allclose(cam.t, [0.3211048899999996, 0.9563320600000009, 2.8907130499999996])
 
 
+def test_missing_intrinsics_and_extrinsics_use_defaults(data_dir: Path, tmp_path: Path):
+    text = (data_dir / SPORTS2D).read_text()
+    for line in text.splitlines():
+        if line.startswith(("matrix", "rotation", "translation")):
+            text = text.replace(line + "\n", "")
+    path = tmp_path / "bare.toml"
+    path.write_text(text)
+    cal = load_calibration(path)
+    (cam,) = cal.cameras
+    assert cam.K[0, 0] == pytest.approx(np.hypot(1768, 994)) and (cam.K[0, 2], cam.K[1, 2]) == (884.0, 497.0)
+    assert np.array_equal(cam.center, np.zeros(3)) and np.allclose(cam.R @ [0, 0, 1], [0, -1, 0])
+    notes = " ".join(cal.meta["assumptions"])
+    assert "no intrinsics: focal 2028.3 px" in notes and "no extrinsics: camera at the world origin" in notes
+
+
 @pytest.mark.parametrize(
     ("old", "new", "message"),
     [
