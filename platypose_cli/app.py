@@ -39,6 +39,7 @@ def _register() -> None:
     import platypose_cli.commands_calib  # noqa: F401
     import platypose_cli.commands_eval  # noqa: F401
     import platypose_cli.commands_info  # noqa: F401
+    import platypose_cli.commands_motion  # noqa: F401
     import platypose_cli.commands_train  # noqa: F401
 
 

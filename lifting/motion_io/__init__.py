@@ -31,7 +31,8 @@ class MotionFormat:
     """One readable format: name, file extensions, one-line description, loader, and a content check.
 
     ``claims(path)`` says whether a file with one of the extensions is of this
-    format (several formats share ``.npz``; ``.txt``/``.json`` may be licences).
+    format (several formats share ``.npz``; ``.txt``/``.json`` may be licences);
+    ``options`` are the keyword options its loader takes besides ``fps``.
     """
 
     name: str
@@ -39,19 +40,33 @@ class MotionFormat:
     description: str
     load: Loader
     claims: Callable[[Path], bool] = lambda path: True
+    options: tuple[str, ...] = ()
 
 
 FORMATS: tuple[MotionFormat, ...] = (
-    MotionFormat("bvh", (".bvh",), "BVH of any hierarchy (known namings or a name map), units detected, Y up", load_bvh),
-    MotionFormat("asf_amc", (".amc",), "Acclaim/CMU AMC motion with its .asf skeleton beside it, 120 fps unless --fps", load_amc),
-    MotionFormat("holosoma", (".npy",), "holosoma-retargeting (T, 53, 3) joint positions, 120 fps unless --fps", load_holosoma),
-    MotionFormat("h36m", (".npz",), "Human3.6M VideoPose3D data_3d_h36m.npz (positions_3d), one clip per subject/action, 50 fps", load_h36m, is_h36m_npz),
-    MotionFormat("plain_npz", (".npz",), "npz with joints (T, 17, 3) metres Z up, fps, optional joint_names", load_plain_npz, is_plain_npz),
+    MotionFormat(
+        "bvh", (".bvh",), "BVH of any hierarchy (known namings or a name map), units detected, Y up", load_bvh,
+        options=("name_map", "scale"),
+    ),
+    MotionFormat(
+        "asf_amc", (".amc",), "Acclaim/CMU AMC motion with its .asf skeleton beside it, 120 fps by default", load_amc,
+        options=("asf",),
+    ),
+    MotionFormat("holosoma", (".npy",), "holosoma-retargeting (T, 53, 3) joint positions, 120 fps by default", load_holosoma),
+    MotionFormat(
+        "h36m", (".npz",), "Human3.6M VideoPose3D data_3d_h36m.npz (positions_3d), a clip per subject/action, 50 fps",
+        load_h36m, is_h36m_npz,
+    ),
+    MotionFormat(
+        "plain_npz", (".npz",), "npz with joints (T, 17, 3) metres Z up, fps, optional joint_names",
+        load_plain_npz, is_plain_npz,
+    ),
     MotionFormat("c3d", (".c3d",), "C3D marker trial (lower-body joint centres; missing joints NaN and listed)", load_c3d),
     MotionFormat(
-        "deepmimic", (".txt", ".json"), "DeepMimic humanoid clip (JSON Frames) + humanoid.urdf beside it", load_deepmimic, is_deepmimic
+        "deepmimic", (".txt", ".json"), "DeepMimic humanoid clip (JSON Frames) with humanoid.urdf beside it",
+        load_deepmimic, is_deepmimic, options=("urdf", "scale"),
     ),
-)
+)  # fmt: skip
 
 # Extensions also used by non-motion files (licences, SOURCE.json): such files
 # are skipped unless a format claims them by content.
@@ -74,11 +89,13 @@ def _format_of(path: Path) -> MotionFormat | None:
     return None
 
 
-def load_motion(path: str | Path, fps: float | None = None, name_map: Mapping[str, str] | None = None, **options) -> list[Motion]:
+def load_motion(
+    path: str | Path, fps: float | None = None, name_map: Mapping[str, str] | None = None, **options
+) -> list[Motion]:
     """All clips in one motion file, with source and licence filled; ``fps`` overrides a file's rate.
 
-    ``name_map`` maps our joint names to a BVH file's joint names; ``options``
-    go to the format's loader (``scale`` for BVH, ``urdf`` for DeepMimic, ``asf`` for AMC).
+    ``name_map`` maps our joint names to a BVH file's joint names; ``options`` go to
+    the format's loader (``scale`` for BVH and DeepMimic, ``urdf`` for DeepMimic, ``asf`` for AMC).
     """
     path = Path(path)
     if not path.is_file():
@@ -89,11 +106,10 @@ def load_motion(path: str | Path, fps: float | None = None, name_map: Mapping[st
         raise InputError(f"{path}: unknown motion format '{path.suffix}'; supported: {', '.join(known)}")
     if fps is not None and not fps > 0:
         raise InputError(f"{path}: frame rate must be positive, got {fps}")
-    kwargs = dict(options)
-    if name_map is not None:
-        if fmt.name != "bvh":
-            raise InputError(f"{path}: a joint name map applies to BVH files only, this is {fmt.name}")
-        kwargs["name_map"] = name_map
+    kwargs = {k: v for k, v in {**options, "name_map": name_map}.items() if v is not None}
+    unsupported = sorted(set(kwargs) - set(fmt.options))
+    if unsupported:
+        raise InputError(f"{path}: option(s) {', '.join(unsupported)} do not apply to {fmt.name} files")
     try:
         clips = fmt.load(path, fps=fps, **kwargs)
     except InputError:
@@ -104,8 +120,11 @@ def load_motion(path: str | Path, fps: float | None = None, name_map: Mapping[st
     return [dataclasses.replace(c, source=source, licence=licence) for c in clips]
 
 
-def load_motion_paths(paths: Iterable[str | Path], fps: float | None = None) -> list[Motion]:
-    """Clips of all files and folders (recursively, sorted), skipping files of no motion format."""
+def load_motion_paths(paths: Iterable[str | Path], fps: float | None = None, **options) -> list[Motion]:
+    """Clips of all files and folders (recursively, sorted), skipping files of no motion format.
+
+    ``options`` (``name_map``, ``scale``, ...) go to the files whose format takes them.
+    """
     clips: list[Motion] = []
     for item in map(Path, paths):
         if item.is_dir():
@@ -115,5 +134,7 @@ def load_motion_paths(paths: Iterable[str | Path], fps: float | None = None) -> 
         else:
             raise InputError(f"{item}: not a file or folder")
         for file in files:
-            clips.extend(load_motion(file, fps=fps))
+            fmt = _format_of(file) if file.is_file() else None
+            taken = {k: v for k, v in options.items() if fmt is not None and k in fmt.options}
+            clips.extend(load_motion(file, fps=fps, **taken))
     return clips
