@@ -76,16 +76,16 @@ def test_world_up_override_rotates_world(data_dir: Path):
     assert "world up axis y rotated to +z" in y_up.meta["conversions"]
 
 
-def test_millimetre_file_needs_units(data_dir: Path, tmp_path: Path):
-    text = (data_dir / POSE2SIM).read_text()
-    scaled = text.replace("translation = [ 0.3211048899999996, 0.9563320600000009, 2.8907130499999996]",
-                          "translation = [ 321.1048899999996, 956.3320600000009, 2890.7130499999996]")
-    path = tmp_path / "mm.toml"
-    path.write_text(scaled)
-    with pytest.raises(InputError, match="units look wrong"):
+def test_anipose_millimetre_file_needs_units(data_dir: Path):
+    path = Path(__file__).parent / "data/calib/anipose_mm.toml"
+    with pytest.raises(InputError, match="a camera is 3166 m from the origin; the units look wrong .file read as m."):
         load_calibration(path)
-    cam = load_calibration(path, units="mm").cameras[0]
-    assert np.allclose(cam.t, [0.3211048899999996, 0.9563320600000009, 2.8907130499999996])
+    cal = load_calibration(path, units="mm")
+    reference = load_calibration(data_dir / POSE2SIM)
+    assert cal.names == ("A", "B") and "units mm scaled to metres (x0.001)" in cal.meta["conversions"]
+    for ours, ref in zip(cal.cameras, reference.cameras):
+        assert np.allclose(ours.t, ref.t) and np.array_equal(ours.K, ref.K) and ours.size == ref.size
+        assert_matches_opencv(ours, cv2.Rodrigues(ref.R)[0], ref.t, ref.K, ref.dist)
 
 
 def test_missing_intrinsics_and_extrinsics_use_defaults(data_dir: Path, tmp_path: Path):

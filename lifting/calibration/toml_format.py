@@ -20,11 +20,12 @@ if sys.version_info >= (3, 11):
 else:
     import tomli as tomllib
 
+CAMERA_KEYS = frozenset({"name", "size", "matrix", "distortions", "rotation", "translation"})
 ASSUMED_FRAME = "world frame not stated by the file: assumed Z up and metres (Pose2Sim convention)"
 
 
 def read_toml(path: Path) -> Calibration:
-    """Read every camera table of a Pose2Sim-style ``.toml`` (non-camera tables such as ``metadata`` are skipped)."""
+    """Read every camera table of a Pose2Sim-style ``.toml``; tables with no camera key (``metadata``) are skipped."""
     source = str(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -34,7 +35,7 @@ def read_toml(path: Path) -> Calibration:
     meta["assumptions"].append(ASSUMED_FRAME)
     cameras = []
     for key, table in data.items():
-        if key == "metadata" or not isinstance(table, dict):
+        if not isinstance(table, dict) or not CAMERA_KEYS & set(table):
             continue
         name = str(table.get("name", key))
         where = f"camera {name!r}"
