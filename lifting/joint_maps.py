@@ -218,13 +218,15 @@ CMU_ASF_RECIPE: Recipe = mocap_recipe(CMU_ASF_LIMBS, {"upperneck": 1.0}, head_be
 # taken halfway between that joint and the head centre.
 DEEPMIMIC_RECIPE: Recipe = mocap_recipe({j: j for j in LIMB_JOINTS}, _mid("neck", "head_centre"), {"head_centre": 1.0})
 
-# BVH: known naming conventions as (limbs, skull-base joint), tried in order;
-# the first whose names all exist in a file is used (a user name map, our 12
-# limb names plus "neck" -> the skull-base joint, overrides). The head centre
-# uses the skull-base joint's End Site when the file has one (head_between),
-# else head_beyond with the joint's parent as the neck base.
-BVH_NAMING: dict[str, tuple[dict[str, str], str]] = {
-    "motionbuilder": (MOTIONBUILDER_LIMBS, "Head"),
+# BVH: known naming conventions as (limbs, skull-base joint, head-centre joint or
+# None), tried in order; the first whose names all exist in a file is used (a
+# user name map, our 12 limb names plus "neck" -> the skull-base joint and
+# optionally "head" -> a head-centre joint, overrides). Without a head-centre
+# joint the head centre uses the skull-base joint's End Site when the file has
+# one (head_between), else head_beyond with the joint's parent as the neck base.
+BVH_NAMING: dict[str, tuple[dict[str, str], str, str | None]] = {
+    "platypose": ({j: j for j in LIMB_JOINTS}, "neck", "head"),  # our own exporter's BVH
+    "motionbuilder": (MOTIONBUILDER_LIMBS, "Head", None),
     "mocapbank": (
         {
             "right_hip": "RightHip", "right_knee": "RightKnee", "right_ankle": "RightAnkle",
@@ -233,6 +235,7 @@ BVH_NAMING: dict[str, tuple[dict[str, str], str]] = {
             "right_shoulder": "RightShoulder", "right_elbow": "RightElbow", "right_wrist": "RightWrist",
         },
         "Head",
+        None,
     ),  # fmt: skip
 }
 

@@ -13,6 +13,9 @@ motion_app = typer.Typer(help="Inspect real 3D motion files (BVH, ASF/AMC, holos
                          no_args_is_help=True)  # fmt: skip
 app.add_typer(motion_app, name="motion")
 
+NAME_MAP_HELP = "BVH only: JSON {our joint: BVH joint} for the 12 limb joints, 'neck' (skull base), optional 'head'."
+SCALE_HELP = "BVH: metres per file unit (default: detected); DeepMimic: URDF scale (default 0.25)."
+
 
 def _name_map(path: Path | None) -> dict[str, str] | None:
     from lifting.errors import InputError
@@ -36,8 +39,8 @@ def _metres(value: float) -> str:
 def info(
     paths: list[Path] = typer.Argument(..., help="Motion files or folders (searched recursively)."),
     fps: float = typer.Option(None, "--fps", help="Frame rate to assume (overrides the file's or the format default)."),
-    name_map: Path = typer.Option(None, "--name-map", help="BVH only: JSON {our joint: BVH joint} for the 12 limb joints and 'neck'."),
-    scale: float = typer.Option(None, "--scale", help="BVH: metres per file unit; DeepMimic: URDF scale (default detected / 0.25)."),
+    name_map: Path = typer.Option(None, "--name-map", help=NAME_MAP_HELP),
+    scale: float = typer.Option(None, "--scale", help=SCALE_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object per clip instead of text."),
 ) -> None:
     """Show clips, frames, fps, duration, licence, height and per-bone median lengths of motion files."""

@@ -234,3 +234,15 @@ def test_broken_bvh_files(tmp_path, written):
     empty.write_text("")
     with pytest.raises(InputError, match="empty.bvh.*HIERARCHY"):
         load_motion(empty)
+
+
+def test_reads_back_our_own_exported_bvh(tmp_path, data_dir):
+    from exporters.bvh import write_bvh
+
+    (climb,) = load_motion(data_dir / "motion/holosoma-climb/mocap_climb_seq_1_joint_positions_f0-2422.npy")
+    path = tmp_path / "ours.bvh"
+    fit = write_bvh(climb.joints[:120], climb.fps, path)
+    (back,) = load_motion(path)
+    assert back.extra["unit"] == "cm" and back.fps == pytest.approx(120.0)
+    error = np.linalg.norm(back.joints - climb.joints[:120], axis=-1)
+    assert error.max() <= fit.max_m + 1e-3

@@ -52,7 +52,7 @@ FORMATS: tuple[MotionFormat, ...] = (
         "asf_amc", (".amc",), "Acclaim/CMU AMC motion with its .asf skeleton beside it, 120 fps by default", load_amc,
         options=("asf",),
     ),
-    MotionFormat("holosoma", (".npy",), "holosoma-retargeting (T, 53, 3) joint positions, 120 fps by default", load_holosoma),
+    MotionFormat("holosoma", (".npy",), "holosoma-retargeting (T, 53, 3) positions, 120 fps default", load_holosoma),
     MotionFormat(
         "h36m", (".npz",), "Human3.6M VideoPose3D data_3d_h36m.npz (positions_3d), a clip per subject/action, 50 fps",
         load_h36m, is_h36m_npz,
@@ -61,7 +61,7 @@ FORMATS: tuple[MotionFormat, ...] = (
         "plain_npz", (".npz",), "npz with joints (T, 17, 3) metres Z up, fps, optional joint_names",
         load_plain_npz, is_plain_npz,
     ),
-    MotionFormat("c3d", (".c3d",), "C3D marker trial (lower-body joint centres; missing joints NaN and listed)", load_c3d),
+    MotionFormat("c3d", (".c3d",), "C3D marker trial (joint centres it defines; the rest NaN, listed)", load_c3d),
     MotionFormat(
         "deepmimic", (".txt", ".json"), "DeepMimic humanoid clip (JSON Frames) with humanoid.urdf beside it",
         load_deepmimic, is_deepmimic, options=("urdf", "scale"),

@@ -147,7 +147,8 @@ def pose_points(skeleton: AsfSkeleton, motion: dict[str, np.ndarray]) -> tuple[l
     translation = [root_values[:, skeleton.root_order.index(a)] for a in ("tx", "ty", "tz")]
     offsets.append(np.stack(translation, axis=1))
     root_dofs = [a for a in skeleton.root_order if a.startswith("r")]
-    root_m = _rotation("".join(a[1] for a in root_dofs), root_values[:, [skeleton.root_order.index(a) for a in root_dofs]], skeleton.degrees)
+    root_angles = root_values[:, [skeleton.root_order.index(a) for a in root_dofs]]
+    root_m = _rotation("".join(a[1] for a in root_dofs), root_angles, skeleton.degrees)
     root_c = Rotation.from_euler(skeleton.root_axis_order, skeleton.root_axis, degrees=skeleton.degrees).as_matrix()
     rotations.append(root_c @ root_m @ root_c.T)
     stack = [(b, 0) for b in reversed(skeleton.children.get("root", []))]
@@ -169,7 +170,7 @@ def pose_points(skeleton: AsfSkeleton, motion: dict[str, np.ndarray]) -> tuple[l
 
 
 def find_asf(amc: Path) -> Path:
-    """The skeleton of an AMC file: same stem, the subject prefix before '_' (CMU ``01_02.amc`` -> ``01.asf``), or the only .asf."""
+    """The .asf of an AMC file: same stem, the subject before '_' (CMU ``01_02.amc`` -> ``01.asf``), or the only one."""
     for candidate in (amc.with_suffix(".asf"), amc.with_name(amc.stem.split("_")[0] + ".asf")):
         if candidate.is_file():
             return candidate
@@ -193,4 +194,5 @@ def load_amc(path: Path, fps: float | None = None, asf: Path | None = None) -> l
     joints = apply_recipe(y_up_to_z_up(points), names, CMU_ASF_RECIPE)
     if not np.isfinite(joints).all():
         raise InputError(f"{path}: motion gives NaN or infinite joint positions")
-    return [Motion(joints=joints, fps=fps or DEFAULT_FPS, name=path.stem, extra={"format": "asf_amc", "skeleton": asf.name})]
+    extra = {"format": "asf_amc", "skeleton": asf.name}
+    return [Motion(joints=joints, fps=fps or DEFAULT_FPS, name=path.stem, extra=extra)]

@@ -32,7 +32,7 @@ END_SUFFIX = "_end"  # an End Site is named after its joint plus this suffix
 
 @dataclass(frozen=True)
 class BvhClip:
-    """A parsed BVH: node names (End Sites as ``<joint>_end``), parents, offsets (N, 3), channels per node, values, frame time."""
+    """A parsed BVH: node names (End Site: ``<joint>_end``), parents, offsets (N, 3), channels, values, frame time."""
 
     names: tuple[str, ...]
     parents: tuple[int, ...]
@@ -122,27 +122,28 @@ def _strip_namespace(name: str) -> str:
 
 
 def bvh_recipe(clip: BvhClip, name_map: Mapping[str, str] | None) -> Recipe:
-    """Recipe for this file: from ``name_map`` (our limb joints + 'neck' -> BVH names) or the first naming that fits."""
+    """Recipe for this file from ``name_map`` (limb joints, 'neck', optional 'head' -> BVH names) or a known naming."""
     names = {_strip_namespace(n): n for n in clip.names}
     if name_map is not None:
-        wanted = [*LIMB_JOINTS, "neck"]
-        missing_keys = [k for k in wanted if k not in name_map]
+        missing_keys = [k for k in (*LIMB_JOINTS, "neck") if k not in name_map]
         if missing_keys:
             raise ValueError(f"name map lacks {missing_keys}")
-        candidates = [({k: name_map[k] for k in LIMB_JOINTS}, name_map["neck"])]
+        candidates = [({k: name_map[k] for k in LIMB_JOINTS}, name_map["neck"], name_map.get("head"))]
     else:
         candidates = list(BVH_NAMING.values())
-    for limbs, skull in candidates:
-        needed = [*limbs.values(), skull]
-        if all(_strip_namespace(n) in names for n in needed):
-            limbs = {k: names[_strip_namespace(v)] for k, v in limbs.items()}
-            skull = names[_strip_namespace(skull)]
-            top = skull + END_SUFFIX
-            if top in clip.names:
-                head = head_between(skull, top)
-            else:
-                head = head_beyond(skull, clip.names[clip.parents[clip.names.index(skull)]])
-            return mocap_recipe(limbs, {skull: 1.0}, head)
+    for limbs, skull, head_joint in candidates:
+        needed = [*limbs.values(), skull, *([head_joint] if head_joint else [])]
+        if not all(_strip_namespace(n) in names for n in needed):
+            continue
+        limbs = {k: names[_strip_namespace(v)] for k, v in limbs.items()}
+        skull = names[_strip_namespace(skull)]
+        if head_joint:
+            head = {names[_strip_namespace(head_joint)]: 1.0}
+        elif skull + END_SUFFIX in clip.names:
+            head = head_between(skull, skull + END_SUFFIX)
+        else:
+            head = head_beyond(skull, clip.names[clip.parents[clip.names.index(skull)]])
+        return mocap_recipe(limbs, {skull: 1.0}, head)
     if name_map is not None:
         absent = [n for n in needed if _strip_namespace(n) not in names]
         raise ValueError(f"name map names joints the file lacks: {absent}")

@@ -44,7 +44,8 @@ def read_markers(path: Path) -> tuple[list[str], np.ndarray, float, float]:
     point = trial["parameters"]["POINT"]
     stated = header_frames(path)
     if stated is not None and stated != trial["data"]["points"].shape[2]:
-        raise InputError(f"{path}: truncated C3D, header states {stated} frames, data holds {trial['data']['points'].shape[2]}")
+        held = trial["data"]["points"].shape[2]
+        raise InputError(f"{path}: truncated C3D, header states {stated} frames, data holds {held}")
     labels = [label.rsplit(":", 1)[-1] for label in point["LABELS"]["value"]]
     positions = trial["data"]["points"][:3].transpose(2, 1, 0).astype(np.float64)
     residuals = trial["data"]["meta_points"]["residuals"][0].T
@@ -80,7 +81,8 @@ def to_z_up(joints: np.ndarray) -> np.ndarray:
         return joints
     if axis == 1 and up[1] > 0:
         return y_up_to_z_up(joints)
-    raise ValueError(f"legs point along {'-' if up[axis] < 0 else '+'}{'xyz'[axis]}; only Z-up and Y-up labs are supported")
+    sign = "-" if up[axis] < 0 else "+"
+    raise ValueError(f"legs point along {sign}{'xyz'[axis]}; only Z-up and Y-up labs are supported")
 
 
 def load_c3d(path: Path, fps: float | None = None) -> list[Motion]:

@@ -111,7 +111,7 @@ def pose_points(frames: np.ndarray, skeleton: UrdfSkeleton) -> np.ndarray:
 
 
 def resample_uniform(points: np.ndarray, durations: np.ndarray) -> tuple[np.ndarray, float]:
-    """Points ``(T, ...)`` with per-frame durations onto a uniform grid at the median duration; returns (points, fps)."""
+    """Points ``(T, ...)`` with frame durations ``(T,)`` onto a uniform grid at the median step; (points, fps)."""
     step = float(np.median(durations[:-1]))
     if not step > 0:
         raise ValueError(f"frame durations must be positive, median is {step}")
@@ -131,7 +131,9 @@ def is_deepmimic(path: Path) -> bool:
     return head.lstrip().startswith(b"{") and b'"Frames"' in head
 
 
-def load_deepmimic(path: Path, fps: float | None = None, urdf: Path | None = None, scale: float = URDF_SCALE) -> list[Motion]:
+def load_deepmimic(
+    path: Path, fps: float | None = None, urdf: Path | None = None, scale: float = URDF_SCALE
+) -> list[Motion]:
     """One clip from a DeepMimic JSON file; the URDF is ``urdf`` or humanoid.urdf beside the clip."""
     urdf = Path(urdf) if urdf is not None else path.with_name(URDF_NAME)
     if not urdf.is_file():
