@@ -55,13 +55,12 @@ def _read_any(path: Path, subject: str | None) -> Calibration:
     raise InputError(f"{path}: unknown calibration format (expected .json, .toml, .yml, .txt or an EasyMocap folder)")
 
 
-def _check_distances(calibration: Calibration, units_read: str | float) -> None:
+def _check_distances(path: Path, calibration: Calibration, units_read: str | float) -> None:
     """Refuse cameras implausibly far from the origin: the units are almost surely wrong."""
     distances = [float(np.linalg.norm(c.center)) for c in calibration.cameras]
     if max(distances) > MAX_CAMERA_DISTANCE_M:
-        source = calibration.meta.get("source", "calibration")
         raise InputError(
-            f"{source}: a camera is {max(distances):.0f} m from the origin; the units look wrong "
+            f"{path}: a camera is {max(distances):.0f} m from the origin; the units look wrong "
             f"(file read as {units_read}); pass --units mm, cm or m"
         )
 
@@ -78,7 +77,7 @@ def load_calibration(
         raise InputError(f"{path}: calibration file not found")
     raw = _read_any(path, subject)
     result = to_z_up_metres(raw, world_up, units)
-    _check_distances(result, units if units is not None else raw.meta["units"])
+    _check_distances(path, result, units if units is not None else raw.meta["units"])
     return result
 
 

@@ -62,10 +62,11 @@ def calibration_from_dict(data: Any, source: str) -> Calibration:
     if not isinstance(data["cameras"], list):
         raise InputError(f"{source}: cameras must be a list")
     cameras = validate.check_cameras([camera_from_dict(c, source, i) for i, c in enumerate(data["cameras"])], source)
-    stored = data.get("meta") or new_meta(FORMAT, source, data["world_up"], data["units"])
+    stored = data.get("meta", {})
     if not isinstance(stored, dict):
         raise InputError(f"{source}: meta must be a JSON object")
-    return Calibration(cameras=cameras, meta={**stored, "world_up": data["world_up"], "units": data["units"]})
+    meta = {**new_meta(FORMAT, source, data["world_up"], data["units"]), **stored}
+    return Calibration(cameras=cameras, meta={**meta, "world_up": data["world_up"], "units": data["units"]})
 
 
 def camera_to_dict(camera: Camera) -> dict[str, Any]:

@@ -38,7 +38,10 @@ def _matrix(fs: cv2.FileStorage, key: str, path: Path) -> np.ndarray | None:
     node = fs.getNode(key)
     if node.empty():
         return None
-    value = node.mat() if node.isMap() else np.array([node.at(i).real() for i in range(node.size())])
+    try:
+        value = node.mat() if node.isMap() else np.array([node.at(i).real() for i in range(node.size())])
+    except (cv2.error, SystemError):
+        value = None
     if value is None:
         raise InputError(f"{path}: {key} is not a matrix")
     return value
@@ -50,12 +53,10 @@ def _real(fs: cv2.FileStorage, key: str) -> float | None:
     return None if node.empty() else node.real()
 
 
-def _size(height: float | None, width: float | None, K: np.ndarray | None, path: Path, what: str) -> tuple[tuple[int, int], bool]:
+def _size(height: float | None, width: float | None, K: np.ndarray, path: Path, what: str) -> tuple[tuple[int, int], bool]:
     """(height, width) from the file, else from the principal point; the flag says it was assumed."""
     if height is not None and width is not None:
         return validate.as_size([height, width], str(path), what), False
-    if K is None:
-        raise InputError(f"{path}: {what}: neither an image size nor a camera matrix is given")
     return size_from_principal_point(K), True
 
 
