@@ -246,3 +246,12 @@ def test_reads_back_our_own_exported_bvh(tmp_path, data_dir):
     assert back.extra["unit"] == "cm" and back.fps == pytest.approx(120.0)
     error = np.linalg.norm(back.joints - climb.joints[:120], axis=-1)
     assert error.max() <= fit.max_m + 1e-3
+
+
+def test_namespaced_joint_names_are_recognised(tmp_path, written):
+    text = HIERARCHY
+    for name in JOINTS:
+        text = text.replace(f" {name}\n", f" mixamorig:{name}\n")
+    path = tmp_path / "mixamo.bvh"
+    write_bvh(path, FRAMES, hierarchy=text)
+    np.testing.assert_array_equal(load_motion(path)[0].joints, load_motion(written)[0].joints)
