@@ -177,13 +177,23 @@ def local_euler(global_rot: np.ndarray) -> np.ndarray:
     return angles.reshape(global_rot.shape[0], NUM_JOINTS, 3)
 
 
+def euler_to_matrix(euler: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) ``Rz @ Rx @ Ry`` from ZXY Euler degrees (..., 3) given as (z, x, y)."""
+    cz, cx, cy = np.moveaxis(np.cos(np.radians(euler)), -1, 0)
+    sz, sx, sy = np.moveaxis(np.sin(np.radians(euler)), -1, 0)
+    rows = [
+        [cz * cy - sz * sx * sy, -sz * cx, cz * sy + sz * sx * cy],
+        [sz * cy + cz * sx * sy, cz * cx, sz * sy - cz * sx * cy],
+        [-cx * sy, sx, cx * cy],
+    ]
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
 def forward_kinematics(euler: np.ndarray, root: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """BVH-axes joint positions (T, 17, 3) from local ZXY Euler degrees (T, 17, 3), root (T, 3), offsets (17, 3)."""
-    T = euler.shape[0]
-    local = Rotation.from_euler(EULER_ORDER, euler.reshape(-1, 3), degrees=True).as_matrix()
-    local = local.reshape(T, NUM_JOINTS, 3, 3)
+    local = euler_to_matrix(euler)
     rot = np.zeros_like(local)
-    pos = np.zeros((T, NUM_JOINTS, 3))
+    pos = np.zeros(euler.shape)
     for j in range(NUM_JOINTS):
         p = PARENTS[j]
         if p < 0:

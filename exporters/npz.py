@@ -42,14 +42,14 @@ def result_arrays(result: LiftResult) -> dict[str, np.ndarray]:
 
 
 def write_npz(result: LiftResult, path: Path | str) -> Path:
-    """Write ``result`` to ``path`` (compressed npz) atomically; meta must be JSON-serialisable."""
+    """Write ``result`` to ``path`` (npz) atomically; meta must be JSON-serialisable."""
     path = Path(path)
     try:
         arrays = result_arrays(result)
     except TypeError as err:
         raise InputError(f"{path}: meta is not JSON-serialisable ({err})") from None
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        np.savez_compressed(f, **arrays)
+        np.savez(f, **arrays)
     return path
 
 

@@ -1,0 +1,94 @@
+"""``export``: write the requested files of one result into its output folder."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+
+import numpy as np
+
+from exporters.bvh import write_bvh
+from exporters.csv_export import write_long_csv, write_summary_csv
+from exporters.npz import write_npz
+from exporters.result import LiftResult
+from lifting.errors import InputError
+
+FORMATS = ("npz", "csv", "bvh", "rrd")
+BVH_MODES = ("median", "all")
+
+
+def parse_formats(text: str | Iterable[str]) -> tuple[str, ...]:
+    """Formats from ``"csv,bvh"`` or a list, in canonical order; InputError on an unknown one."""
+    items = [s.strip().lower() for s in (text.split(",") if isinstance(text, str) else text) if s.strip()]
+    unknown = sorted(set(items) - set(FORMATS))
+    if unknown or not items:
+        raise InputError(f"--formats: unknown or empty {', '.join(unknown) or repr(text)}; choose from {','.join(FORMATS)}")
+    return tuple(f for f in FORMATS if f in items)
+
+
+def _write_bvhs(result: LiftResult, out_dir: Path, name: str, mode: str) -> tuple[list[Path], dict]:
+    """BVH files per person (median, and every hypothesis with mode 'all') and their fit errors for meta."""
+    paths: list[Path] = []
+    errors: dict[str, dict] = {}
+    present = result.present()
+    for p, track in enumerate(result.track_ids):
+        if not present[p].any():
+            continue
+        path = out_dir / f"{name}_p{track}.bvh"
+        errors[f"p{track}"] = {"median": write_bvh(result.median[p], result.fps, path).as_dict()}
+        paths.append(path)
+        if mode == "all":
+            fits = []
+            for n in range(result.num_hypotheses):
+                hyp_path = out_dir / f"{name}_p{track}_h{n:03d}.bvh"
+                fits.append(write_bvh(result.hypotheses[p, n], result.fps, hyp_path))
+                paths.append(hyp_path)
+            errors[f"p{track}"]["hypotheses"] = {
+                "mean_m": float(np.mean([f.mean_m for f in fits])),
+                "max_m": float(np.max([f.max_m for f in fits])),
+            }
+    return paths, errors
+
+
+def export(
+    result: LiftResult,
+    out_dir: Path | str,
+    name: str,
+    formats: Iterable[str] = FORMATS,
+    video_paths: Mapping[str, Path] | None = None,
+    bvh: str = "median",
+    rrd_video: str = "asset",
+    say: Callable[[str], None] = lambda _: None,
+) -> list[Path]:
+    """Write ``formats`` of ``result`` as ``out_dir/name*``; return the paths written. Each file is atomic.
+
+    The BVH fit error goes into ``meta["bvh_fit_error"]`` of the npz written in the same call.
+    """
+    formats = parse_formats(formats)
+    if bvh not in BVH_MODES:
+        raise InputError(f"--bvh must be one of {', '.join(BVH_MODES)}, got {bvh!r}")
+    out_dir = Path(out_dir)
+    if "rrd" in formats:
+        from exporters.rrd import check_videos
+
+        check_videos(result, {k: Path(v) for k, v in (video_paths or {}).items()}, rrd_video)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    if "bvh" in formats:
+        say(f"{name}: BVH ({bvh})")
+        paths, errors = _write_bvhs(result, out_dir, name, bvh)
+        written += paths
+        result = result.with_meta(bvh_fit_error=errors)
+    if "npz" in formats:
+        say(f"{name}: npz")
+        written.append(write_npz(result, out_dir / f"{name}.npz"))
+    if "csv" in formats:
+        say(f"{name}: CSV")
+        written.append(write_long_csv(result, out_dir / f"{name}.csv"))
+        written.append(write_summary_csv(result, out_dir / f"{name}_summary.csv"))
+    if "rrd" in formats:
+        from exporters.rrd import write_rrd
+
+        say(f"{name}: rerun recording")
+        written.append(write_rrd(result, out_dir / f"{name}.rrd", name, video_paths, rrd_video, say))
+    return written

@@ -1,0 +1,175 @@
+"""The rerun recording of one input: video, cameras, 2D keypoints, every hypothesis, median, spread, energy.
+
+Entity paths (all under a Z-up ``world``):
+
+- ``world/cameras/<cam>``: camera pose and pinhole; ``.../video``: the video;
+  ``.../keypoints/p<id>``: 2D keypoints of person ``<id>`` (confidence > 0).
+- ``world/people/p<id>/hypotheses``: every hypothesis as a skeleton, one
+  annotation class per hypothesis (class id = hypothesis index);
+  ``.../median``: the median skeleton, drawn thicker in its own colour;
+  ``.../spread``: a sphere per joint at the median, radius = RMS distance of
+  the hypotheses to the median (the per-joint spread).
+- ``plots/energy/p<id>``: energy over hypotheses (5%, median, 95%) per frame;
+  ``plots/spread/p<id>``: mean per-joint spread in millimetres.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import tempfile
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import numpy as np
+
+from exporters import rerun_adapter as rra
+from exporters.atomic import atomic_path
+from exporters.result import LiftResult
+from exporters.video import jpeg_frames, needs_reencode, reencode_h264
+from lifting.errors import InputError
+from lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS
+
+VIDEO_MODES = ("asset", "frames", "none")
+MEDIAN_CLASS = 65000
+KEYPOINTS_CLASS = 65001
+MEDIAN_RGBA = (255, 140, 0, 255)
+KEYPOINTS_RGBA = (40, 230, 120, 255)
+SPREAD_RGBA = (255, 140, 0, 50)
+ENERGY_RGBA = ((120, 160, 255, 255), (255, 255, 255, 255), (255, 120, 160, 255))
+
+
+def hypothesis_colours(count: int) -> list[tuple[int, int, int, int]]:
+    """Distinct translucent colours for ``count`` hypotheses (hues from cyan to violet)."""
+    hues = np.linspace(0.45, 0.8, count) if count > 1 else [0.6]
+    alpha = 200 if count <= 10 else 110
+    return [tuple(int(255 * c) for c in colorsys.hsv_to_rgb(h, 0.55, 1.0)) + (alpha,) for h in hues]
+
+
+def entity_names(result: LiftResult) -> dict[str, list[str]]:
+    """Entity paths the recording holds for ``result``, by kind (used by tests and docs)."""
+    people = [f"world/people/p{i}" for i in result.track_ids]
+    return {
+        "hypotheses": [f"{p}/hypotheses" for p in people],
+        "median": [f"{p}/median" for p in people],
+        "spread": [f"{p}/spread" for p in people],
+        "cameras": [f"world/cameras/{c.name}" for c in result.cameras],
+        "energy": [f"plots/energy/p{i}" for i in result.track_ids] if result.energy is not None else [],
+        "spread_plot": [f"plots/spread/p{i}" for i in result.track_ids],
+    }
+
+
+def per_joint_spread(hypotheses: np.ndarray, median: np.ndarray) -> np.ndarray:
+    """RMS distance of hypotheses (N, T, 17, 3) to the median (T, 17, 3) per frame and joint, (T, 17)."""
+    return np.sqrt(np.mean(np.sum((hypotheses - median[None]) ** 2, axis=-1), axis=0))
+
+
+def _layout(result: LiftResult) -> rra.Layout:
+    """Default blueprint: 3D world, each camera view, energy and spread plots."""
+    views = tuple((f"world/cameras/{c.name}", c.name) for c in result.cameras)
+    plots = (("plots/energy", "energy"),) if result.energy is not None else ()
+    return rra.Layout(world="world", camera_views=views, plots=plots + (("plots/spread", "spread (mm)"),))
+
+
+def _log_people(rec, result: LiftResult) -> None:
+    """Skeletons, median, spread and plots of every person."""
+    N = result.num_hypotheses
+    frames = np.arange(result.num_frames)
+    present = result.present()
+    joint_ids = np.arange(NUM_JOINTS, dtype=np.uint16)
+    for p, track in enumerate(result.track_ids):
+        base = f"world/people/p{track}"
+        on = present[p]
+        times, idx = result.frame_times[on], frames[on]
+        counts = np.full(len(idx), N * NUM_JOINTS)
+        hyp = np.moveaxis(result.hypotheses[p][:, on], 0, 1)  # (T_on, N, 17, 3)
+        rra.send_skeletons_3d(
+            rec, f"{base}/hypotheses", times, idx, hyp.reshape(-1, 3), counts,
+            np.repeat(np.arange(N, dtype=np.uint16), NUM_JOINTS), np.tile(joint_ids, N), radius=0.008,
+        )  # fmt: skip
+        median = result.median[p][on]
+        rra.send_skeletons_3d(
+            rec, f"{base}/median", times, idx, median.reshape(-1, 3), np.full(len(idx), NUM_JOINTS),
+            np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16), joint_ids, radius=0.015,
+        )  # fmt: skip
+        spread = per_joint_spread(result.hypotheses[p][:, on], median)
+        rra.send_spheres_3d(
+            rec, f"{base}/spread", times, idx, median.reshape(-1, 3), spread.reshape(-1),
+            np.full(len(idx), NUM_JOINTS), SPREAD_RGBA,
+        )  # fmt: skip
+        rra.send_series(
+            rec, f"plots/spread/p{track}", times, idx, 1000.0 * spread.mean(axis=1, keepdims=True),
+            [f"p{track} mean joint spread"], [MEDIAN_RGBA],
+        )  # fmt: skip
+        if result.energy is not None:
+            energy = np.quantile(result.energy[p][:, on], [0.05, 0.5, 0.95], axis=0).T
+            names = [f"p{track} energy {q}" for q in ("5%", "median", "95%")]
+            rra.send_series(rec, f"plots/energy/p{track}", times, idx, energy, names, ENERGY_RGBA)
+
+
+def _log_keypoints(rec, result: LiftResult, c: int) -> None:
+    """2D keypoints of every person on camera ``c`` (only confident, finite points)."""
+    camera = result.cameras[c]
+    frames = np.arange(result.num_frames)
+    for p, track in enumerate(result.track_ids):
+        kp = result.keypoints2d[c, p]
+        valid = (kp[..., 2] > 0) & np.isfinite(kp[..., :2]).all(axis=-1)  # (T, 17)
+        t_idx, j_idx = np.nonzero(valid)
+        rra.send_keypoints_2d(
+            rec, f"world/cameras/{camera.name}/keypoints/p{track}", result.frame_times, frames,
+            kp[t_idx, j_idx, :2], j_idx, valid.sum(axis=1), KEYPOINTS_CLASS, radius=4.0,
+        )  # fmt: skip
+
+
+def _log_video(rec, entity: str, video: Path, mode: str, offset_s: float, say: Callable[[str], None]) -> None:
+    """The camera's video as an MP4 asset (re-encoded when needed) or as JPEG frames."""
+    if mode == "asset":
+        if needs_reencode(video):
+            say(f"re-encoding {video.name} to H.264 for rerun")
+            with tempfile.TemporaryDirectory() as tmp:
+                encoded = Path(tmp) / "video.mp4"
+                reencode_h264(video, encoded)
+                rra.log_video_asset(rec, entity, encoded, offset_s)
+        else:
+            rra.log_video_asset(rec, entity, video, offset_s)
+    elif mode == "frames":
+        for times, blobs in jpeg_frames(video):
+            rra.send_jpeg_frames(rec, entity, times + offset_s, blobs)
+
+
+def check_videos(result: LiftResult, video_paths: Mapping[str, Path], mode: str) -> None:
+    """Raise InputError for an unknown mode, a video without a camera, or a missing video file."""
+    if mode not in VIDEO_MODES:
+        raise InputError(f"--rrd-video must be one of {', '.join(VIDEO_MODES)}, got {mode!r}")
+    names = {c.name for c in result.cameras}
+    for name, path in video_paths.items():
+        if name not in names:
+            raise InputError(f"{path}: no camera named {name!r} in the result (cameras: {', '.join(sorted(names))})")
+        if mode != "none" and not Path(path).is_file():
+            raise InputError(f"{path}: no such video file")
+
+
+def write_rrd(
+    result: LiftResult, path: Path | str, name: str, video_paths: Mapping[str, Path] | None = None,
+    video_mode: str = "asset", say: Callable[[str], None] = lambda _: None,
+) -> Path:  # fmt: skip
+    """Write the rerun recording of ``result`` to ``path`` atomically; videos are matched to cameras by name."""
+    path = Path(path)
+    video_paths = {k: Path(v) for k, v in (video_paths or {}).items()}
+    check_videos(result, video_paths, video_mode)
+    classes = [rra.ClassStyle(i, f"hypothesis {i}", rgba) for i, rgba in enumerate(hypothesis_colours(result.num_hypotheses))]
+    classes += [rra.ClassStyle(MEDIAN_CLASS, "median", MEDIAN_RGBA), rra.ClassStyle(KEYPOINTS_CLASS, "2D keypoints", KEYPOINTS_RGBA)]
+    with atomic_path(path) as tmp:
+        rec = rra.open_recording(tmp, "platypose", name, _layout(result))
+        try:
+            rra.log_world(rec, "world")
+            rra.log_annotations(rec, "world", classes, JOINT_NAMES, BONES)
+            for c, camera in enumerate(result.cameras):
+                entity = f"world/cameras/{camera.name}"
+                rra.log_camera(rec, entity, camera.K, camera.size, camera.R, camera.t)
+                if camera.name in video_paths and video_mode != "none":
+                    _log_video(rec, f"{entity}/video", video_paths[camera.name], video_mode, camera.time_offset_s, say)
+                _log_keypoints(rec, result, c)
+            _log_people(rec, result)
+        finally:
+            rra.close_recording(rec)
+    return path

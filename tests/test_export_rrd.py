@@ -1,0 +1,133 @@
+"""rerun recordings read back with rerun's own reader (``rerun.chunk.RrdReader``) on real motion and video."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import av
+import numpy as np
+import pyarrow as pa
+import pytest
+from export_helpers import two_person_result
+from rerun.chunk import RrdReader
+
+from exporters.rrd import MEDIAN_CLASS, write_rrd
+from lifting.errors import InputError
+from lifting.skeleton import NUM_JOINTS
+
+CAM01 = "video/pose2sim-balancing/cam01.mp4"
+
+
+@pytest.fixture(scope="module")
+def result(data_dir):
+    return two_person_result(data_dir)
+
+
+@pytest.fixture(scope="module")
+def recording(result, data_dir, tmp_path_factory):
+    path = tmp_path_factory.mktemp("rrd") / "clip.rrd"
+    write_rrd(result, path, "clip", {"cam01": data_dir / CAM01})
+    return path
+
+
+def read_entities(path: Path, store: str = "recording") -> dict[str, dict[str, list]]:
+    """Per entity path: column name -> values, static rows under 'static:<column>', time-sorted otherwise."""
+    reader = RrdReader(path)
+    entry = (reader.recordings() if store == "recording" else reader.blueprints())[0]
+    out: dict[str, dict[str, list]] = {}
+    for chunk in reader.stream(store=entry).to_chunks():
+        batch = chunk.to_record_batch()
+        cols = out.setdefault(chunk.entity_path, {})
+        for name in batch.schema.names:
+            if name.startswith("rerun.controls"):
+                continue
+            column = batch.column(name)
+            if pa.types.is_timestamp(column.type) or pa.types.is_duration(column.type):
+                column = column.cast(pa.int64())
+            key = f"static:{name}" if chunk.is_static else name
+            if name.endswith(":blob"):  # one blob per row, as bytes
+                values = [row.values.flatten().to_numpy(zero_copy_only=False).tobytes() for row in column]
+            else:
+                values = column.to_pylist()
+            cols.setdefault(key, []).extend(values)
+    return out
+
+
+def test_people_positions_equal_the_npz(result, recording):
+    entities = read_entities(recording)
+    N = result.num_hypotheses
+    for p, track in enumerate(result.track_ids):
+        on = result.present()[p]
+        hyp = entities[f"/world/people/p{track}/hypotheses"]
+        assert len(hyp["Points3D:positions"]) == on.sum()  # absent frames are not logged
+        assert hyp["frame"] == np.flatnonzero(on).tolist()
+        np.testing.assert_allclose(np.array(hyp["time"]) / 1e9, result.frame_times[on], atol=1e-9)
+        got = np.array(hyp["Points3D:positions"], dtype=np.float32)  # (T_on, N * 17, 3)
+        want = np.moveaxis(result.hypotheses[p][:, on], 0, 1).reshape(-1, N * NUM_JOINTS, 3)
+        np.testing.assert_array_equal(got, want)
+        assert hyp["static:Points3D:class_ids"][0] == np.repeat(np.arange(N), NUM_JOINTS).tolist()
+        assert hyp["static:Points3D:keypoint_ids"][0] == np.tile(np.arange(NUM_JOINTS), N).tolist()
+        median = entities[f"/world/people/p{track}/median"]
+        np.testing.assert_array_equal(np.array(median["Points3D:positions"], dtype=np.float32), result.median[p][on])
+        assert set(median["static:Points3D:class_ids"][0]) == {MEDIAN_CLASS}
+        spread = np.array(entities[f"/world/people/p{track}/spread"]["Points3D:radii"], dtype=np.float64)
+        expected = np.sqrt(((result.hypotheses[p][:, on] - result.median[p][on]) ** 2).sum(-1).mean(0))
+        np.testing.assert_allclose(spread, expected, rtol=1e-5)
+        energy = np.array(entities[f"/plots/energy/p{track}"]["Scalars:scalars"])
+        np.testing.assert_allclose(energy[:, 1], np.median(result.energy[p][:, on], axis=0), rtol=1e-5)
+
+
+def test_cameras_keypoints_and_video(result, recording, data_dir):
+    entities = read_entities(recording)
+    cam = entities["/world/cameras/cam01"]
+    np.testing.assert_allclose(np.array(cam["static:Pinhole:image_from_camera"][0]).reshape(3, 3).T, result.cameras[0].K)
+    np.testing.assert_allclose(cam["static:Transform3D:translation"][0][0], result.cameras[0].t, atol=1e-6)
+    assert cam["static:Pinhole:resolution"][0] == [[1080, 1920]]  # width, height
+    kp = entities["/world/cameras/cam02/keypoints/p7"]
+    counts = [len(row) for row in kp["Points2D:positions"]]
+    assert counts == [0] * 5 + [NUM_JOINTS] * 25  # person 7 absent (confidence 0) in the first 5 frames
+    np.testing.assert_allclose(kp["Points2D:positions"][10], result.keypoints2d[1, 1, 10, :, :2], rtol=1e-6)
+    video = entities["/world/cameras/cam01/video"]
+    assert video["static:AssetVideo:blob"][0] == (data_dir / CAM01).read_bytes()  # H.264: embedded as is
+    assert len(video["VideoFrameReference:timestamp"]) == 100
+    assert "/world/cameras/cam02/video" not in entities  # no video given for cam02
+
+
+def test_default_blueprint_has_3d_camera_and_plot_views(recording):
+    views = {
+        (cols["ViewBlueprint:class_identifier"][0][0], cols["ViewBlueprint:space_origin"][0][0])
+        for path, cols in read_entities(recording, "blueprint").items()
+        if "ViewBlueprint:class_identifier" in cols
+    }
+    assert views == {
+        ("3D", "world"), ("2D", "world/cameras/cam01"), ("2D", "world/cameras/cam02"),
+        ("TimeSeries", "plots/energy"), ("TimeSeries", "plots/spread"),
+    }  # fmt: skip
+
+
+def test_vp9_video_is_reencoded_to_h264(result, data_dir, tmp_path):
+    path = write_rrd(result, tmp_path / "demo.rrd", "demo", {"cam01": data_dir / "video/sports2d-demo/demo.mp4"})
+    video = read_entities(path)["/world/cameras/cam01/video"]
+    (tmp_path / "embedded.mp4").write_bytes(video["static:AssetVideo:blob"][0])
+    with av.open(str(tmp_path / "embedded.mp4")) as container:
+        stream = container.streams.video[0]
+        assert stream.codec_context.name == "h264" and (stream.width, stream.height) == (1768, 994)
+    assert len(video["VideoFrameReference:timestamp"]) == 230
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.rrd", "embedded.mp4"]
+
+
+def test_video_as_jpeg_frames(result, data_dir, tmp_path):
+    path = write_rrd(result, tmp_path / "frames.rrd", "frames", {"cam01": data_dir / CAM01}, video_mode="frames")
+    video = read_entities(path)["/world/cameras/cam01/video"]
+    assert len(video["EncodedImage:blob"]) == 100 and video["EncodedImage:media_type"] == [["image/jpeg"]] * 100
+    np.testing.assert_allclose(np.array(video["time"][:3]) / 1e9, [0, 1 / 60, 2 / 60], atol=1e-6)
+    assert video["EncodedImage:blob"][0][:2] == b"\xff\xd8"
+
+
+def test_failed_export_leaves_no_file(result, data_dir, tmp_path):
+    with pytest.raises(InputError, match="no camera named 'cam09'"):
+        write_rrd(result, tmp_path / "a.rrd", "a", {"cam09": data_dir / CAM01})
+    not_video = data_dir / "PROVENANCE.md"
+    with pytest.raises(InputError, match="PROVENANCE.md: cannot read video"):
+        write_rrd(result, tmp_path / "b.rrd", "b", {"cam01": not_video})
+    assert list(tmp_path.iterdir()) == []
