@@ -214,9 +214,19 @@ CMU_ASF_RECIPE: Recipe = mocap_recipe(CMU_ASF_LIMBS, {"upperneck": 1.0}, head_be
 
 # DeepMimic humanoid (pybullet humanoid.urdf): points are joint frames, plus
 # "head_centre", the centre of the head sphere of the neck link. Its single
-# neck joint sits at the neck base (shoulder height), so the skull base is
-# taken halfway between that joint and the head centre.
-DEEPMIMIC_RECIPE: Recipe = mocap_recipe({j: j for j in LIMB_JOINTS}, _mid("neck", "head_centre"), {"head_centre": 1.0})
+# neck joint sits just below shoulder height, no guide to the skull base, so the
+# skull base is put SKULL_BASE_FRACTION of the way from the head centre to the
+# thorax, as the other skeletons have it (holosoma 0.27, CMU 0.29, mocapbank 0.38).
+SKULL_BASE_FRACTION = 0.3
+DEEPMIMIC_RECIPE: Recipe = mocap_recipe(
+    {j: j for j in LIMB_JOINTS},
+    {
+        "head_centre": 1.0 - SKULL_BASE_FRACTION,
+        "left_shoulder": SKULL_BASE_FRACTION / 2,
+        "right_shoulder": SKULL_BASE_FRACTION / 2,
+    },
+    {"head_centre": 1.0},
+)
 
 # BVH: known naming conventions as (limbs, skull-base joint, head-centre joint or
 # None), tried in order; the first whose names all exist in a file is used (a

@@ -255,3 +255,15 @@ def test_namespaced_joint_names_are_recognised(tmp_path, written):
     path = tmp_path / "mixamo.bvh"
     write_bvh(path, FRAMES, hierarchy=text)
     np.testing.assert_array_equal(load_motion(path)[0].joints, load_motion(written)[0].joints)
+
+
+def test_z_up_file_is_not_rotated(tmp_path, written):
+    text = HIERARCHY
+    for line in {ln for ln in HIERARCHY.splitlines() if "OFFSET" in ln}:
+        x, y, z = (float(v) for v in line.split()[1:])
+        text = text.replace(line + "\n", line.split("OFFSET")[0] + f"OFFSET {x:g} {-z:g} {y:g}\n")
+    path = tmp_path / "zup.bvh"
+    write_bvh(path, [{"Hips": [10, -20, 35, 0, 0, 0]}], hierarchy=text)
+    (m,) = load_motion(path)
+    assert m.extra["up"] == "z" and m.extra["unit"] == "inch"
+    np.testing.assert_allclose(m.joints[0], load_motion(written)[0].joints[0], atol=1e-9)

@@ -1,8 +1,9 @@
 """BVH motion (any hierarchy, named onto ours by a naming convention or a user name map), by forward kinematics.
 
-BVH is taken as Y up and rotated to our Z up with ``(x, y, z) -> (x, -z, y)``.
-Units (cm, m, inches, mm, dm) are detected from the rest-pose height (a
-standing human is 1.5-2 m) unless ``scale`` (metres per file unit) is given.
+BVH is Y up by convention and rotated to our Z up with ``(x, y, z) -> (x, -z,
+y)``; a file whose rest pose is taller along Z than along Y is taken as Z up
+already. Units (cm, m, inches, mm, dm) are detected from the rest-pose height
+(a standing human is 1.5-2 m) unless ``scale`` (metres per file unit) is given.
 Rotation channels compose in their listed order (``Zrotation Xrotation
 Yrotation`` is ``Rz Rx Ry``); position channels replace the joint's offset.
 """
@@ -111,10 +112,11 @@ def local_transforms(clip: BvhClip) -> tuple[np.ndarray, np.ndarray]:
     return offsets, rotations
 
 
-def rest_height(clip: BvhClip) -> float:
-    """Vertical (Y) extent of the rest pose, in file units."""
+def rest_up_and_height(clip: BvhClip) -> tuple[str, float]:
+    """Up axis ('y' or 'z', the taller of the two in the rest pose) and the rest-pose height in file units."""
     rest = forward_kinematics(clip.parents, clip.offsets, np.tile(np.eye(3), (1, len(clip.names), 1, 1)))[0]
-    return float(np.ptp(rest[:, 1]))
+    extent_y, extent_z = np.ptp(rest[:, 1]), np.ptp(rest[:, 2])
+    return ("z", float(extent_z)) if extent_z > extent_y else ("y", float(extent_y))
 
 
 def _strip_namespace(name: str) -> str:
@@ -164,13 +166,14 @@ def load_bvh(
         recipe = bvh_recipe(clip, name_map)
     except ValueError as err:
         raise InputError(f"{path}: {err}") from None
+    up, height = rest_up_and_height(clip)
     unit = None
     if scale is None:
-        unit = detect_length_unit(rest_height(clip))
+        unit = detect_length_unit(height)
         scale = LENGTH_UNITS[unit]
     points = forward_kinematics(clip.parents, *local_transforms(clip)) * scale
-    joints = apply_recipe(y_up_to_z_up(points), clip.names, recipe)
+    joints = apply_recipe(y_up_to_z_up(points) if up == "y" else points, clip.names, recipe)
     if not np.isfinite(joints).all():
         raise InputError(f"{path}: motion gives NaN or infinite joint positions")
-    extra = {"format": "bvh", "metres_per_unit": scale, "unit": unit or "given"}
+    extra = {"format": "bvh", "metres_per_unit": scale, "unit": unit or "given", "up": up}
     return [Motion(joints=joints, fps=fps or rate_from_step(clip.frame_time), name=path.stem, extra=extra)]

@@ -127,7 +127,7 @@ def resample_uniform(points: np.ndarray, durations: np.ndarray) -> tuple[np.ndar
 def is_deepmimic(path: Path) -> bool:
     """Whether a .txt/.json file starts like a DeepMimic clip (a JSON object with ``Frames``)."""
     with open(path, "rb") as f:
-        head = f.read(512)
+        head = f.read(4096)
     return head.lstrip().startswith(b"{") and b'"Frames"' in head
 
 
