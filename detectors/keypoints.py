@@ -7,6 +7,16 @@ import numpy as np
 from lifting.joint_maps import KEYPOINT_LAYOUTS, apply_recipe_with_confidence
 
 
+_LAYOUT_BY_COUNT = {17: "coco17", 26: "halpe26"}
+
+
+def model_layout(num_keypoints: int | None) -> str:
+    """Layout of a model's K keypoints: 17 COCO or 26 Halpe (ValueError otherwise)."""
+    if num_keypoints not in _LAYOUT_BY_COUNT:
+        raise ValueError(f"{num_keypoints} keypoints per person match no known layout (17 COCO, 26 Halpe)")
+    return _LAYOUT_BY_COUNT[num_keypoints]
+
+
 def to_our_joints(points: np.ndarray, layout: str) -> np.ndarray:
     """Source keypoints ``(..., S, 3)`` (x, y, confidence) in ``layout`` -> ours ``(..., 17, 3)``.
 

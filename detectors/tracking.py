@@ -4,8 +4,10 @@ Per frame, each live track predicts its pose with constant per-joint velocity;
 tracks and detections are assigned by the Hungarian method on the median
 keypoint distance divided by the person's size. A track survives unseen for up
 to ``max_gap_s`` (its ID bridges the gap; the gap frames stay missing). After
-the pass, track fragments that end and start close in time and space are
-joined (repairs the ID switches left by occlusions). Tracks with fewer than
+the pass, a fragment that ends and one that starts within ``stitch_gap_s``
+are joined when the pose moved less than ``stitch_cost + stitch_speed * gap``
+person sizes (repairs the ID switches left by occlusions and missed
+detections); best pairs first, each fragment joined at most once per end. Tracks with fewer than
 ``min_track_frames`` observed frames are dropped.
 """
 
@@ -32,6 +34,7 @@ class TrackerConfig:
     max_gap_s: float = 1.0
     stitch_gap_s: float = 3.0
     stitch_cost: float = 0.8
+    stitch_speed: float = 2.0  # person sizes per second a fragment's end may move to the next one's start
     min_joints: int = 4
     min_confidence: float = 0.2
     min_track_frames: int = 3
@@ -68,11 +71,14 @@ def person_size(pose: np.ndarray, min_confidence: float = 0.0) -> np.ndarray:
 
 
 def pose_distance(a: np.ndarray, b: np.ndarray, min_confidence: float) -> float:
-    """Median distance over joints visible in both poses (17, 3), in units of ``a``'s size; inf if < 3 shared."""
+    """Median distance over joints visible in both poses (17, 3), in units of the larger person size; inf if < 3 shared.
+
+    The larger size is used so that a partial (small) detection does not inflate the distance.
+    """
     shared = (a[:, 2] > min_confidence) & (b[:, 2] > min_confidence)
     if shared.sum() < 3:
         return np.inf
-    scale = person_size(a, min_confidence)
+    scale = np.fmax(person_size(a, min_confidence), person_size(b, min_confidence))
     distances = np.linalg.norm(a[shared, :2] - b[shared, :2], axis=-1)
     return float(np.median(distances) / scale)
 
@@ -116,14 +122,14 @@ def _online_tracks(detections: list[np.ndarray], times: np.ndarray, config: Trac
 
 
 def _stitch(tracks: list[_Track], times: np.ndarray, config: TrackerConfig) -> list[_Track]:
-    """Join fragments end-to-start (greedy by cost) when the gap and the pose jump are both small."""
+    """Join fragments end-to-start (greedy by cost) when the gap is short and the pose jump small for that gap."""
     candidates = []
     for a, first in enumerate(tracks):
         for b, second in enumerate(tracks):
             gap = times[second.frames[0]] - times[first.frames[-1]]
             if a != b and 0 < gap <= config.stitch_gap_s:
                 cost = pose_distance(first.poses[-1], second.poses[0], config.min_confidence)
-                if cost < config.stitch_cost:
+                if cost < config.stitch_cost + config.stitch_speed * gap:
                     candidates.append((cost, a, b))
     successor: dict[int, int] = {}
     predecessor: dict[int, int] = {}

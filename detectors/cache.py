@@ -1,0 +1,66 @@
+"""Per-frame detections cached in an npz beside the outputs, valid only for the same video, model and settings."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+CACHE_VERSION = 1
+
+
+def cache_key(video: Path, detector_name: str, stride: int, max_frames: int | None) -> str:
+    """A JSON string naming everything the detections depend on (the video file's identity, model, settings)."""
+    stat = video.stat()
+    return json.dumps(
+        {
+            "version": CACHE_VERSION,
+            "video": str(video.resolve()),
+            "video_bytes": stat.st_size,
+            "video_mtime_ns": stat.st_mtime_ns,
+            "detector": detector_name,
+            "stride": stride,
+            "max_frames": max_frames,
+        },
+        sort_keys=True,
+    )
+
+
+def read_detections(path: Path) -> tuple[str, list[np.ndarray], np.ndarray]:
+    """A detections file -> (its key, per-frame detections (N_t, 17, 3), frame indices (T,))."""
+    with np.load(path, allow_pickle=False) as data:
+        key, counts, flat, indices = str(data["key"]), data["counts"], data["keypoints"], data["frame_indices"]
+    return key, (np.split(flat, np.cumsum(counts)[:-1]) if len(counts) else []), indices
+
+
+class DetectionCache:
+    """The cache file ``<folder>/<name>.detections.npz``: ragged detections stored flat with per-frame counts."""
+
+    def __init__(self, folder: Path, name: str) -> None:
+        self.path = folder / f"{name}.detections.npz"
+
+    def load(self, key: str) -> tuple[list[np.ndarray], np.ndarray] | None:
+        """Cached (per-frame (N_t, 17, 3) detections, frame indices), or None if absent, unreadable or stale."""
+        try:
+            stored_key, detections, indices = read_detections(self.path)
+        except (OSError, KeyError, ValueError):
+            return None
+        return (detections, indices) if stored_key == key else None
+
+    def save(self, key: str, detections: list[np.ndarray], indices: np.ndarray) -> None:
+        """Write the cache atomically (temp file in the same folder, then rename)."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        counts = np.array([len(d) for d in detections], dtype=np.int64)
+        flat = np.concatenate(detections) if detections else np.zeros((0, 17, 3), np.float32)
+        handle, temp = tempfile.mkstemp(dir=self.path.parent, suffix=".npz.tmp")
+        try:
+            with os.fdopen(handle, "wb") as stream:
+                np.savez(stream, key=np.array(key), counts=counts, keypoints=flat, frame_indices=indices)
+            os.chmod(temp, 0o644)
+            os.replace(temp, self.path)
+        except BaseException:
+            Path(temp).unlink(missing_ok=True)
+            raise

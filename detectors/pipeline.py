@@ -1,0 +1,73 @@
+"""Detect people in a video, frame by frame in a stream, then track them: ``detect_video``.
+
+Only keypoints are kept (a few kB per frame), never frames, so memory is
+bounded for any video length. Per-frame detections can be cached in a file
+beside the outputs; a re-run with the same video, model and settings reads
+them back instead of detecting again (tracking always re-runs, it is cheap).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from detectors.cache import DetectionCache, cache_key
+from detectors.detector import Detector
+from detectors.keypoints import to_our_joints
+from detectors.tracking import TrackerConfig, track_detections
+from detectors.types import PoseTrack2D
+from detectors.video import iter_frames, video_info
+
+Progress = Callable[[int, int], None]
+
+
+def detect_frames(
+    video: str | Path,
+    detector: Detector,
+    stride: int = 1,
+    max_frames: int | None = None,
+    progress: Progress | None = None,
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """Run ``detector`` on every ``stride``-th frame: per-frame people (N_t, 17, 3) on our joints, frame indices (T,).
+
+    ``progress(done, total)`` is called after each frame (total is an estimate from the container).
+    """
+    info = video_info(video)
+    total = -(-info.frame_count // stride) if info.frame_count else 0
+    total = min(total, max_frames) if max_frames else total
+    detections, indices = [], []
+    for index, frame in iter_frames(video, stride=stride, max_frames=max_frames):
+        detections.append(to_our_joints(detector(frame), detector.layout).astype(np.float32))
+        indices.append(index)
+        if progress is not None:
+            progress(len(indices), max(total, len(indices)))
+    return detections, np.asarray(indices, dtype=np.int64)
+
+
+def detect_video(
+    video: str | Path,
+    detector: Detector,
+    tracker: TrackerConfig = TrackerConfig(),
+    stride: int = 1,
+    max_frames: int | None = None,
+    progress: Progress | None = None,
+    cache_dir: str | Path | None = None,
+) -> PoseTrack2D:
+    """Detect and track people in ``video`` -> tracks (T, P, 17, 3) at the processed frames' times.
+
+    With ``cache_dir``, detections are read from / written to a cache file there.
+    """
+    video = Path(video)
+    info = video_info(video)
+    key = cache_key(video, detector.name, stride, max_frames)
+    cache = DetectionCache(Path(cache_dir), video.stem) if cache_dir is not None else None
+    cached = cache.load(key) if cache is not None else None
+    if cached is not None:
+        detections, indices = cached
+    else:
+        detections, indices = detect_frames(video, detector, stride, max_frames, progress)
+        if cache is not None:
+            cache.save(key, detections, indices)
+    return track_detections(detections, indices / info.fps, info.image_size, f"{video} ({detector.name})", tracker)

@@ -1,0 +1,100 @@
+"""The bundled MoveNet on real Pose2Sim frames against the shipped OpenPose keypoints; streaming; cache; bad videos."""
+
+from __future__ import annotations
+
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from detectors.contracts import load_detector
+from detectors.keypoints import to_our_joints
+from detectors.openpose import read_openpose_folder
+from detectors.pipeline import detect_frames, detect_video
+from detectors.video import iter_frames, video_info
+from lifting.errors import InputError
+from lifting.skeleton import JOINT_INDEX
+
+POSE2SIM = "video/pose2sim-balancing"
+
+
+@pytest.fixture(scope="module")
+def movenet():
+    return load_detector(threads=1)
+
+
+@pytest.mark.parametrize("camera", ["cam01", "cam02"])
+def test_movenet_lands_on_the_openpose_person(data_dir: Path, movenet, camera: str) -> None:
+    """Every 20th frame: the main person's joints are within 30 px (median) of OpenPose's (measured ~11-17 px)."""
+    openpose = read_openpose_folder(data_dir / POSE2SIM / f"openpose-body25b/{camera}_json")
+    main = int(np.argmax((openpose.keypoints[..., 2] > 0).sum(axis=(0, 2))))
+    joints = [j for j in range(17) if j != JOINT_INDEX["neck"]]  # BODY_25B observes the neck differently
+    distances = []
+    for index, frame in iter_frames(data_dir / POSE2SIM / f"{camera}.mp4", stride=20):
+        people = movenet(frame)
+        assert people.shape[1:] == (17, 3)
+        ours = to_our_joints(people, movenet.layout)[:, joints]
+        reference = openpose.keypoints[index, main, joints]
+        per_person = np.nanmedian(np.linalg.norm(ours[..., :2] - reference[:, :2], axis=-1), axis=1)
+        distances.append(per_person.min())
+    assert len(distances) == 5
+    assert np.median(distances) < 30, distances
+    assert max(distances) < 60, distances
+
+
+def test_detect_video_streams_and_caches(data_dir: Path, movenet, tmp_path: Path) -> None:
+    video = data_dir / POSE2SIM / "cam02.mp4"
+    calls = []
+
+    class Counting:
+        name, layout = movenet.name, movenet.layout
+
+        def __call__(self, image: np.ndarray) -> np.ndarray:
+            calls.append(image.shape)
+            return movenet(image)
+
+    progress = []
+    tracks = detect_video(
+        video, Counting(), stride=10, max_frames=4, cache_dir=tmp_path, progress=lambda d, t: progress.append((d, t))
+    )
+    assert len(calls) == 4 and progress[-1] == (4, 4)
+    assert tracks.image_size == (1920, 1080)
+    np.testing.assert_allclose(tracks.frame_times, np.array([0, 10, 20, 30]) / 60.0)
+    confident_joints = (tracks.keypoints[..., 2] > 0.3).sum(axis=2)  # (T, P)
+    assert (confident_joints.max(axis=1) >= 12).all()  # the man on the plate, in every frame
+    assert (tmp_path / "cam02.detections.npz").is_file()
+    again = detect_video(video, Counting(), stride=10, max_frames=4, cache_dir=tmp_path)
+    assert len(calls) == 4  # read from the cache
+    np.testing.assert_array_equal(again.keypoints, tracks.keypoints)
+    detect_video(video, Counting(), stride=5, max_frames=4, cache_dir=tmp_path)
+    assert len(calls) == 8  # other settings: the stale cache is not used
+
+
+def test_detection_holds_one_frame_at_a_time(data_dir: Path) -> None:
+    """40 full-HD frames pass through detection; memory peaks at a few frames, not 40."""
+
+    class Nothing:
+        name, layout = "nothing", "coco17"
+
+        def __call__(self, image: np.ndarray) -> np.ndarray:
+            return np.zeros((0, 17, 3))
+
+    frame_bytes = 1920 * 1080 * 3
+    tracemalloc.start()
+    detections, indices = detect_frames(data_dir / POSE2SIM / "cam01.mp4", Nothing(), max_frames=40)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert len(detections) == 40 and indices[-1] == 39
+    assert peak < 4 * frame_bytes
+
+
+def test_unreadable_videos(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="video file not found"):
+        video_info(tmp_path / "missing.mp4")
+    garbage = tmp_path / "garbage.mp4"
+    garbage.write_bytes(b"this is not a video" * 100)
+    with pytest.raises(InputError, match=r"garbage\.mp4: (OpenCV cannot open|no decodable frame)"):
+        video_info(garbage)
+    with pytest.raises(InputError, match=r"garbage\.mp4"):
+        list(iter_frames(garbage))
