@@ -38,6 +38,7 @@ def _register() -> None:
     # Sub-command modules register themselves on import; keep this list sorted.
     import platypose_cli.commands_calib  # noqa: F401
     import platypose_cli.commands_eval  # noqa: F401
+    import platypose_cli.commands_export  # noqa: F401
     import platypose_cli.commands_info  # noqa: F401
     import platypose_cli.commands_motion  # noqa: F401
     import platypose_cli.commands_train  # noqa: F401

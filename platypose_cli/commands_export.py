@@ -1,0 +1,100 @@
+"""``platypose info FILE.npz`` (summary of a result) and ``platypose export FILE.npz`` (re-export from it)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from platypose_cli.app import app
+
+
+def _describe(path: Path, result) -> list[str]:
+    """Summary lines of a LiftResult read from ``path``."""
+    import numpy as np
+
+    P, N, T = result.num_persons, result.num_hypotheses, result.num_frames
+    lines = [
+        f"{path.name}: {P} person(s) x {N} hypotheses x {T} frames at {result.fps:.3f} fps "
+        f"({result.frame_times[0]:.3f}-{result.frame_times[-1]:.3f} s), 17 joints, metres, Z up"
+    ]
+    present = result.present()
+    for p, track in enumerate(result.track_ids):
+        on = present[p]
+        if not on.any():
+            lines.append(f"  person {track}: absent in every frame")
+            continue
+        hyp, med = result.hypotheses[p][:, on], result.median[p][on]
+        spread = np.sqrt(((hyp - med) ** 2).sum(-1).mean(0)) * 1000
+        line = (f"  person {track}: present in {on.sum()}/{T} frames, pelvis height median {np.median(med[:, 0, 2]):.2f} m, "
+                f"joint spread mean {spread.mean():.1f} mm (max {spread.max():.1f} mm)")  # fmt: skip
+        if result.energy is not None:
+            line += f", energy median {np.median(result.energy[p][:, on]):.4g}"
+        lines.append(line)
+    for c, cam in enumerate(result.cameras):
+        conf = result.keypoints2d[c, ..., 2]
+        lines.append(
+            f"  camera {cam.name}: {cam.width}x{cam.height} px, fx {cam.K[0, 0]:.1f}, "
+            f"centre at ({', '.join(f'{v:.2f}' for v in cam.center)}) m, 2D keypoints with confidence > 0: "
+            f"{(conf > 0).mean():.0%}"
+        )
+    meta = result.meta
+    for key in ("version", "prior_sha256", "arguments", "timings", "bvh_fit_error"):
+        if key in meta:
+            lines.append(f"  {key}: {json.dumps(meta[key])}")
+    others = sorted(set(meta) - {"version", "prior_sha256", "arguments", "timings", "bvh_fit_error"})
+    if others:
+        lines.append(f"  other meta: {', '.join(others)}")
+    return lines
+
+
+def _video_map(items: list[str], camera_names: list[str]) -> dict[str, Path]:
+    """``NAME=PATH`` items (or one bare PATH when there is one camera) -> {camera name: path}."""
+    from lifting.errors import InputError
+
+    videos: dict[str, Path] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            if len(camera_names) != 1:
+                raise InputError(f"--video {item}: give CAMERA=PATH (cameras: {', '.join(camera_names) or 'none'})")
+            name, value = camera_names[0], item
+        videos[name] = Path(value)
+    return videos
+
+
+@app.command("info")
+def info(path: Path = typer.Argument(..., help="A platypose result file (OUT/<name>/<name>.npz).")) -> None:
+    """Validate a result npz and print a summary: persons, hypotheses, frames, cameras, spread, meta."""
+    from exporters.npz import read_npz
+
+    result = read_npz(path)
+    typer.echo("\n".join(_describe(path, result)))
+
+
+@app.command("export")
+def export_command(
+    path: Path = typer.Argument(..., help="A platypose result file (.npz), the source of truth."),
+    formats: str = typer.Option("csv,bvh,rrd", "--formats", help="Comma-separated: npz, csv, bvh, rrd."),
+    out: Path | None = typer.Option(None, "--out", help="Output folder (default: the npz's folder)."),
+    name: str | None = typer.Option(None, "--name", help="Base name of the files (default: the npz's name)."),
+    bvh: str = typer.Option("median", "--bvh", help="median: one BVH per person; all: also one per hypothesis."),
+    rrd_video: str = typer.Option("asset", "--rrd-video", help="asset (MP4, re-encoded to H.264 if needed), frames (JPEG), none."),
+    video: list[str] = typer.Option([], "--video", help="CAMERA=VIDEO for the rerun recording; repeat per camera."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
+) -> None:  # fmt: skip
+    """Re-export CSV, BVH and rerun files from a result npz (writing npz again only if asked)."""
+    from exporters import export
+    from exporters.npz import read_npz
+
+    result = read_npz(path)
+    videos = _video_map(video, [c.name for c in result.cameras])
+
+    def say(message: str) -> None:
+        if not quiet:
+            typer.echo(message, err=True)
+
+    written = export(result, out or path.parent, name or path.stem, formats, videos, bvh, rrd_video, say)
+    for file in written:
+        typer.echo(str(file))
