@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from detectors.atomic import atomic_open
 
 CACHE_VERSION = 1
 
@@ -51,16 +51,8 @@ class DetectionCache:
         return (detections, indices) if stored_key == key else None
 
     def save(self, key: str, detections: list[np.ndarray], indices: np.ndarray) -> None:
-        """Write the cache atomically (temp file in the same folder, then rename)."""
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        """Write the cache atomically."""
         counts = np.array([len(d) for d in detections], dtype=np.int64)
         flat = np.concatenate(detections) if detections else np.zeros((0, 17, 3), np.float32)
-        handle, temp = tempfile.mkstemp(dir=self.path.parent, suffix=".npz.tmp")
-        try:
-            with os.fdopen(handle, "wb") as stream:
-                np.savez(stream, key=np.array(key), counts=counts, keypoints=flat, frame_indices=indices)
-            os.chmod(temp, 0o644)
-            os.replace(temp, self.path)
-        except BaseException:
-            Path(temp).unlink(missing_ok=True)
-            raise
+        with atomic_open(self.path) as stream:
+            np.savez(stream, key=np.array(key), counts=counts, keypoints=flat, frame_indices=indices)

@@ -5,7 +5,8 @@ Contracts (``--detector-format``), with their input -> outputs signatures:
 - ``movenet``: int32 ``[1, H, W, 3]`` -> ``[1, 6, 56]`` (MoveNet MultiPose, bundled default).
 - ``yolo-pose``: float ``[1, 3, H, W]`` -> ``[1, 5 + 3K, N]`` (ultralytics YOLO-pose export, no NMS inside).
 - ``rtmo``: float ``[1, 3, H, W]`` -> dets ``[1, N, 5]`` and keypoints ``[1, N, K, 3]`` (RTMO one-stage).
-- ``rtmpose``: float ``[1, 3, H, W]`` -> simcc_x ``[1, K, Wx]`` and simcc_y ``[1, K, Wy]`` (top-down, needs a person detector).
+- ``rtmpose``: float ``[1, 3, H, W]`` -> simcc_x ``[1, K, Wx]`` and simcc_y ``[1, K, Wy]`` (top-down, needs a
+  person detector).
 - ``heatmap``: float ``[1, 3, H, W]`` -> ``[1, K, H/4, W/4]`` (ViTPose / HRNet top-down, needs a person detector).
 
 K = 17 (COCO) or 26 (Halpe).

@@ -40,7 +40,8 @@ def letterbox(
     top, left = ((in_h - new_h) // 2, (in_w - new_w) // 2) if center else (0, 0)
     padded = np.full((in_h, in_w, image.shape[2]), pad_value, dtype=image.dtype)
     padded[top : top + new_h, left : left + new_w] = resized
-    placement = Letterbox(scale=(new_w / width, new_h / height), offset=(float(left), float(top)), input_size=(in_h, in_w))
+    axis_scale = (new_w / width, new_h / height)
+    placement = Letterbox(scale=axis_scale, offset=(float(left), float(top)), input_size=(in_h, in_w))
     return padded, placement
 
 

@@ -17,12 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from detectors.keypoints import to_our_joints
-from detectors.tracking import TrackerConfig, track_detections
+from detectors.assemble import Person, assemble_tracks
+from detectors.tracking import TrackerConfig
 from detectors.types import PoseTrack2D
-from detectors.video import VIDEO_SUFFIXES, video_info
+from detectors.video import timing_from_video
 from lifting.errors import InputError
-from lifting.joint_maps import KEYPOINT_LAYOUTS
 
 _LAYOUT_BY_COUNT = {17: "coco17", 18: "coco18", 26: "halpe26"}
 
@@ -70,16 +69,6 @@ def guess_layout(poses: list[np.ndarray]) -> str:
     return "body25b" if np.mean(below) > 0.5 else "body25"
 
 
-def _find_video(folder: Path) -> Path | None:
-    """The video a JSON folder was made from: ``<name>.<video suffix>`` for ``<name>_json`` beside it or one up."""
-    name = folder.name.removesuffix("_json").removesuffix("_keypoints")
-    for parent in (folder.parent, folder.parent.parent):
-        for suffix in VIDEO_SUFFIXES:
-            if (parent / f"{name}{suffix}").is_file():
-                return parent / f"{name}{suffix}"
-    return None
-
-
 def read_openpose_folder(
     folder: str | Path,
     fps: float | None = None,
@@ -103,37 +92,19 @@ def read_openpose_folder(
     numbers = [frame_number(path) for path in files]
     if len(set(numbers)) != len(numbers):
         raise InputError(f"{folder}: two files have the same frame number")
-    if fps is None or image_size is None:
-        video = _find_video(folder)
-        if video is None:
-            raise InputError(f"{folder}: no video beside it to read fps and image size from; pass them")
-        info = video_info(video)
-        fps = info.fps if fps is None else fps
-        image_size = info.image_size if image_size is None else image_size
-    if fps <= 0:
-        raise InputError(f"{folder}: fps must be positive, got {fps}")
-    people = {number: _read_people(path) for number, path in zip(numbers, files)}
-    everyone = [pose for poses in people.values() for pose in poses]
-    if everyone and len({pose.shape[0] for pose in everyone}) > 1:
-        raise InputError(f"{folder}: files disagree on the number of keypoints per person")
+    fps, image_size = timing_from_video(folder, fps, image_size)
+    frames = {number: [Person(pose) for pose in _read_people(path)] for number, path in zip(numbers, files)}
+    everyone = [person.keypoints for people in frames.values() for person in people]
     if layout is None:
         if not everyone:
             raise InputError(f"{folder}: no person in any file")
+        if len({pose.shape[0] for pose in everyone}) > 1:
+            raise InputError(f"{folder}: files disagree on the number of keypoints per person")
         try:
             layout = guess_layout(everyone)
         except ValueError as err:
             raise InputError(f"{folder}: {err}") from None
-    if layout not in KEYPOINT_LAYOUTS:
-        raise InputError(f"{folder}: unknown keypoint layout {layout!r}; known: {', '.join(KEYPOINT_LAYOUTS)}")
-    expected = len(KEYPOINT_LAYOUTS[layout][0])
-    if everyone and everyone[0].shape[0] != expected:
-        raise InputError(f"{folder}: layout {layout} has {expected} points, the files have {everyone[0].shape[0]}")
-    frames = np.arange(min(numbers), max(numbers) + 1)
-    empty = np.zeros((0, 17, 3))
-    detections = [
-        to_our_joints(np.stack(people[f]), layout) if people.get(f) else empty for f in frames
-    ]
-    return track_detections(detections, frames / fps, tuple(image_size), str(folder), tracker)
+    return assemble_tracks(frames, layout, fps, image_size, str(folder), tracker)
 
 
 def missing_frames(folder: str | Path) -> np.ndarray:

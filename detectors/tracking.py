@@ -186,3 +186,25 @@ def select_persons(tracks: PoseTrack2D, persons: str) -> PoseTrack2D:
     score = np.nansum(person_size(tracks.keypoints), axis=0)
     order = np.argsort(-score, kind="stable")[:count]
     return tracks.select(np.sort(order))
+
+
+def tracks_from_ids(
+    ids: list[np.ndarray],
+    detections: list[np.ndarray],
+    frame_times: np.ndarray,
+    image_size: tuple[int, int],
+    source: str,
+) -> PoseTrack2D:
+    """Per-frame people (N_t, 17, 3) that already carry track IDs (N_t,) -> tracks, one per distinct ID (sorted).
+
+    A repeated ID within one frame is a ValueError.
+    """
+    all_ids = np.unique(np.concatenate([np.asarray(i, dtype=np.int64) for i in ids])) if ids else np.zeros(0, int)
+    column = {int(track_id): p for p, track_id in enumerate(all_ids)}
+    keypoints = missing_persons(len(detections), len(all_ids))
+    for t, (frame_ids, people) in enumerate(zip(ids, detections)):
+        if len(set(np.asarray(frame_ids).tolist())) != len(frame_ids):
+            raise ValueError(f"frame {t} has the same track ID twice")
+        for track_id, pose in zip(np.asarray(frame_ids).tolist(), people):
+            keypoints[t, column[int(track_id)]] = pose
+    return PoseTrack2D(keypoints, frame_times, all_ids, image_size, source)

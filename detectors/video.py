@@ -75,3 +75,30 @@ def iter_frames(path: str | Path, stride: int = 1, max_frames: int | None = None
         capture.release()
     if index == 0:
         raise InputError(f"{path}: no decodable frame (corrupt or unsupported video)")
+
+
+def sibling_video(path: Path) -> Path | None:
+    """The video a keypoint file or folder was made from: same name less ``_json``, beside it or one up."""
+    name = path.name.split(".")[0] if path.is_file() else path.name
+    name = name.removesuffix("_json").removesuffix("_keypoints")
+    for parent in (path.parent, path.parent.parent):
+        for suffix in VIDEO_SUFFIXES:
+            if (parent / f"{name}{suffix}").is_file():
+                return parent / f"{name}{suffix}"
+    return None
+
+
+def timing_from_video(
+    path: Path, fps: float | None, image_size: tuple[int, int] | None
+) -> tuple[float, tuple[int, int]]:
+    """``fps`` and ``image_size`` for keypoints read from ``path``, missing ones taken from its sibling video."""
+    if fps is None or image_size is None:
+        video = sibling_video(path)
+        if video is None:
+            raise InputError(f"{path}: no video beside it to read fps and image size from; pass them")
+        info = video_info(video)
+        fps = info.fps if fps is None else fps
+        image_size = info.image_size if image_size is None else image_size
+    if not fps > 0:
+        raise InputError(f"{path}: fps must be positive, got {fps}")
+    return float(fps), (int(image_size[0]), int(image_size[1]))

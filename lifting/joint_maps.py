@@ -126,8 +126,10 @@ HALPE26_NAMES: tuple[str, ...] = COCO17_NAMES + ("head_top", "openpose_neck", "m
 # BODY_25B -> ours: as COCO-17, but neck is the observed upper neck (base of the skull).
 BODY25B_RECIPE: Recipe = {**COCO17_RECIPE, "neck": {"upper_neck": 1.0}}
 
-# Layout name -> (source point names, recipe), for every 2D keypoint set we read.
+# Layout name -> (source point names, recipe), for every 2D keypoint set we read;
+# "platypose17" is our own joints (identity), for files already in our layout.
 KEYPOINT_LAYOUTS: dict[str, tuple[tuple[str, ...], Recipe]] = {
+    "platypose17": (JOINT_NAMES, {name: {name: 1.0} for name in JOINT_NAMES}),
     "coco17": (COCO17_NAMES, COCO17_RECIPE),
     "coco18": (COCO18_NAMES, COCO17_RECIPE),
     "body25": (BODY25_NAMES, COCO17_RECIPE),

@@ -1,0 +1,47 @@
+"""Pick the reader for a precomputed keypoint source by what it is: folder, npz, CSV or JSON."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from detectors.keypoint_files import read_keypoints_csv, read_keypoints_npz
+from detectors.keypoint_json import FORMAT, read_keypoints_json
+from detectors.mmpose import read_mmpose_json
+from detectors.openpose import read_openpose_folder
+from detectors.tracking import TrackerConfig
+from detectors.types import PoseTrack2D
+from lifting.errors import InputError
+
+
+def read_keypoints(
+    path: str | Path,
+    fps: float | None = None,
+    image_size: tuple[int, int] | None = None,
+    layout: str | None = None,
+    tracker: TrackerConfig = TrackerConfig(),
+) -> PoseTrack2D:
+    """Read any supported keypoint source: an OpenPose JSON folder, our npz / CSV, minimal-schema or MMPose JSON."""
+    path = Path(path)
+    if path.is_dir():
+        return read_openpose_folder(path, fps, image_size, layout, tracker)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file or folder")
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        return read_keypoints_npz(path)
+    if suffix == ".csv":
+        return read_keypoints_csv(path, image_size)
+    if suffix == ".json":
+        if _declares_minimal_schema(path):
+            return read_keypoints_json(path, tracker)
+        return read_mmpose_json(path, fps, image_size, tracker)
+    raise InputError(f"{path}: unknown keypoint file type {suffix!r} (expected a folder, .npz, .csv or .json)")
+
+
+def _declares_minimal_schema(path: Path) -> bool:
+    """Whether a JSON file says it follows the minimal schema (unreadable files: no, the other reader reports)."""
+    try:
+        return json.loads(path.read_text()).get("format") == FORMAT
+    except (OSError, ValueError, AttributeError):
+        return False
