@@ -17,7 +17,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from detectors.detector import Detector
+from detectors.movenet import DEFAULT_LONGEST, MoveNetMultiPose
+from detectors.persons import load_person_detector
+from detectors.rtmo import RTMO
 from detectors.session import CPU, open_session
+from detectors.topdown import TopDown
+from detectors.yolo_pose import YoloPose
 from lifting.errors import InputError
 
 BUNDLED_MODEL = Path(__file__).resolve().parent / "models" / "movenet-multipose.onnx"
@@ -69,19 +74,16 @@ def load_detector(
     person_detector: str | Path | None = None,
     threads: int | None = None,
     provider: str = CPU,
+    movenet_size: int = DEFAULT_LONGEST,
 ) -> Detector:
     """A ready detector for ``model`` (default: the bundled MoveNet MultiPose), its contract recognised or given.
 
     InputError when the model matches no contract (with its signature), the
     format is unknown, or a top-down model comes without a person detector.
     """
-    from detectors.movenet import MoveNetMultiPose
-    from detectors.persons import load_person_detector
-    from detectors.rtmo import RTMO
-    from detectors.topdown import TopDown
-    from detectors.yolo_pose import YoloPose
-
     path = Path(model) if model is not None else BUNDLED_MODEL
+    if movenet_size < 32:
+        raise InputError(f"--movenet-size must be at least 32 pixels, got {movenet_size}")
     if format is not None and format not in FORMATS:
         raise InputError(f"{path}: unknown --detector-format {format!r}; known: {', '.join(FORMATS)}")
     session = open_session(path, threads, provider)
@@ -98,7 +100,7 @@ def load_detector(
         raise InputError(f"{path}: --person-detector is only used with top-down models (rtmpose, heatmap)")
     try:
         if format == "movenet":
-            return MoveNetMultiPose(session)
+            return MoveNetMultiPose(session, longest=movenet_size)
         if format == "yolo-pose":
             return YoloPose(session)
         if format == "rtmo":

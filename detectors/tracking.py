@@ -176,13 +176,22 @@ def track_detections(
     return PoseTrack2D(keypoints, times, np.arange(len(tracks)), image_size, source)
 
 
+def persons_count(persons: str) -> int | None:
+    """Parse a ``--persons`` value: ``all`` -> None, ``largest`` -> 1, ``N`` -> N; InputError otherwise."""
+    if persons == "all":
+        return None
+    if persons == "largest":
+        return 1
+    if persons.isdigit() and int(persons) > 0:
+        return int(persons)
+    raise InputError(f"--persons must be 'all', 'largest' or a positive number, got {persons!r}")
+
+
 def select_persons(tracks: PoseTrack2D, persons: str) -> PoseTrack2D:
     """Keep ``all`` tracks, the ``largest`` one, or the N largest (``persons`` = "N"), by size summed over frames."""
-    if persons == "all":
-        return tracks
-    count = 1 if persons == "largest" else int(persons) if persons.isdigit() and int(persons) > 0 else None
+    count = persons_count(persons)
     if count is None:
-        raise InputError(f"--persons must be 'all', 'largest' or a positive number, got {persons!r}")
+        return tracks
     score = np.nansum(person_size(tracks.keypoints), axis=0)
     order = np.argsort(-score, kind="stable")[:count]
     return tracks.select(np.sort(order))
