@@ -9,6 +9,8 @@ from motion_sanity import assert_plausible
 from lifting.errors import InputError
 from lifting.joint_maps import LIMB_JOINTS, MOTIONBUILDER_LIMBS
 from lifting.motion_io import load_motion
+from lifting.motion_io.bvh import local_transforms, parse_bvh
+from lifting.motion_io.kinematics import forward_kinematics, y_up_to_z_up
 from lifting.skeleton import JOINT_INDEX
 
 INCH = 0.0254
@@ -218,6 +220,12 @@ def test_real_mocapbank_file(data_dir):
     # Head End Site present: head centre is halfway between the Head joint (neck) and the head top.
     height = m.joints[:, JOINT_INDEX["head"], 2].max() - m.joints[:, [3, 6], 2].min()
     assert 1.3 < height < 1.9
+    # Left is left: the feet point forward (ankle -> toe End Site), and up x forward is left.
+    clip = parse_bvh((data_dir / "motion/mocapbank/test_mocapbank.bvh").read_text())
+    points = y_up_to_z_up(forward_kinematics(clip.parents, *local_transforms(clip)))
+    forward = points[:, clip.names.index("LeftAnkle_end")] - points[:, clip.names.index("LeftAnkle")]
+    hips = m.joints[:, JOINT_INDEX["left_hip"]] - m.joints[:, JOINT_INDEX["right_hip"]]
+    assert np.mean(np.sum(hips * np.cross([0.0, 0.0, 1.0], forward), axis=-1) > 0) > 0.9
 
 
 def test_broken_bvh_files(tmp_path, written):
