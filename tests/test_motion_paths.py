@@ -53,6 +53,11 @@ def test_single_file_errors(tmp_path):
         load_motion(npz)
 
 
+def test_companion_files_say_what_to_load(data_dir):
+    with pytest.raises(InputError, match="test.asf: this is an ASF skeleton; load its .amc"):
+        load_motion(data_dir / "motion/cmu-asf-amc/test.asf")
+
+
 def test_name_map_only_for_bvh_and_formats_listed(data_dir):
     with pytest.raises(InputError, match="test.amc.*name_map do not apply to asf_amc"):
         load_motion(data_dir / "motion/cmu-asf-amc/test.amc", name_map={"neck": "x"})

@@ -68,6 +68,12 @@ FORMATS: tuple[MotionFormat, ...] = (
     ),
 )  # fmt: skip
 
+# Companion files that belong to a clip but hold no motion themselves.
+COMPANIONS: dict[str, str] = {
+    ".asf": "an ASF skeleton; load its .amc motion",
+    ".urdf": "a robot model; load the clips beside it",
+}
+
 # Extensions also used by non-motion files (licences, SOURCE.json): such files
 # are skipped unless a format claims them by content.
 GENERIC_EXTENSIONS: frozenset[str] = frozenset({".txt", ".json"})
@@ -101,6 +107,8 @@ def load_motion(
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     fmt = _format_of(path)
+    if fmt is None and path.suffix.lower() in COMPANIONS:
+        raise InputError(f"{path}: this is {COMPANIONS[path.suffix.lower()]}")
     if fmt is None:
         known = sorted({e for f in FORMATS for e in f.extensions})
         raise InputError(f"{path}: unknown motion format '{path.suffix}'; supported: {', '.join(known)}")
