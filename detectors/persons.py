@@ -51,12 +51,13 @@ class PersonDetector:
     def __init__(self, session, min_score: float = 0.3, iou: float = 0.45) -> None:
         outputs = [o.shape for o in session.get_outputs()]
         first = outputs[0]
-        if len(first) == 3 and first[2] == 5:
+        rows, columns = (first[1], first[2]) if len(first) == 3 else (None, None)
+        if columns == 5:
             self.contract = "dets"
-        elif len(outputs) == 1 and len(first) == 3 and isinstance(first[2], int) and first[2] > 5:
-            self.contract = "yolox"
-        elif len(outputs) == 1 and len(first) == 3 and isinstance(first[1], int) and first[1] > 4:
-            self.contract = "yolo"
+        elif len(outputs) == 1 and isinstance(columns, int) and columns > 5 and (rows is None or rows > columns):
+            self.contract = "yolox"  # [1, anchors, 5 + classes]
+        elif len(outputs) == 1 and isinstance(rows, int) and rows > 4 and (columns is None or columns > rows):
+            self.contract = "yolo"  # [1, 4 + classes, anchors]
         else:
             raise ValueError(f"outputs {outputs} match no person-detector contract (dets, yolox, yolo)")
         self.session = session
