@@ -14,6 +14,7 @@ detections); best pairs first, each fragment joined at most once per end. Tracks
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -187,14 +188,20 @@ def persons_count(persons: str) -> int | None:
     raise InputError(f"--persons must be 'all', 'largest' or a positive number, got {persons!r}")
 
 
-def select_persons(tracks: PoseTrack2D, persons: str) -> PoseTrack2D:
-    """Keep ``all`` tracks, the ``largest`` one, or the N largest (``persons`` = "N"), by size summed over frames."""
+def persons_to_keep(views: Sequence[PoseTrack2D], persons: str) -> np.ndarray | None:
+    """Indices along P (shared by the views) of the ``--persons`` choice, largest first by size summed over
+    frames and views; None for ``all``."""
     count = persons_count(persons)
     if count is None:
-        return tracks
-    score = np.nansum(person_size(tracks.keypoints), axis=0)
-    order = np.argsort(-score, kind="stable")[:count]
-    return tracks.select(np.sort(order))
+        return None
+    score = sum(np.nansum(person_size(view.keypoints), axis=0) for view in views)
+    return np.sort(np.argsort(-score, kind="stable")[:count])
+
+
+def select_persons(tracks: PoseTrack2D, persons: str) -> PoseTrack2D:
+    """Keep ``all`` tracks, the ``largest`` one, or the N largest (``persons`` = "N"), by size summed over frames."""
+    keep = persons_to_keep([tracks], persons)
+    return tracks if keep is None else tracks.select(keep)
 
 
 def tracks_from_ids(

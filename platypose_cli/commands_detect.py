@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import typer
@@ -41,21 +42,103 @@ def _summary(tracks, seconds: float, frames_run: int | None) -> list[str]:
         lines.append(f"  decode + detect + track: {frames_run} frames in {seconds:.1f} s ({per_frame:.1f} ms/frame)")
     for p, track_id in enumerate(tracks.track_ids.tolist()):
         frames = np.nonzero(seen[:, p])[0]
+        if len(frames) == 0:
+            lines.append(f"  person {track_id}: not seen in this view")
+            continue
         confidence = tracks.keypoints[seen[:, p], p, :, 2]
         lines.append(
-            f"  track {track_id}: seen in {len(frames)}/{tracks.num_frames} frames "
+            f"  person {track_id}: seen in {len(frames)}/{tracks.num_frames} frames "
             f"({tracks.frame_times[frames[0]]:.2f}-{tracks.frame_times[frames[-1]]:.2f} s), "
             f"mean joint confidence {confidence.mean():.2f}"
         )
     return lines
 
 
+@dataclass(frozen=True)
+class _Options:
+    """The detect command's settings for reading or detecting one source."""
+
+    detector: Path | None
+    detector_format: str | None
+    person_detector: Path | None
+    movenet_size: int
+    threads: int | None
+    provider: str
+    stride: int
+    max_frames: int | None
+    fps: float | None
+    image_size: str | None
+    cache: bool
+
+
+class _Detection:
+    """Turns one source into tracks: reads precomputed keypoints or runs the (lazily loaded) model on a video."""
+
+    def __init__(self, options: _Options) -> None:
+        self.options = options
+        self.model = None
+
+    def tracks(self, source: Path, folder: Path, quiet: bool):
+        """(tracks, seconds, frames detected: None for precomputed keypoints, 0 when read from the cache)."""
+        o = self.options
+        started = time.perf_counter()
+        if source.is_dir() or source.suffix.lower() in KEYPOINT_SUFFIXES:
+            from detectors.sources import read_keypoints
+
+            tracks = read_keypoints(source, fps=o.fps, image_size=_image_size(o.image_size))
+            return tracks, time.perf_counter() - started, None
+        from detectors.contracts import load_detector
+        from detectors.pipeline import detect_video
+        from detectors.video import video_info
+
+        info = video_info(source)
+        if self.model is None:
+            self.model = load_detector(
+                o.detector,
+                o.detector_format,
+                o.person_detector,
+                o.threads,
+                o.provider,
+                o.movenet_size,
+            )
+        total = -(-info.frame_count // o.stride)
+        total = min(total, o.max_frames) if o.max_frames else total
+        started = time.perf_counter()
+        done = [0]
+        with typer.progressbar(
+            length=max(total, 1), label=f"detecting {source.name}", file=sys.stderr, hidden=quiet
+        ) as bar:
+
+            def progress(count: int, _total: int) -> None:
+                bar.update(count - done[0])
+                done[0] = count
+
+            tracks = detect_video(
+                source,
+                self.model,
+                stride=o.stride,
+                max_frames=o.max_frames,
+                progress=progress,
+                cache_dir=folder if o.cache else None,
+            )
+        return tracks, time.perf_counter() - started, done[0]
+
+
+def _view_name(source: Path) -> str:
+    return (source.name if source.is_dir() else source.stem).removesuffix("_json")
+
+
 @app.command("detect")
 def detect(
-    source: Path = typer.Argument(
-        ..., help="A video, or precomputed keypoints (OpenPose JSON folder, MMPose/minimal .json, our .npz/.csv)."
+    sources: list[Path] = typer.Argument(
+        ...,
+        help="Videos, or precomputed keypoints (OpenPose JSON folder, MMPose/minimal .json, our .npz/.csv); "
+        "several views of one scene with --cams.",
     ),
     out: Path = typer.Option(Path("out"), "--out", help="Output folder; files go to OUT/<name>/."),
+    cams: Path | None = typer.Option(
+        None, "--cams", help="Calibration: the sources are synchronised views, people get one ID across views."
+    ),
     detector: Path | None = typer.Option(
         None, "--detector", help="Pose model .onnx (default: the bundled MoveNet MultiPose)."
     ),
@@ -86,53 +169,43 @@ def detect(
     ),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar."),
 ) -> None:
-    """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv (see docs/keypoints.md)."""
+    """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
     from detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
-    from detectors.tracking import persons_count, select_persons
+    from detectors.tracking import persons_count, persons_to_keep
 
     persons_count(persons)  # a bad --persons fails before any detection
-    name = (source.name if source.is_dir() else source.stem).removesuffix("_json")
-    folder = out / name
-    started = time.perf_counter()
-    frames_run = None
-    if source.is_dir() or source.suffix.lower() in KEYPOINT_SUFFIXES:
-        from detectors.sources import read_keypoints
+    names = [_view_name(source) for source in sources]
+    cameras = None
+    if cams is not None:
+        from lifting.calibration import load_calibration
+        from lifting.calibration.matching import match_views
 
-        tracks = read_keypoints(source, fps=fps, image_size=_image_size(image_size))
-    else:
-        from detectors.contracts import load_detector
-        from detectors.pipeline import detect_video
-        from detectors.video import video_info
+        calibration = load_calibration(cams)
+        pairs = match_views(calibration.names, names, allow_missing=True)
+        by_view = {view: calibration.camera(camera) for camera, view in pairs.items()}
+        cameras = [by_view[name] for name in names]
+    elif len(set(names)) != len(names):
+        from lifting.errors import InputError
 
-        info = video_info(source)
-        model = load_detector(detector, detector_format, person_detector, threads, provider, movenet_size)
-        total = -(-info.frame_count // stride)
-        total = min(total, max_frames) if max_frames else total
-        started = time.perf_counter()
-        with typer.progressbar(
-            length=max(total, 1), label=f"detecting {source.name}", file=sys.stderr, hidden=quiet
-        ) as bar:
-            done = [0]
+        raise InputError(f"two sources share the output name {names}; give them different names")
+    options = _Options(
+        detector, detector_format, person_detector, movenet_size, threads, provider, stride, max_frames, fps,
+        image_size, cache,
+    )  # fmt: skip
+    detection = _Detection(options)
+    results = [detection.tracks(source, out / name, quiet) for source, name in zip(sources, names)]
+    views = [tracks for tracks, _, _ in results]
+    if cameras is not None:
+        from detectors.multiview import match_across_views
 
-            def progress(count: int, _total: int) -> None:
-                bar.update(count - done[0])
-                done[0] = count
-
-            tracks = detect_video(
-                source,
-                model,
-                stride=stride,
-                max_frames=max_frames,
-                progress=progress,
-                cache_dir=folder if cache else None,
-            )
-        frames_run = done[0]
-    seconds = time.perf_counter() - started
-    tracks = select_persons(tracks, persons)
-    written = [
-        write_keypoints_npz(tracks, folder / f"{name}_keypoints2d.npz"),
-        write_keypoints_csv(tracks, folder / f"{name}_keypoints2d.csv"),
-    ]
-    typer.echo("\n".join(_summary(tracks, seconds, frames_run)))
-    for path in written:
-        typer.echo(f"  wrote {path}")
+        views = match_across_views(views, cameras)
+    keep = persons_to_keep(views, persons)
+    for name, tracks, (_, seconds, frames_run) in zip(names, views, results):
+        tracks = tracks if keep is None else tracks.select(keep)
+        written = [
+            write_keypoints_npz(tracks, out / name / f"{name}_keypoints2d.npz"),
+            write_keypoints_csv(tracks, out / name / f"{name}_keypoints2d.csv"),
+        ]
+        typer.echo("\n".join(_summary(tracks, seconds, frames_run)))
+        for path in written:
+            typer.echo(f"  wrote {path}")

@@ -66,3 +66,18 @@ def test_detect_errors_are_one_line_exit_2(monkeypatch, capsys, data_dir, tmp_pa
     code, _, err = run(monkeypatch, capsys, "detect", *args, "--out", str(tmp_path), "--max-frames", "1", "--quiet")
     assert code == 2
     assert message in err and err.count("\n") == 1
+
+
+def test_detect_views_with_calibration_share_ids(monkeypatch, capsys, data_dir, tmp_path) -> None:
+    folder = data_dir / POSE2SIM / "openpose-body25b"
+    views = [str(folder / f"cam0{i}_json") for i in (1, 2, 3)]
+    calib = str(data_dir / POSE2SIM / "calib_pose2sim.toml")
+    code, out, err = run(monkeypatch, capsys, "detect", *views, "--cams", calib, "--out", str(tmp_path))
+    assert code == 0, err
+    assert "person 1: not seen in this view" in out  # the person in the background is not in cam03
+    seen = {}
+    for i in (1, 2, 3):
+        with np.load(tmp_path / f"cam0{i}" / f"cam0{i}_keypoints2d.npz") as data:
+            assert data["track_ids"].tolist() == [0, 1]
+            seen[i] = (data["keypoints2d"][0, ..., 2] > 0).any(axis=2).sum(axis=1).tolist()
+    assert seen == {1: [100, 100], 2: [100, 100], 3: [100, 0]}
