@@ -6,7 +6,6 @@ import numpy as np
 
 from lifting.joint_maps import KEYPOINT_LAYOUTS, apply_recipe_with_confidence
 
-
 _LAYOUT_BY_COUNT = {17: "coco17", 26: "halpe26"}
 
 
