@@ -14,6 +14,7 @@ K = 17 (COCO) or 26 (Halpe).
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
 from detectors.detector import Detector
@@ -100,12 +101,24 @@ def load_detector(
         raise InputError(f"{path}: --person-detector is only used with top-down models (rtmpose, heatmap)")
     try:
         if format == "movenet":
-            return MoveNetMultiPose(session, longest=movenet_size)
-        if format == "yolo-pose":
-            return YoloPose(session)
-        if format == "rtmo":
-            return RTMO(session)
-        persons = load_person_detector(person_detector, threads, provider)
-        return TopDown(session, format, persons)
+            runner = MoveNetMultiPose(session, longest=movenet_size)
+        elif format == "yolo-pose":
+            runner = YoloPose(session)
+        elif format == "rtmo":
+            runner = RTMO(session)
+        else:
+            runner = TopDown(session, format, load_person_detector(person_detector, threads, provider))
     except ValueError as err:
         raise InputError(f"{path}: does not fit the {format} contract ({err}; {signature(session)})") from None
+    models = [path] + ([Path(person_detector)] if person_detector is not None else [])
+    runner.name = f"{runner.name} [{' + '.join(model_id(m) for m in models)}]"
+    return runner
+
+
+def model_id(path: Path) -> str:
+    """``name#digest``: the file name and the start of its SHA-256, so caches tell models apart."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return f"{path.name}#{digest.hexdigest()[:12]}"

@@ -41,14 +41,13 @@ def video_info(path: str | Path) -> VideoInfo:
     capture = _open(path)
     try:
         fps = capture.get(cv2.CAP_PROP_FPS)
-        height = int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT))
-        width = int(capture.get(cv2.CAP_PROP_FRAME_WIDTH))
         count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
-        ok, _ = capture.read()
+        ok, frame = capture.read()  # the decoded frame's size, after any rotation OpenCV applies
     finally:
         capture.release()
-    if not ok or height <= 0 or width <= 0:
+    if not ok or frame is None or frame.size == 0:
         raise InputError(f"{path}: no decodable frame (corrupt or unsupported video)")
+    height, width = frame.shape[:2]
     if not np.isfinite(fps) or fps <= 0:
         raise InputError(f"{path}: the video does not state a frame rate")
     return VideoInfo(float(fps), (height, width), max(count, 0))

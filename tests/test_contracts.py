@@ -42,7 +42,9 @@ def _yolo_pose_output() -> np.ndarray:
 def test_yolo_pose(tmp_path: Path, frame: np.ndarray) -> None:
     model = constant_model(tmp_path / "yolo.onnx", [1, 3, 640, 640], {"output0": _yolo_pose_output()}, "images")
     detector = load_detector(model)
-    assert detector.layout == "coco17" and detector.name.startswith("yolo-pose")
+    assert detector.layout == "coco17" and detector.name.startswith("yolo-pose") and "yolo.onnx#" in detector.name
+    other = constant_model(tmp_path / "yolo.onnx", [1, 3, 640, 640], {"output0": 0 * _yolo_pose_output()}, "images")
+    assert load_detector(other).name != detector.name  # same file name, other weights: caches tell them apart
     people = detector(frame)
     assert people.shape == (2, 17, 3)
     np.testing.assert_allclose(people[0, 0], [30, 300, 0.7], rtol=1e-5)
