@@ -9,7 +9,7 @@ Contracts (``--detector-format``), with their input -> outputs signatures:
   person detector).
 - ``heatmap``: float ``[1, 3, H, W]`` -> ``[1, K, H/4, W/4]`` (ViTPose / HRNet top-down, needs a person detector).
 
-K = 17 (COCO) or 26 (Halpe).
+K = 17 (COCO), 26 (Halpe) or 133 (COCO-WholeBody; its 17 body points are used).
 """
 
 from __future__ import annotations

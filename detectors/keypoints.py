@@ -6,13 +6,15 @@ import numpy as np
 
 from lifting.joint_maps import KEYPOINT_LAYOUTS, apply_recipe_with_confidence
 
-_LAYOUT_BY_COUNT = {17: "coco17", 26: "halpe26"}
+_LAYOUT_BY_COUNT = {17: "coco17", 26: "halpe26", 133: "wholebody133"}
 
 
 def model_layout(num_keypoints: int | None) -> str:
-    """Layout of a model's K keypoints: 17 COCO or 26 Halpe (ValueError otherwise)."""
+    """Layout of a model's K keypoints: 17 COCO, 26 Halpe or 133 COCO-WholeBody (ValueError otherwise)."""
     if num_keypoints not in _LAYOUT_BY_COUNT:
-        raise ValueError(f"{num_keypoints} keypoints per person match no known layout (17 COCO, 26 Halpe)")
+        raise ValueError(
+            f"{num_keypoints} keypoints per person match no known layout (17 COCO, 26 Halpe, 133 COCO-WholeBody)"
+        )
     return _LAYOUT_BY_COUNT[num_keypoints]
 
 

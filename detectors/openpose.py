@@ -23,7 +23,7 @@ from detectors.types import PoseTrack2D
 from detectors.video import timing_from_video
 from lifting.errors import InputError
 
-_LAYOUT_BY_COUNT = {17: "coco17", 18: "coco18", 26: "halpe26"}
+_LAYOUT_BY_COUNT = {17: "coco17", 18: "coco18", 26: "halpe26", 133: "wholebody133"}
 
 
 def frame_number(path: Path) -> int:
@@ -58,7 +58,7 @@ def guess_layout(poses: list[np.ndarray]) -> str:
     if count in _LAYOUT_BY_COUNT:
         return _LAYOUT_BY_COUNT[count]
     if count != 25:
-        raise ValueError(f"{count} keypoints per person match no known layout (17, 18, 25, 26)")
+        raise ValueError(f"{count} keypoints per person match no known layout (17, 18, 25, 26, 133)")
     below = []
     for pose in poses:
         upper, lower = pose[15:17], pose[11:15]

@@ -33,8 +33,9 @@ COCO17_NAMES: tuple[str, ...] = (
 )  # fmt: skip
 
 # COCO-17 (MoveNet, YOLO-pose, RTMPose, MMPose body models) -> ours.
-# neck (base of skull) is taken halfway between the shoulder midpoint and the
-# ear midpoint; head (centre of the head) is the ear midpoint.
+# head (centre of the head) is the ear midpoint; neck (base of the skull) lies
+# 30% of the way from the head centre to the thorax, the ratio the mocap
+# skeletons show (0.27-0.38), so 2D and 3D necks mean the same point.
 COCO17_RECIPE: Recipe = {
     "pelvis": _mid("left_hip", "right_hip"),
     "right_hip": {"right_hip": 1.0},
@@ -45,7 +46,7 @@ COCO17_RECIPE: Recipe = {
     "left_ankle": {"left_ankle": 1.0},
     "spine": {"left_hip": 0.25, "right_hip": 0.25, "left_shoulder": 0.25, "right_shoulder": 0.25},
     "thorax": _mid("left_shoulder", "right_shoulder"),
-    "neck": {"left_shoulder": 0.25, "right_shoulder": 0.25, "left_ear": 0.25, "right_ear": 0.25},
+    "neck": {"left_shoulder": 0.15, "right_shoulder": 0.15, "left_ear": 0.35, "right_ear": 0.35},
     "head": _mid("left_ear", "right_ear"),
     "left_shoulder": {"left_shoulder": 1.0},
     "left_elbow": {"left_elbow": 1.0},
@@ -123,6 +124,15 @@ HALPE26_NAMES: tuple[str, ...] = COCO17_NAMES + ("head_top", "openpose_neck", "m
     "left_big_toe", "right_big_toe", "left_small_toe", "right_small_toe", "left_heel", "right_heel",
 )  # fmt: skip
 
+# COCO-WholeBody-133 (RTMW, DWPose): COCO-17, 6 foot points, 68 face points, 2 x 21 hand points.
+WHOLEBODY133_NAMES: tuple[str, ...] = (
+    COCO17_NAMES
+    + ("left_big_toe", "left_small_toe", "left_heel", "right_big_toe", "right_small_toe", "right_heel")
+    + tuple(f"face_{i}" for i in range(68))
+    + tuple(f"left_hand_{i}" for i in range(21))
+    + tuple(f"right_hand_{i}" for i in range(21))
+)
+
 # BODY_25B -> ours: as COCO-17, but neck is the observed upper neck (base of the skull).
 BODY25B_RECIPE: Recipe = {**COCO17_RECIPE, "neck": {"upper_neck": 1.0}}
 
@@ -135,6 +145,7 @@ KEYPOINT_LAYOUTS: dict[str, tuple[tuple[str, ...], Recipe]] = {
     "body25": (BODY25_NAMES, COCO17_RECIPE),
     "body25b": (BODY25B_NAMES, BODY25B_RECIPE),
     "halpe26": (HALPE26_NAMES, COCO17_RECIPE),
+    "wholebody133": (WHOLEBODY133_NAMES, COCO17_RECIPE),
 }
 
 

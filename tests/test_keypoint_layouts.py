@@ -30,7 +30,7 @@ def _rewrite(points: np.ndarray, layout: str) -> np.ndarray:
     return out
 
 
-@pytest.mark.parametrize("layout", ["coco17", "coco18", "body25", "halpe26"])
+@pytest.mark.parametrize("layout", ["coco17", "coco18", "body25", "halpe26", "wholebody133"])
 def test_layouts_agree_with_body25b(body25b: np.ndarray, layout: str) -> None:
     reference = to_our_joints(body25b, "body25b")
     mapped = to_our_joints(_rewrite(body25b, layout), layout)
@@ -59,6 +59,6 @@ def test_platypose17_is_identity_and_counts_name_layouts() -> None:
     points[:, 2] = 0.5
     np.testing.assert_allclose(to_our_joints(points, "platypose17"), points)
     assert KEYPOINT_LAYOUTS["platypose17"][0] == JOINT_NAMES
-    assert model_layout(17) == "coco17" and model_layout(26) == "halpe26"
-    with pytest.raises(ValueError, match="133 keypoints"):
-        model_layout(133)
+    assert model_layout(17) == "coco17" and model_layout(26) == "halpe26" and model_layout(133) == "wholebody133"
+    with pytest.raises(ValueError, match="25 keypoints"):
+        model_layout(25)
