@@ -106,8 +106,22 @@ def send_skeletons_3d(
     counts: np.ndarray, class_ids: np.ndarray, keypoint_ids: np.ndarray, radius: float,
 ) -> None:  # fmt: skip
     """Per-frame 3D points (sum(counts), 3) in ``counts`` per frame; class and keypoint ids (M,) static per slot."""
-    rec.log(entity, rr.Points3D.from_fields(class_ids=class_ids, keypoint_ids=keypoint_ids, radii=radius), static=True)
+    rec.log(
+        entity,
+        rr.Points3D.from_fields(class_ids=class_ids, keypoint_ids=keypoint_ids, radii=radius, show_labels=False),
+        static=True,
+    )
     columns = rr.Points3D.columns(positions=np.asarray(points, dtype=np.float32)).partition(counts)
+    rr.send_columns(entity, indexes=_indexes(times, frames), columns=columns, recording=rec)
+
+
+def send_bones_3d(
+    rec: rr.RecordingStream, entity: str, times: np.ndarray, frames: np.ndarray, segments: np.ndarray,
+    counts: np.ndarray, radius: float, rgba: tuple[int, int, int, int],
+) -> None:  # fmt: skip
+    """Per-frame thick line segments (M, 2, 3) split into frames by ``counts``, one colour."""
+    rec.log(entity, rr.LineStrips3D.from_fields(radii=radius, colors=[rgba]), static=True)
+    columns = rr.LineStrips3D.columns(strips=np.asarray(segments, dtype=np.float32)).partition(counts)
     rr.send_columns(entity, indexes=_indexes(times, frames), columns=columns, recording=rec)
 
 
@@ -115,12 +129,15 @@ def send_spheres_3d(
     rec: rr.RecordingStream, entity: str, times: np.ndarray, frames: np.ndarray, centres: np.ndarray,
     radii: np.ndarray, counts: np.ndarray, rgba: tuple[int, int, int, int],
 ) -> None:  # fmt: skip
-    """Per-frame spheres: centres (M, 3) and radii (M,) split into frames by ``counts``."""
-    rec.log(entity, rr.Points3D.from_fields(colors=[rgba]), static=True)
-    columns = rr.Points3D.columns(
-        positions=np.asarray(centres, dtype=np.float32), radii=np.asarray(radii, dtype=np.float32)
-    ).partition(counts)
-    rr.send_columns(entity, indexes=_indexes(times, frames), columns=columns, recording=rec)
+    """Per-frame wireframe spheres: centres (M, 3) and radii (M,) split into frames by ``counts``."""
+    rec.log(
+        entity,
+        rr.Ellipsoids3D.from_fields(colors=[rgba], fill_mode=rr.components.FillMode.MajorWireframe, line_radii=0.002),
+        static=True,
+    )
+    half_sizes = np.repeat(np.asarray(radii, dtype=np.float32)[:, None], 3, axis=1)
+    columns = rr.Ellipsoids3D.columns(centers=np.asarray(centres, dtype=np.float32), half_sizes=half_sizes)
+    rr.send_columns(entity, indexes=_indexes(times, frames), columns=columns.partition(counts), recording=rec)
 
 
 def send_keypoints_2d(
@@ -128,7 +145,7 @@ def send_keypoints_2d(
     keypoint_ids: np.ndarray, counts: np.ndarray, class_id: int, radius: float,
 ) -> None:  # fmt: skip
     """Per-frame 2D keypoints (M, 2) pixels with their keypoint ids (M,), split by ``counts``."""
-    rec.log(entity, rr.Points2D.from_fields(class_ids=[class_id], radii=radius), static=True)
+    rec.log(entity, rr.Points2D.from_fields(class_ids=[class_id], radii=radius, show_labels=False), static=True)
     columns = rr.Points2D.columns(
         positions=np.asarray(points, dtype=np.float32), keypoint_ids=np.asarray(keypoint_ids, dtype=np.uint16)
     ).partition(counts)

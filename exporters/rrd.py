@@ -6,9 +6,10 @@ Entity paths (all under a Z-up ``world``):
   ``.../keypoints/p<id>``: 2D keypoints of person ``<id>`` (confidence > 0).
 - ``world/people/p<id>/hypotheses``: every hypothesis as a skeleton, one
   annotation class per hypothesis (class id = hypothesis index);
-  ``.../median``: the median skeleton, drawn thicker in its own colour;
-  ``.../spread``: a sphere per joint at the median, radius = RMS distance of
-  the hypotheses to the median (the per-joint spread).
+  ``.../median``: the median skeleton (joints in the median class) and
+  ``.../median/bones``: its bones as thick orange lines;
+  ``.../spread``: a wireframe sphere per joint at the median, radius = RMS
+  distance of the hypotheses to the median (the per-joint spread).
 - ``plots/energy/p<id>``: energy over hypotheses (5%, median, 95%) per frame;
   ``plots/spread/p<id>``: mean per-joint spread in millimetres.
 """
@@ -34,28 +35,14 @@ MEDIAN_CLASS = 65000
 KEYPOINTS_CLASS = 65001
 MEDIAN_RGBA = (255, 140, 0, 255)
 KEYPOINTS_RGBA = (40, 230, 120, 255)
-SPREAD_RGBA = (255, 140, 0, 50)
+SPREAD_RGBA = (255, 200, 90, 255)
 ENERGY_RGBA = ((120, 160, 255, 255), (255, 255, 255, 255), (255, 120, 160, 255))
 
 
 def hypothesis_colours(count: int) -> list[tuple[int, int, int, int]]:
-    """Distinct translucent colours for ``count`` hypotheses (hues from cyan to violet)."""
+    """Distinct muted colours for ``count`` hypotheses (hues from cyan to violet), so the median stands out."""
     hues = np.linspace(0.45, 0.8, count) if count > 1 else [0.6]
-    alpha = 200 if count <= 10 else 110
-    return [tuple(int(255 * c) for c in colorsys.hsv_to_rgb(h, 0.55, 1.0)) + (alpha,) for h in hues]
-
-
-def entity_names(result: LiftResult) -> dict[str, list[str]]:
-    """Entity paths the recording holds for ``result``, by kind (used by tests and docs)."""
-    people = [f"world/people/p{i}" for i in result.track_ids]
-    return {
-        "hypotheses": [f"{p}/hypotheses" for p in people],
-        "median": [f"{p}/median" for p in people],
-        "spread": [f"{p}/spread" for p in people],
-        "cameras": [f"world/cameras/{c.name}" for c in result.cameras],
-        "energy": [f"plots/energy/p{i}" for i in result.track_ids] if result.energy is not None else [],
-        "spread_plot": [f"plots/spread/p{i}" for i in result.track_ids],
-    }
+    return [tuple(int(255 * c) for c in colorsys.hsv_to_rgb(h, 0.5, 0.7)) + (255,) for h in hues]
 
 
 def per_joint_spread(hypotheses: np.ndarray, median: np.ndarray) -> np.ndarray:
@@ -89,7 +76,12 @@ def _log_people(rec, result: LiftResult) -> None:
         median = result.median[p][on]
         rra.send_skeletons_3d(
             rec, f"{base}/median", times, idx, median.reshape(-1, 3), np.full(len(idx), NUM_JOINTS),
-            np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16), joint_ids, radius=0.015,
+            np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16), joint_ids, radius=0.02,
+        )  # fmt: skip
+        bones = np.stack([median[:, [child for child, _ in BONES]], median[:, [parent for _, parent in BONES]]], axis=2)
+        rra.send_bones_3d(
+            rec, f"{base}/median/bones", times, idx, bones.reshape(-1, 2, 3), np.full(len(idx), len(BONES)),
+            radius=0.018, rgba=MEDIAN_RGBA,
         )  # fmt: skip
         spread = per_joint_spread(result.hypotheses[p][:, on], median)
         rra.send_spheres_3d(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import av
@@ -13,7 +15,7 @@ from rerun.chunk import RrdReader
 
 from exporters.rrd import MEDIAN_CLASS, write_rrd
 from lifting.errors import InputError
-from lifting.skeleton import NUM_JOINTS
+from lifting.skeleton import BONES, NUM_JOINTS
 
 CAM01 = "video/pose2sim-balancing/cam01.mp4"
 
@@ -70,9 +72,15 @@ def test_people_positions_equal_the_npz(result, recording):
         median = entities[f"/world/people/p{track}/median"]
         np.testing.assert_array_equal(np.array(median["Points3D:positions"], dtype=np.float32), result.median[p][on])
         assert set(median["static:Points3D:class_ids"][0]) == {MEDIAN_CLASS}
-        spread = np.array(entities[f"/world/people/p{track}/spread"]["Points3D:radii"], dtype=np.float64)
+        bones = np.array(entities[f"/world/people/p{track}/median/bones"]["LineStrips3D:strips"], dtype=np.float32)
+        assert bones.shape == (on.sum(), len(BONES), 2, 3)
+        np.testing.assert_array_equal(bones[:, :, 0], result.median[p][on][:, [c for c, _ in BONES]])
+        np.testing.assert_array_equal(bones[:, :, 1], result.median[p][on][:, [q for _, q in BONES]])
+        spread = entities[f"/world/people/p{track}/spread"]
+        radii = np.array(spread["Ellipsoids3D:half_sizes"], dtype=np.float64)[..., 0]
         expected = np.sqrt(((result.hypotheses[p][:, on] - result.median[p][on]) ** 2).sum(-1).mean(0))
-        np.testing.assert_allclose(spread, expected, rtol=1e-5)
+        np.testing.assert_allclose(radii, expected, rtol=1e-5)
+        np.testing.assert_array_equal(np.array(spread["Ellipsoids3D:centers"], dtype=np.float32), result.median[p][on])
         energy = np.array(entities[f"/plots/energy/p{track}"]["Scalars:scalars"])
         np.testing.assert_allclose(energy[:, 1], np.median(result.energy[p][:, on], axis=0), rtol=1e-5)
 
@@ -103,6 +111,13 @@ def test_default_blueprint_has_3d_camera_and_plot_views(recording):
         ("3D", "world"), ("2D", "world/cameras/cam01"), ("2D", "world/cameras/cam02"),
         ("TimeSeries", "plots/energy"), ("TimeSeries", "plots/spread"),
     }  # fmt: skip
+
+
+def test_rerun_verifies_the_file(recording):
+    rerun_cli = Path(sys.executable).parent / "rerun"
+    done = subprocess.run([str(rerun_cli), "rrd", "verify", str(recording)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert "1 file verified without error" in done.stderr + done.stdout
 
 
 def test_vp9_video_is_reencoded_to_h264(result, data_dir, tmp_path):
