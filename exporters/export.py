@@ -22,7 +22,8 @@ def parse_formats(text: str | Iterable[str]) -> tuple[str, ...]:
     items = [s.strip().lower() for s in (text.split(",") if isinstance(text, str) else text) if s.strip()]
     unknown = sorted(set(items) - set(FORMATS))
     if unknown or not items:
-        raise InputError(f"--formats: unknown or empty {', '.join(unknown) or repr(text)}; choose from {','.join(FORMATS)}")
+        given = ", ".join(unknown) or repr(text)
+        raise InputError(f"--formats: unknown or empty {given}; choose from {','.join(FORMATS)}")
     return tuple(f for f in FORMATS if f in items)
 
 

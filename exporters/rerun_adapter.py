@@ -91,7 +91,9 @@ def log_annotations(
     rec.log(entity, rr.AnnotationContext(descriptions), static=True)
 
 
-def log_camera(rec: rr.RecordingStream, entity: str, K: np.ndarray, size_hw: tuple[int, int], R: np.ndarray, t: np.ndarray) -> None:
+def log_camera(
+    rec: rr.RecordingStream, entity: str, K: np.ndarray, size_hw: tuple[int, int], R: np.ndarray, t: np.ndarray
+) -> None:
     """A pinhole camera with ``x_cam = R @ X + t`` (OpenCV axes: x right, y down, z forward)."""
     rec.log(entity, rr.Transform3D(translation=t, mat3x3=R, relation=rr.TransformRelation.ChildFromParent), static=True)
     rec.log(

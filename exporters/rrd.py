@@ -57,45 +57,47 @@ def _layout(result: LiftResult) -> rra.Layout:
     return rra.Layout(world="world", camera_views=views, plots=plots + (("plots/spread", "spread (mm)"),))
 
 
-def _log_people(rec, result: LiftResult) -> None:
-    """Skeletons, median, spread and plots of every person."""
-    N = result.num_hypotheses
-    frames = np.arange(result.num_frames)
-    present = result.present()
+def bone_segments(joints: np.ndarray) -> np.ndarray:
+    """Bones as (child, parent) point pairs, ``(T, 17, 3) -> (T, 16, 2, 3)``."""
+    child = [c for c, _ in BONES]
+    parent = [q for _, q in BONES]
+    return np.stack([joints[:, child], joints[:, parent]], axis=2)
+
+
+def _log_person(rec, result: LiftResult, p: int) -> None:
+    """Skeletons, median, spread and plots of person ``p`` on the frames where it is present."""
+    track, on = result.track_ids[p], result.present()[p]
+    base = f"world/people/p{track}"
+    N, T_on = result.num_hypotheses, int(on.sum())
+    times, idx = result.frame_times[on], np.flatnonzero(on)
     joint_ids = np.arange(NUM_JOINTS, dtype=np.uint16)
-    for p, track in enumerate(result.track_ids):
-        base = f"world/people/p{track}"
-        on = present[p]
-        times, idx = result.frame_times[on], frames[on]
-        counts = np.full(len(idx), N * NUM_JOINTS)
-        hyp = np.moveaxis(result.hypotheses[p][:, on], 0, 1)  # (T_on, N, 17, 3)
-        rra.send_skeletons_3d(
-            rec, f"{base}/hypotheses", times, idx, hyp.reshape(-1, 3), counts,
-            np.repeat(np.arange(N, dtype=np.uint16), NUM_JOINTS), np.tile(joint_ids, N), radius=0.008,
-        )  # fmt: skip
-        median = result.median[p][on]
-        rra.send_skeletons_3d(
-            rec, f"{base}/median", times, idx, median.reshape(-1, 3), np.full(len(idx), NUM_JOINTS),
-            np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16), joint_ids, radius=0.02,
-        )  # fmt: skip
-        bones = np.stack([median[:, [child for child, _ in BONES]], median[:, [parent for _, parent in BONES]]], axis=2)
-        rra.send_bones_3d(
-            rec, f"{base}/median/bones", times, idx, bones.reshape(-1, 2, 3), np.full(len(idx), len(BONES)),
-            radius=0.018, rgba=MEDIAN_RGBA,
-        )  # fmt: skip
-        spread = per_joint_spread(result.hypotheses[p][:, on], median)
-        rra.send_spheres_3d(
-            rec, f"{base}/spread", times, idx, median.reshape(-1, 3), spread.reshape(-1),
-            np.full(len(idx), NUM_JOINTS), SPREAD_RGBA,
-        )  # fmt: skip
-        rra.send_series(
-            rec, f"plots/spread/p{track}", times, idx, 1000.0 * spread.mean(axis=1, keepdims=True),
-            [f"p{track} mean joint spread"], [MEDIAN_RGBA],
-        )  # fmt: skip
-        if result.energy is not None:
-            energy = np.quantile(result.energy[p][:, on], [0.05, 0.5, 0.95], axis=0).T
-            names = [f"p{track} energy {q}" for q in ("5%", "median", "95%")]
-            rra.send_series(rec, f"plots/energy/p{track}", times, idx, energy, names, ENERGY_RGBA)
+    hyp = np.moveaxis(result.hypotheses[p][:, on], 0, 1)  # (T_on, N, 17, 3)
+    rra.send_skeletons_3d(
+        rec, f"{base}/hypotheses", times, idx, hyp.reshape(-1, 3), np.full(T_on, N * NUM_JOINTS),
+        np.repeat(np.arange(N, dtype=np.uint16), NUM_JOINTS), np.tile(joint_ids, N), radius=0.008,
+    )  # fmt: skip
+    median = result.median[p][on]
+    rra.send_skeletons_3d(
+        rec, f"{base}/median", times, idx, median.reshape(-1, 3), np.full(T_on, NUM_JOINTS),
+        np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16), joint_ids, radius=0.02,
+    )  # fmt: skip
+    rra.send_bones_3d(
+        rec, f"{base}/median/bones", times, idx, bone_segments(median).reshape(-1, 2, 3),
+        np.full(T_on, len(BONES)), radius=0.018, rgba=MEDIAN_RGBA,
+    )  # fmt: skip
+    spread = per_joint_spread(result.hypotheses[p][:, on], median)
+    rra.send_spheres_3d(
+        rec, f"{base}/spread", times, idx, median.reshape(-1, 3), spread.reshape(-1), np.full(T_on, NUM_JOINTS),
+        SPREAD_RGBA,
+    )  # fmt: skip
+    rra.send_series(
+        rec, f"plots/spread/p{track}", times, idx, 1000.0 * spread.mean(axis=1, keepdims=True),
+        [f"p{track} mean joint spread"], [MEDIAN_RGBA],
+    )  # fmt: skip
+    if result.energy is not None:
+        energy = np.quantile(result.energy[p][:, on], [0.05, 0.5, 0.95], axis=0).T
+        names = [f"p{track} energy {q}" for q in ("5%", "median", "95%")]
+        rra.send_series(rec, f"plots/energy/p{track}", times, idx, energy, names, ENERGY_RGBA)
 
 
 def _log_keypoints(rec, result: LiftResult, c: int) -> None:
@@ -148,8 +150,10 @@ def write_rrd(
     path = Path(path)
     video_paths = {k: Path(v) for k, v in (video_paths or {}).items()}
     check_videos(result, video_paths, video_mode)
-    classes = [rra.ClassStyle(i, f"hypothesis {i}", rgba) for i, rgba in enumerate(hypothesis_colours(result.num_hypotheses))]
-    classes += [rra.ClassStyle(MEDIAN_CLASS, "median", MEDIAN_RGBA), rra.ClassStyle(KEYPOINTS_CLASS, "2D keypoints", KEYPOINTS_RGBA)]
+    colours = hypothesis_colours(result.num_hypotheses)
+    classes = [rra.ClassStyle(i, f"hypothesis {i}", rgba) for i, rgba in enumerate(colours)]
+    classes.append(rra.ClassStyle(MEDIAN_CLASS, "median", MEDIAN_RGBA))
+    classes.append(rra.ClassStyle(KEYPOINTS_CLASS, "2D keypoints", KEYPOINTS_RGBA))
     with atomic_path(path) as tmp:
         rec = rra.open_recording(tmp, "platypose", name, _layout(result))
         try:
@@ -161,7 +165,8 @@ def write_rrd(
                 if camera.name in video_paths and video_mode != "none":
                     _log_video(rec, f"{entity}/video", video_paths[camera.name], video_mode, camera.time_offset_s, say)
                 _log_keypoints(rec, result, c)
-            _log_people(rec, result)
+            for p in range(result.num_persons):
+                _log_person(rec, result, p)
         finally:
             rra.close_recording(rec)
     return path

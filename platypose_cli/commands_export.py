@@ -27,8 +27,10 @@ def _describe(path: Path, result) -> list[str]:
             continue
         hyp, med = result.hypotheses[p][:, on], result.median[p][on]
         spread = np.sqrt(((hyp - med) ** 2).sum(-1).mean(0)) * 1000
-        line = (f"  person {track}: present in {on.sum()}/{T} frames, pelvis height median {np.median(med[:, 0, 2]):.2f} m, "
-                f"joint spread mean {spread.mean():.1f} mm (max {spread.max():.1f} mm)")  # fmt: skip
+        line = (
+            f"  person {track}: present in {on.sum()}/{T} frames, pelvis height median {np.median(med[:, 0, 2]):.2f} m,"
+            f" joint spread mean {spread.mean():.1f} mm (max {spread.max():.1f} mm)"
+        )
         if result.energy is not None:
             line += f", energy median {np.median(result.energy[p][:, on]):.4g}"
         lines.append(line)
@@ -80,7 +82,9 @@ def export_command(
     out: Path | None = typer.Option(None, "--out", help="Output folder (default: the npz's folder)."),
     name: str | None = typer.Option(None, "--name", help="Base name of the files (default: the npz's name)."),
     bvh: str = typer.Option("median", "--bvh", help="median: one BVH per person; all: also one per hypothesis."),
-    rrd_video: str = typer.Option("asset", "--rrd-video", help="asset (MP4, re-encoded to H.264 if needed), frames (JPEG), none."),
+    rrd_video: str = typer.Option(
+        "asset", "--rrd-video", help="asset (MP4, re-encoded to H.264 if needed), frames (JPEG), none."
+    ),
     video: list[str] = typer.Option([], "--video", help="CAMERA=VIDEO for the rerun recording; repeat per camera."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
 ) -> None:  # fmt: skip

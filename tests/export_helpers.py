@@ -59,7 +59,12 @@ def make_result(
         track_ids=np.array([3]),
         cameras=cameras,
         energy=energy if cameras else None,
-        meta={"version": "test", "arguments": ["lift", "clip.mp4"], "prior_sha256": "0" * 64, "timings": {"total_s": 1.5}},
+        meta={
+            "version": "test",
+            "arguments": ["lift", "clip.mp4"],
+            "prior_sha256": "0" * 64,
+            "timings": {"total_s": 1.5},
+        },
     )
 
 

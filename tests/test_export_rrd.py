@@ -80,7 +80,8 @@ def test_people_positions_equal_the_npz(result, recording):
         radii = np.array(spread["Ellipsoids3D:half_sizes"], dtype=np.float64)[..., 0]
         expected = np.sqrt(((result.hypotheses[p][:, on] - result.median[p][on]) ** 2).sum(-1).mean(0))
         np.testing.assert_allclose(radii, expected, rtol=1e-5)
-        np.testing.assert_array_equal(np.array(spread["Ellipsoids3D:centers"], dtype=np.float32), result.median[p][on])
+        centres = np.array(spread["Ellipsoids3D:centers"], dtype=np.float32)
+        np.testing.assert_array_equal(centres, result.median[p][on])
         energy = np.array(entities[f"/plots/energy/p{track}"]["Scalars:scalars"])
         np.testing.assert_allclose(energy[:, 1], np.median(result.energy[p][:, on], axis=0), rtol=1e-5)
 
@@ -88,7 +89,8 @@ def test_people_positions_equal_the_npz(result, recording):
 def test_cameras_keypoints_and_video(result, recording, data_dir):
     entities = read_entities(recording)
     cam = entities["/world/cameras/cam01"]
-    np.testing.assert_allclose(np.array(cam["static:Pinhole:image_from_camera"][0]).reshape(3, 3).T, result.cameras[0].K)
+    K = np.array(cam["static:Pinhole:image_from_camera"][0]).reshape(3, 3).T  # stored column-major
+    np.testing.assert_allclose(K, result.cameras[0].K)
     np.testing.assert_allclose(cam["static:Transform3D:translation"][0][0], result.cameras[0].t, atol=1e-6)
     assert cam["static:Pinhole:resolution"][0] == [[1080, 1920]]  # width, height
     kp = entities["/world/cameras/cam02/keypoints/p7"]
