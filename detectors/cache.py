@@ -9,7 +9,7 @@ import numpy as np
 
 from detectors.atomic import atomic_open
 
-CACHE_VERSION = 1
+CACHE_VERSION = 2  # 2: detections in the detector's own layout
 
 
 def cache_key(video: Path, detector_name: str, stride: int, max_frames: int | None) -> str:
@@ -30,7 +30,7 @@ def cache_key(video: Path, detector_name: str, stride: int, max_frames: int | No
 
 
 def read_detections(path: Path) -> tuple[str, list[np.ndarray], np.ndarray]:
-    """A detections file -> (its key, per-frame detections (N_t, 17, 3), frame indices (T,))."""
+    """A detections file -> (its key, per-frame detections (N_t, S, 3) in the detector's layout, frame indices (T,))."""
     with np.load(path, allow_pickle=False) as data:
         key, counts, flat, indices = str(data["key"]), data["counts"], data["keypoints"], data["frame_indices"]
     return key, (np.split(flat, np.cumsum(counts)[:-1]) if len(counts) else []), indices
@@ -43,7 +43,7 @@ class DetectionCache:
         self.path = folder / f"{name}.detections.npz"
 
     def load(self, key: str) -> tuple[list[np.ndarray], np.ndarray] | None:
-        """Cached (per-frame (N_t, 17, 3) detections, frame indices), or None if absent, unreadable or stale."""
+        """Cached (per-frame (N_t, S, 3) detections, frame indices), or None if absent, unreadable or stale."""
         try:
             stored_key, detections, indices = read_detections(self.path)
         except (OSError, KeyError, ValueError):
@@ -53,6 +53,6 @@ class DetectionCache:
     def save(self, key: str, detections: list[np.ndarray], indices: np.ndarray) -> None:
         """Write the cache atomically."""
         counts = np.array([len(d) for d in detections], dtype=np.int64)
-        flat = np.concatenate(detections) if detections else np.zeros((0, 17, 3), np.float32)
+        flat = np.concatenate(detections) if detections else np.zeros((0, 0, 3), np.float32)
         with atomic_open(self.path) as stream:
             np.savez(stream, key=np.array(key), counts=counts, keypoints=flat, frame_indices=indices)

@@ -2,8 +2,10 @@
 
 Only keypoints are kept (a few kB per frame), never frames, so memory is
 bounded for any video length. Per-frame detections can be cached in a file
-beside the outputs; a re-run with the same video, model and settings reads
-them back instead of detecting again (tracking always re-runs, it is cheap).
+beside the outputs, in the detector's own keypoint layout (so a change of the
+joint recipes never leaves a stale cache); a re-run with the same video, model
+and settings reads them back instead of detecting again (mapping to our joints
+and tracking always re-run, they are cheap).
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ def detect_frames(
     max_frames: int | None = None,
     progress: Progress | None = None,
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """Run ``detector`` on every ``stride``-th frame: per-frame people (N_t, 17, 3) on our joints, frame indices (T,).
+    """Run ``detector`` on every ``stride``-th frame: per-frame people (N_t, S, 3) in the detector's own
+    layout (``detector.layout``), and frame indices (T,).
 
     ``progress(done, total)`` is called after each frame (total is an estimate from the container).
     """
@@ -39,7 +42,7 @@ def detect_frames(
     total = min(total, max_frames) if max_frames else total
     detections, indices = [], []
     for index, frame in iter_frames(video, stride=stride, max_frames=max_frames):
-        detections.append(to_our_joints(detector(frame), detector.layout).astype(np.float32))
+        detections.append(np.asarray(detector(frame), dtype=np.float32))
         indices.append(index)
         if progress is not None:
             progress(len(indices), max(total, len(indices)))
@@ -70,4 +73,5 @@ def detect_video(
         detections, indices = detect_frames(video, detector, stride, max_frames, progress)
         if cache is not None:
             cache.save(key, detections, indices)
-    return track_detections(detections, indices / info.fps, info.image_size, f"{video} ({detector.name})", tracker)
+    ours = [to_our_joints(people, detector.layout) for people in detections]
+    return track_detections(ours, indices / info.fps, info.image_size, f"{video} ({detector.name})", tracker)

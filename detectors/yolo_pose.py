@@ -39,5 +39,5 @@ class YoloPose:
 def decode_yolo_pose(candidates: np.ndarray, placement, min_score: float, iou: float) -> np.ndarray:
     """Candidates (N, 5 + 3K) in input pixels -> people (M, K, 3) in image pixels after NMS."""
     keep = nms(center_to_corners(candidates[:, :4]), candidates[:, 4], iou, min_score)
-    keypoints = candidates[keep, 5:].reshape(len(keep), -1, 3)
+    keypoints = candidates[keep, 5:].reshape(len(keep), (candidates.shape[1] - 5) // 3, 3)
     return np.concatenate([placement.to_image(keypoints[..., :2]), keypoints[..., 2:3]], axis=-1)

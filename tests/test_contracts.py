@@ -44,7 +44,9 @@ def test_yolo_pose(tmp_path: Path, frame: np.ndarray) -> None:
     detector = load_detector(model)
     assert detector.layout == "coco17" and detector.name.startswith("yolo-pose") and "yolo.onnx#" in detector.name
     other = constant_model(tmp_path / "yolo.onnx", [1, 3, 640, 640], {"output0": 0 * _yolo_pose_output()}, "images")
-    assert load_detector(other).name != detector.name  # same file name, other weights: caches tell them apart
+    nobody = load_detector(other)
+    assert nobody.name != detector.name  # same file name, other weights: caches tell them apart
+    assert nobody(frame).shape == (0, 17, 3)  # every score 0: nobody, with the layout's shape
     people = detector(frame)
     assert people.shape == (2, 17, 3)
     np.testing.assert_allclose(people[0, 0], [30, 300, 0.7], rtol=1e-5)

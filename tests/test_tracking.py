@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from detectors.cache import read_detections
+from detectors.keypoints import to_our_joints
 from detectors.tracking import TrackerConfig, select_persons, track_detections
 from lifting.errors import InputError
 
@@ -32,8 +33,9 @@ def _frames(*people_per_frame: list[np.ndarray]) -> list[np.ndarray]:
 
 @pytest.fixture(scope="module")
 def demo_detections(data_dir: Path) -> tuple[list[np.ndarray], np.ndarray]:
+    """Real MoveNet detections of the Sports2D demo (COCO-17 layout) on our joints, and their frame indices."""
     _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
-    return detections, indices
+    return [to_our_joints(people, "coco17") for people in detections], indices
 
 
 def test_sports2d_demo_people_keep_one_id(demo_detections) -> None:
@@ -99,3 +101,20 @@ def test_spurious_short_detections_are_dropped() -> None:
     frames = _frames(*[[_person(100, 300)] + ([_person(600, 300)] if t == 5 else []) for t in range(20)])
     tracks = track_detections(frames, times, (600, 800), "spurious")
     assert tracks.num_persons == 1
+
+
+def test_stored_demo_detections_are_the_bundled_detector_output(data_dir: Path, demo_detections) -> None:
+    """The stored detections are what the bundled MoveNet gives today (checked on 3 frames)."""
+    from detectors.contracts import load_detector
+    from detectors.video import iter_frames
+
+    detections, indices = demo_detections
+    detector = load_detector(threads=1)
+    checked = 0
+    for index, frame in iter_frames(data_dir / "video/sports2d-demo/demo.mp4", stride=100):
+        fresh = to_our_joints(detector(frame), detector.layout)
+        stored = detections[int(np.searchsorted(indices, index))]
+        assert fresh.shape == stored.shape
+        np.testing.assert_allclose(fresh, stored, atol=0.05, equal_nan=True)
+        checked += 1
+    assert checked == 3
