@@ -9,8 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from exporters.atomic import atomic_path
-from exporters.camera_json import cameras_from_json, cameras_to_json
 from exporters.result import LiftResult
+from lifting.calibration.model import Calibration, new_meta
+from lifting.calibration.native import FORMAT, calibration_from_dict, calibration_to_dict
+from lifting.camera import Camera
 from lifting.errors import InputError
 from lifting.skeleton import JOINT_NAMES, PARENTS
 
@@ -18,6 +20,12 @@ REQUIRED = (
     "hypotheses", "median", "keypoints2d", "frame_times", "fps", "joint_names", "parents",
     "track_ids", "cameras", "units", "up_axis", "meta",
 )  # fmt: skip
+
+
+def cameras_json(cameras: tuple[Camera, ...]) -> str:
+    """The cameras as native calibration JSON text (``platypose-calib`` version 1)."""
+    calibration = Calibration(cameras=cameras, meta=new_meta(FORMAT, "platypose result", "z", "m"))
+    return json.dumps(calibration_to_dict(calibration))
 
 
 def result_arrays(result: LiftResult) -> dict[str, np.ndarray]:
@@ -31,7 +39,7 @@ def result_arrays(result: LiftResult) -> dict[str, np.ndarray]:
         "joint_names": np.array(JOINT_NAMES),
         "parents": np.array(PARENTS, dtype=np.int64),
         "track_ids": result.track_ids,
-        "cameras": np.array(cameras_to_json(result.cameras)),
+        "cameras": np.array(cameras_json(result.cameras)),
         "units": np.array(result.units),
         "up_axis": np.array(result.up_axis),
         "meta": np.array(json.dumps(result.meta, sort_keys=True)),
@@ -90,9 +98,11 @@ def read_npz(path: Path | str) -> LiftResult:
                 frame_times=data["frame_times"],
                 fps=float(data["fps"]),
                 track_ids=data["track_ids"],
-                cameras=cameras_from_json(_text(data, "cameras")),
+                cameras=calibration_from_dict(json.loads(_text(data, "cameras")), f"{path} cameras").cameras,
                 energy=data["energy"] if "energy" in data.files else None,
                 meta=meta,
             )
+    except InputError:
+        raise
     except (ValueError, KeyError, OSError, zipfile.BadZipFile, json.JSONDecodeError) as err:
         raise InputError(f"{path}: {err}") from None

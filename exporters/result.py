@@ -32,7 +32,7 @@ class LiftResult:
     frame_times: np.ndarray
     fps: float
     track_ids: np.ndarray
-    cameras: tuple[Camera, ...] = ()
+    cameras: tuple[Camera, ...]
     energy: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
 
@@ -90,6 +90,8 @@ def _shape_problem(r: LiftResult) -> str:
     if N < 1 or T < 1:
         return f"hypotheses need at least one hypothesis and one frame, got {h.shape}"
     C = len(r.cameras)
+    if C < 1:
+        return "a result needs at least one camera (the one its 2D keypoints come from)"
     expected = {
         "median": (r.median.shape, (P, T, NUM_JOINTS, 3)),
         "keypoints2d": (r.keypoints2d.shape, (C, P, T, NUM_JOINTS, 3)),

@@ -30,8 +30,14 @@ def look_at_camera(name: str, target: np.ndarray, eye: np.ndarray, size: tuple[i
     return Camera(name=name, size=size, K=K, dist=[0.01, -0.002, 0.0, 0.0, 0.0], R=R, t=-R @ eye)
 
 
+def camera_facing(joints: np.ndarray) -> Camera:
+    """A camera 4 m in front of (world -y) the mean pelvis of ``joints`` (T, 17, 3)."""
+    centre = joints[:, 0].mean(0)
+    return look_at_camera("cam01", centre, centre + [0.0, -4.0, 0.5], (1920, 1080), 1600.0)
+
+
 def make_result(
-    joints: np.ndarray, fps: float, num_hypotheses: int, cameras: tuple[Camera, ...] = (), seed: int = 0
+    joints: np.ndarray, fps: float, num_hypotheses: int, cameras: tuple[Camera, ...], seed: int = 0
 ) -> LiftResult:
     """Hypotheses as smooth random perturbations of real ``joints`` (T, 17, 3); 2D keypoints projected from them."""
     rng = np.random.default_rng(seed)
@@ -58,7 +64,7 @@ def make_result(
         fps=fps,
         track_ids=np.array([3]),
         cameras=cameras,
-        energy=energy if cameras else None,
+        energy=energy,
         meta={
             "version": "test",
             "arguments": ["lift", "clip.mp4"],
@@ -73,10 +79,7 @@ def two_person_result(data_dir: Path) -> LiftResult:
     a, fps = climb_joints(data_dir, 30)
     b = load_motion(data_dir / "motion/holosoma-climb/mocap_climb_seq_1_joint_positions_f0-2422.npy")[0].joints[:30]
     centre = a[:, 0].mean(0)
-    cams = (
-        look_at_camera("cam01", centre, centre + [0.0, -4.0, 0.5], (1920, 1080), 1600.0),
-        look_at_camera("cam02", centre, centre + [3.0, -3.0, 0.8], (1920, 1080), 1500.0),
-    )
+    cams = (camera_facing(a), look_at_camera("cam02", centre, centre + [3.0, -3.0, 0.8], (1920, 1080), 1500.0))
     ra, rb = make_result(a, fps, 6, cams, seed=1), make_result(b, fps, 6, cams, seed=2)
     hyp = np.concatenate([ra.hypotheses, rb.hypotheses])
     med = np.concatenate([ra.median, rb.median])

@@ -11,6 +11,7 @@ from export_helpers import two_person_result
 
 from exporters.csv_export import write_long_csv, write_summary_csv
 from exporters.npz import read_npz, write_npz
+from exporters.result import LiftResult
 from lifting.errors import InputError
 from lifting.skeleton import JOINT_NAMES, PARENTS
 
@@ -99,3 +100,20 @@ def test_summary_csv_has_median_and_quantiles(result, tmp_path):
         assert float(row["q05_x_m"]) == pytest.approx(np.quantile(hyp[:, 0], 0.05), abs=1e-6)
         assert float(row["q95_z_m"]) == pytest.approx(np.quantile(hyp[:, 2], 0.95), abs=1e-6)
         assert float(row["q05_z_m"]) <= float(row["median_z_m"]) <= float(row["q95_z_m"])
+
+
+def test_cameras_are_the_native_calibration_json(result, tmp_path):
+    from lifting.calibration.native import read_native
+
+    path = write_npz(result, tmp_path / "clip.npz")
+    with np.load(path) as raw:
+        (tmp_path / "calib.json").write_text(str(raw["cameras"]))
+    calibration = read_native(tmp_path / "calib.json")  # the calibration engineer's reader
+    assert calibration.names == ("cam01", "cam02")
+    np.testing.assert_array_equal(calibration.cameras[1].t, result.cameras[1].t)
+
+
+def test_a_result_needs_a_camera(result):
+    with pytest.raises(ValueError, match="at least one camera"):
+        LiftResult(result.hypotheses, result.median, result.keypoints2d[:0], result.frame_times, result.fps,
+                   result.track_ids, cameras=())  # fmt: skip
