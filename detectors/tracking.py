@@ -7,8 +7,8 @@ to ``max_gap_s`` (its ID bridges the gap; the gap frames stay missing). After
 the pass, a fragment that ends and one that starts within ``stitch_gap_s``
 are joined when the pose moved less than ``stitch_cost + stitch_speed * gap``
 person sizes (repairs the ID switches left by occlusions and missed
-detections); best pairs first, each fragment joined at most once per end. Tracks with fewer than
-``min_track_frames`` observed frames are dropped.
+detections); best pairs first, each fragment joined at most once per end.
+Tracks with fewer than ``min_track_frames`` observed frames are dropped.
 """
 
 from __future__ import annotations
@@ -61,13 +61,14 @@ class _Track:
 
 
 def person_size(pose: np.ndarray, min_confidence: float = 0.0) -> np.ndarray:
-    """Square root of the keypoint bounding-box area, ``(..., 17, 3) -> (...)``; NaN without 2 visible joints."""
+    """Person size in pixels, ``(..., 17, 3) -> (...)``: square root of the keypoint box area, at least 0.3 times the
+    box's longer side (so a pose seen edge-on is not tiny); NaN with fewer than 2 visible joints."""
     visible = pose[..., 2] > min_confidence
     xy = np.where(visible[..., None], pose[..., :2], np.nan)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         extent = np.nanmax(xy, axis=-2) - np.nanmin(xy, axis=-2)
-    size = np.sqrt(np.maximum(extent[..., 0] * extent[..., 1], 0.0))
+    size = np.fmax(np.sqrt(np.maximum(extent[..., 0] * extent[..., 1], 0.0)), 0.3 * np.max(extent, axis=-1))
     return np.where(visible.sum(axis=-1) >= 2, np.maximum(size, 1.0), np.nan)
 
 
