@@ -129,3 +129,14 @@ def test_absent_frames_hold_the_nearest_pose(climb, tmp_path):
     with pytest.raises(ValueError, match="absent throughout"):
         write_bvh(np.full((5, 17, 3), np.nan), fps, tmp_path / "none.bvh")
     assert not (tmp_path / "none.bvh").exists()
+
+
+def test_platypose_motion_importer_reads_the_bvh_back(climb, tmp_path):
+    from lifting.motion_io import load_motion
+
+    joints, fps = climb
+    write_bvh(joints[:300], fps, tmp_path / "clip.bvh")
+    names = {n: n for n in JOINT_NAMES if n not in ("pelvis", "spine", "thorax")}
+    motion = load_motion(tmp_path / "clip.bvh", name_map=names)[0]
+    assert motion.extra["unit"] == "cm" and motion.extra["up"] == "y" and motion.fps == pytest.approx(fps)
+    assert np.linalg.norm(motion.joints - joints[:300], axis=-1).mean() < 0.002
