@@ -83,12 +83,14 @@ class SamplerConfig:
 
 @dataclass(frozen=True)
 class Anchor:
-    """Known joints for the first frames of each hypothesis (window continuation).
+    """Known joints for some frames of each hypothesis (window continuation).
 
-    ``joints`` (B, N, O, 17, 3) world metres; ``weight`` per squared metre, in energy units.
+    ``joints`` (B, N, F, 17, 3) world metres; ``mask`` (B, F) is 1 where a frame is
+    anchored, 0 elsewhere; ``weight`` per squared metre, in energy units.
     """
 
     joints: torch.Tensor
+    mask: torch.Tensor
     weight: float = 100.0
 
 
@@ -140,9 +142,8 @@ class GuidedProblem:
         if c.symmetry_weight > 0:
             energy = energy + c.symmetry_weight * symmetry_energy(joints)
         if self.anchor is not None:
-            frames = self.anchor.joints.shape[2]
-            gap = ((joints[:, :, :frames] - self.anchor.joints) ** 2).sum(dim=(-1, -2))
-            energy[:, :, :frames] = energy[:, :, :frames] + self.anchor.weight * gap
+            gap = ((joints - self.anchor.joints) ** 2).sum(dim=(-1, -2))
+            energy = energy + self.anchor.weight * self.anchor.mask[:, None, :] * gap
         return energy
 
     def energy_and_direction(self, x0: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -164,6 +165,9 @@ class GuidedProblem:
             energy = self.frame_energy(joints).sum(-1)
             (grad,) = torch.autograd.grad(energy.sum(), joints)
         curvature = self.reprojection_curvature(joints.detach())
+        if self.anchor is not None:
+            anchored = 2 * self.anchor.weight * self.anchor.mask[:, None, :, None, None, None]
+            curvature = curvature + anchored * torch.eye(3, dtype=x0.dtype, device=x0.device)
         damping = self.config.damping * curvature.diagonal(dim1=-2, dim2=-1).mean(dim=(-1, -2, -3, -4))
         eye = torch.eye(3, dtype=x0.dtype, device=x0.device)
         system = curvature + (damping.reshape(*damping.shape, 1, 1, 1, 1, 1) + 1e-9) * eye

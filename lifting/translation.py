@@ -6,9 +6,11 @@ row gives two linear equations per keypoint in normalised (undistorted)
 coordinates ``(u, v)``: ``(u r3 - r1) . (X + d) + (u t3 - t1) = 0`` and the same
 with ``v``, ``r2``, ``t2``. Each equation is weighted by the keypoint's
 confidence times ``(2 f / (width z))^2`` so that it approximates the
-reprojection energy in normalised image units. A smoothness term
-``mu * sum_f |d_f - d_{f-1}|^2`` couples frames (``mu = 0``: independent
-frames; large ``mu``: one offset per window).
+reprojection energy in normalised image units. A smoothness term on the
+offsets' accelerations ``mu * sum_f |d_{f+1} - 2 d_f + d_{f-1}|^2`` couples
+frames: ``mu = 0`` gives independent frames, a large ``mu`` a straight-line
+path; no path at constant velocity is penalised (a first-difference term
+would pull every offset towards standing still).
 """
 
 from __future__ import annotations
@@ -87,16 +89,18 @@ def solve_translation(
     eye = torch.eye(3, dtype=joints.dtype, device=joints.device)
     data_scale = normal.diagonal(dim1=-2, dim2=-1).mean(dim=(-1, -2)).clamp(min=1e-9)  # (B, N)
     regulariser = 1e-6 * data_scale[..., None, None, None] * eye
-    if smoothness <= 0 or F == 1:
+    if smoothness <= 0 or F < 3:
         return torch.linalg.solve(normal + regulariser, rhs.unsqueeze(-1)).squeeze(-1)
     mu = smoothness * data_scale  # (B, N)
-    degree = torch.full((F,), 2.0, dtype=joints.dtype, device=joints.device)
-    degree[0] = degree[-1] = 1.0
-    off_diagonal = torch.diag(torch.ones(F - 1, dtype=joints.dtype, device=joints.device), 1)
-    laplacian = torch.diag(degree) - off_diagonal - off_diagonal.T
+    second_difference = torch.zeros(F - 2, F, dtype=joints.dtype, device=joints.device)
+    rows = torch.arange(F - 2)
+    second_difference[rows, rows] = 1.0
+    second_difference[rows, rows + 1] = -2.0
+    second_difference[rows, rows + 2] = 1.0
+    penalty = second_difference.T @ second_difference  # (F, F): squared accelerations
     system = torch.zeros(B, N, F, 3, F, 3, dtype=joints.dtype, device=joints.device)
     frames = torch.arange(F)
     system[:, :, frames, :, frames, :] = (normal + regulariser).permute(2, 0, 1, 3, 4)
-    system = system + mu[..., None, None, None, None] * torch.einsum("fg,ik->figk", laplacian, eye)
+    system = system + mu[..., None, None, None, None] * torch.einsum("fg,ik->figk", penalty, eye)
     solution = torch.linalg.solve(system.reshape(B, N, 3 * F, 3 * F), rhs.reshape(B, N, 3 * F, 1))
     return solution.reshape(B, N, F, 3)

@@ -14,3 +14,37 @@ DATA = REPO / "data"
 def data_dir() -> Path:
     """The repository's bundled real data (motion, videos, calibration, keypoints)."""
     return DATA
+
+
+@pytest.fixture(scope="session")
+def real_clips(data_dir: Path):
+    """Real full-body clips (holosoma climbing, DeepMimic) on our skeleton."""
+    from lifting.motion_io import load_motion_paths
+
+    return load_motion_paths([data_dir / "motion" / "holosoma-climb", data_dir / "motion" / "deepmimic"])
+
+
+@pytest.fixture(scope="session")
+def tiny_prior(real_clips, tmp_path_factory):
+    """A small prior trained in seconds on real clips (16-frame windows, 30 fps)."""
+    import torch
+
+    from lifting.prior import PriorConfig, load_prior
+    from lifting.training import TrainConfig, train_prior
+
+    path = tmp_path_factory.mktemp("prior") / "tiny.pt"
+    torch.manual_seed(0)
+    config = PriorConfig(layers=2, width=64, heads=4, ff_width=128, max_frames=16, dropout=0.0)
+    train_prior(real_clips, str(path), config, TrainConfig(iterations=300, batch_size=32, checkpoint_every=300,
+                                                           validate_every=300, learning_rate=1e-3))  # fmt: skip
+    return load_prior(path)[0]
+
+
+@pytest.fixture(scope="session")
+def heldout_window(real_clips):
+    """A 16-frame, 30 fps window of real walking (DeepMimic), pelvis centred near (0, 0, 1) m."""
+    from lifting.timebase import resample
+
+    walk = next(m for m in real_clips if "walk" in m.name)
+    joints = resample(walk.joints, walk.fps, 30.0)[:16]
+    return joints - joints[:, 0].mean(0) + [0.0, 0.0, 1.0]

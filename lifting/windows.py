@@ -1,0 +1,100 @@
+"""Cutting a long track into overlapping windows and stitching hypotheses back into one motion each.
+
+Windows of F frames start every ``F - O`` frames (O = overlap <= F / 2), the
+last one padded past the end. Even windows never overlap each other, so they
+are sampled first, all in one batch; odd windows are then sampled with their
+overlaps anchored to hypothesis k of both neighbours, so hypothesis k is one
+continuous motion. Overlaps are blended with a linear ramp.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class WindowPlan:
+    """Window starts over ``total`` frames, each ``length`` long, consecutive ones sharing ``overlap`` frames."""
+
+    total: int
+    length: int
+    overlap: int
+    starts: np.ndarray
+
+    @property
+    def count(self) -> int:
+        """Number of windows."""
+        return len(self.starts)
+
+    @property
+    def padded_total(self) -> int:
+        """Frames covered including the padding of the last window."""
+        return int(self.starts[-1]) + self.length
+
+
+def plan_windows(total: int, length: int, overlap: int) -> WindowPlan:
+    """Windows covering ``total`` frames; a track shorter than ``length`` is one window of its own length."""
+    if total < 1:
+        raise ValueError("nothing to cut: the track has no frames")
+    if length < 2 and total > 1:
+        raise ValueError(f"window length must be at least 2 frames, got {length}")
+    if total <= length:
+        return WindowPlan(total, total, 0, np.array([0]))
+    if not 0 < overlap <= length // 2:
+        raise ValueError(f"overlap must be in 1..{length // 2} for windows of {length} frames, got {overlap}")
+    stride = length - overlap
+    count = int(np.ceil((total - length) / stride)) + 1
+    return WindowPlan(total, length, overlap, np.arange(count) * stride)
+
+
+def cut(values: np.ndarray, plan: WindowPlan, axis: int, fill: float = np.nan) -> np.ndarray:
+    """Windows of ``values`` along ``axis`` (frames), stacked in a new leading axis ``(W, ...)``; padding = ``fill``."""
+    values = np.moveaxis(values, axis, 0)
+    pad = plan.padded_total - values.shape[0]
+    if pad > 0:
+        values = np.concatenate([values, np.full((pad, *values.shape[1:]), fill, dtype=values.dtype)])
+    windows = np.stack([values[s : s + plan.length] for s in plan.starts])
+    return np.moveaxis(windows, 1, axis + 1)
+
+
+def blend_weights(plan: WindowPlan) -> np.ndarray:
+    """Per-window frame weights ``(W, F)`` that sum to 1 over windows at every frame (linear ramps in overlaps)."""
+    weights = np.ones((plan.count, plan.length))
+    if plan.count > 1:
+        ramp = (np.arange(plan.overlap) + 0.5) / plan.overlap
+        weights[1:, : plan.overlap] = ramp
+        weights[:-1, plan.length - plan.overlap :] = 1 - ramp
+    return weights
+
+
+def stitch(windows: np.ndarray, plan: WindowPlan) -> np.ndarray:
+    """Blend per-window values ``(W, F, ...)`` into one sequence ``(total, ...)``."""
+    weights = blend_weights(plan)
+    out = np.zeros((plan.padded_total, *windows.shape[2:]), dtype=np.float64)
+    for w, start in enumerate(plan.starts):
+        shape = (plan.length,) + (1,) * (windows.ndim - 2)
+        out[start : start + plan.length] += weights[w].reshape(shape) * windows[w]
+    return out[: plan.total]
+
+
+def anchors_for_odd(even_joints: np.ndarray, plan: WindowPlan) -> tuple[np.ndarray, np.ndarray]:
+    """Anchor joints and masks for the odd windows from the sampled even ones.
+
+    ``even_joints`` (W_even, ..., F, 17, 3) with the frame axis third from the end;
+    returns anchors (W_odd, ..., F, 17, 3) and masks (W_odd, F).
+    """
+    odd = np.arange(1, plan.count, 2)
+    O, F = plan.overlap, plan.length
+    anchors = np.zeros((len(odd), *even_joints.shape[1:]), dtype=even_joints.dtype)
+    masks = np.zeros((len(odd), F))
+    for i, w in enumerate(odd):
+        before = even_joints[(w - 1) // 2]
+        anchors[i][..., :O, :, :] = before[..., F - O :, :, :]
+        masks[i, :O] = 1.0
+        if w + 1 < plan.count:
+            after = even_joints[(w + 1) // 2]
+            anchors[i][..., F - O :, :, :] = after[..., :O, :, :]
+            masks[i, F - O :] = 1.0
+    return anchors, masks
