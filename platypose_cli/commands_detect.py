@@ -124,6 +124,29 @@ class _Detection:
         return tracks, time.perf_counter() - started, done[0]
 
 
+def _comparison(tracks, reference_path: Path, fps: float | None, image_size: tuple[int, int] | None) -> list[str]:
+    """Lines with the per-joint median pixel distance from the reference's main person to the nearest track."""
+    import numpy as np
+
+    from detectors.compare import distances_to_reference
+    from detectors.sources import read_keypoints
+    from detectors.tracking import persons_to_keep
+    from lifting.skeleton import JOINT_NAMES
+
+    reference = read_keypoints(reference_path, fps=fps, image_size=image_size)
+    main = int(persons_to_keep([reference], "largest")[0])
+    distances = distances_to_reference(tracks, reference, main)
+    found = np.isfinite(distances).any(axis=1)
+    if not found.any():
+        return [f"  compared with {reference_path}: no frame where both have the person"]
+    per_joint = ", ".join(f"{name} {np.nanmedian(distances[:, j]):.1f}" for j, name in enumerate(JOINT_NAMES))
+    return [
+        f"  compared with {reference_path} (person {reference.track_ids[main]}, {found.sum()}/{len(found)} frames): "
+        f"median {np.nanmedian(distances):.1f} px, 90th percentile {np.nanpercentile(distances, 90):.1f} px",
+        f"  per joint (median px): {per_joint}",
+    ]
+
+
 def _view_name(source: Path) -> str:
     return (source.name if source.is_dir() else source.stem).removesuffix("_json")
 
@@ -167,6 +190,11 @@ def detect(
     cache: bool = typer.Option(
         True, "--cache/--no-cache", help="Reuse detections cached in OUT/<name>/ from an earlier run."
     ),
+    compare: Path | None = typer.Option(
+        None,
+        "--compare",
+        help="Reference keypoints of the same (single) video: print per-joint pixel distances of its main person.",
+    ),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar."),
 ) -> None:
     """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
@@ -199,6 +227,13 @@ def detect(
         from detectors.multiview import match_across_views
 
         views = match_across_views(views, cameras)
+    comparison = []
+    if compare is not None:
+        if len(views) != 1:
+            from lifting.errors import InputError
+
+            raise InputError(f"--compare {compare}: compare one source at a time")
+        comparison = _comparison(views[0], compare, fps, _image_size(image_size))
     keep = persons_to_keep(views, persons)
     for name, tracks, (_, seconds, frames_run) in zip(names, views, results):
         tracks = tracks if keep is None else tracks.select(keep)
@@ -209,3 +244,5 @@ def detect(
         typer.echo("\n".join(_summary(tracks, seconds, frames_run)))
         for path in written:
             typer.echo(f"  wrote {path}")
+    if comparison:
+        typer.echo("\n".join(comparison))

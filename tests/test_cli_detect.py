@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import re
 import sys
 
 import numpy as np
@@ -25,9 +26,12 @@ def run(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
 def test_detect_video_writes_npz_and_csv(monkeypatch, capsys, data_dir, tmp_path) -> None:
     video = str(data_dir / POSE2SIM / "cam02.mp4")
     args = ("detect", video, "--out", str(tmp_path), "--stride", "25", "--max-frames", "4", "--threads", "1", "--quiet")
-    code, out, err = run(monkeypatch, capsys, *args)
+    reference = str(data_dir / POSE2SIM / "openpose-body25b/cam02_json")
+    code, out, err = run(monkeypatch, capsys, *args, "--compare", reference)
     assert code == 0, err
     assert "4 frames" in out and "ms/frame" in out
+    compared = re.search(r"\(person 0, 4/100 frames\): median ([0-9.]+) px", out)
+    assert compared and float(compared.group(1)) < 30  # the athlete, against OpenPose
     folder = tmp_path / "cam02"
     with np.load(folder / "cam02_keypoints2d.npz") as data:
         keypoints = data["keypoints2d"]
