@@ -2,28 +2,12 @@
 
 from __future__ import annotations
 
-import sys
-import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import typer
 
 from platypose_cli.app import app
-
-KEYPOINT_SUFFIXES = (".json", ".npz", ".csv")
-
-
-def _image_size(value: str | None) -> tuple[int, int] | None:
-    """``HEIGHTxWIDTH`` -> (height, width)."""
-    from lifting.errors import InputError
-
-    if value is None:
-        return None
-    height, sep, width = value.lower().partition("x")
-    if not sep or not height.isdigit() or not width.isdigit():
-        raise InputError(f"--image-size {value}: give HEIGHTxWIDTH in pixels, e.g. 1080x1920")
-    return int(height), int(width)
+from platypose_cli.detection import DetectOptions, Detection, image_size_option, view_name
 
 
 def _summary(tracks, seconds: float, frames_run: int | None) -> list[str]:
@@ -54,76 +38,6 @@ def _summary(tracks, seconds: float, frames_run: int | None) -> list[str]:
     return lines
 
 
-@dataclass(frozen=True)
-class _Options:
-    """The detect command's settings for reading or detecting one source."""
-
-    detector: Path | None
-    detector_format: str | None
-    person_detector: Path | None
-    movenet_size: int
-    threads: int | None
-    provider: str
-    stride: int
-    max_frames: int | None
-    fps: float | None
-    image_size: str | None
-    cache: bool
-
-
-class _Detection:
-    """Turns one source into tracks: reads precomputed keypoints or runs the (lazily loaded) model on a video."""
-
-    def __init__(self, options: _Options) -> None:
-        self.options = options
-        self.model = None
-
-    def tracks(self, source: Path, folder: Path, quiet: bool):
-        """(tracks, seconds, frames detected: None for precomputed keypoints, 0 when read from the cache)."""
-        o = self.options
-        started = time.perf_counter()
-        if source.is_dir() or source.suffix.lower() in KEYPOINT_SUFFIXES:
-            from detectors.sources import read_keypoints
-
-            tracks = read_keypoints(source, fps=o.fps, image_size=_image_size(o.image_size))
-            return tracks, time.perf_counter() - started, None
-        from detectors.contracts import load_detector
-        from detectors.pipeline import detect_video
-        from detectors.video import video_info
-
-        info = video_info(source)
-        if self.model is None:
-            self.model = load_detector(
-                o.detector,
-                o.detector_format,
-                o.person_detector,
-                o.threads,
-                o.provider,
-                o.movenet_size,
-            )
-        total = -(-info.frame_count // o.stride)
-        total = min(total, o.max_frames) if o.max_frames else total
-        started = time.perf_counter()
-        done = [0]
-        with typer.progressbar(
-            length=max(total, 1), label=f"detecting {source.name}", file=sys.stderr, hidden=quiet
-        ) as bar:
-
-            def progress(count: int, _total: int) -> None:
-                bar.update(count - done[0])
-                done[0] = count
-
-            tracks = detect_video(
-                source,
-                self.model,
-                stride=o.stride,
-                max_frames=o.max_frames,
-                progress=progress,
-                cache_dir=folder if o.cache else None,
-            )
-        return tracks, time.perf_counter() - started, done[0]
-
-
 def _comparison(tracks, reference_path: Path, fps: float | None, image_size: tuple[int, int] | None) -> list[str]:
     """Lines with the per-joint median pixel distance from the reference's main person to the nearest track."""
     import numpy as np
@@ -145,10 +59,6 @@ def _comparison(tracks, reference_path: Path, fps: float | None, image_size: tup
         f"median {np.nanmedian(distances):.1f} px, 90th percentile {np.nanpercentile(distances, 90):.1f} px",
         f"  per joint (median px): {per_joint}",
     ]
-
-
-def _view_name(source: Path) -> str:
-    return (source.name if source.is_dir() else source.stem).removesuffix("_json")
 
 
 @app.command("detect")
@@ -202,7 +112,7 @@ def detect(
     from detectors.tracking import persons_count, persons_to_keep
 
     persons_count(persons)  # a bad --persons fails before any detection
-    names = [_view_name(source) for source in sources]
+    names = [view_name(source) for source in sources]
     cameras = None
     if cams is not None:
         from lifting.calibration import load_calibration
@@ -216,11 +126,11 @@ def detect(
         from lifting.errors import InputError
 
         raise InputError(f"two sources share the output name {names}; give them different names")
-    options = _Options(
+    options = DetectOptions(
         detector, detector_format, person_detector, movenet_size, threads, provider, stride, max_frames, fps,
         image_size, cache,
     )  # fmt: skip
-    detection = _Detection(options)
+    detection = Detection(options)
     results = [detection.tracks(source, out / name, quiet) for source, name in zip(sources, names)]
     views = [tracks for tracks, _, _ in results]
     if cameras is not None:
@@ -233,7 +143,7 @@ def detect(
             from lifting.errors import InputError
 
             raise InputError(f"--compare {compare}: compare one source at a time")
-        comparison = _comparison(views[0], compare, fps, _image_size(image_size))
+        comparison = _comparison(views[0], compare, fps, image_size_option(image_size))
     keep = persons_to_keep(views, persons)
     for name, tracks, (_, seconds, frames_run) in zip(names, views, results):
         tracks = tracks if keep is None else tracks.select(keep)
