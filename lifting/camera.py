@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 import torch
 
@@ -73,6 +74,12 @@ def project(points: np.ndarray, camera: Camera) -> np.ndarray:
     u = K[0, 0] * xd + K[0, 1] * yd + K[0, 2]
     v = K[1, 1] * yd + K[1, 2]
     return np.stack([u, v], axis=-1)
+
+
+def undistort_normalized(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """Pixels ``(..., 2)`` of one camera -> undistorted normalised coordinates ``(..., 2)`` (cv2.undistortPoints)."""
+    flat = np.ascontiguousarray(pixels.reshape(-1, 1, 2), dtype=np.float64)
+    return cv2.undistortPoints(flat, K, dist).reshape(pixels.shape)
 
 
 @dataclass(frozen=True)

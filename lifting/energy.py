@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from lifting.camera import CameraBatch
+from lifting.camera import CameraBatch, undistort_normalized
 from lifting.skeleton import SYMMETRIC_BONES, bone_vectors
 
 ROBUST_LOSSES = ("l2", "geman-mcclure")
@@ -23,30 +23,36 @@ ROBUST_LOSSES = ("l2", "geman-mcclure")
 class Observations:
     """2D evidence for a batch of B windows seen by C cameras.
 
-    ``keypoints`` (C, B, F, 17, 2) pixels, ``confidence`` (C, B, F, 17) >= 0 with 0
-    for missing keypoints (whose pixels may be anything, NaN included).
+    ``keypoints`` (C, B, F, 17, 2) pixels, ``normalized`` the same undistorted to
+    normalised camera coordinates, ``confidence`` (C, B, F, 17) >= 0 with 0 for
+    missing keypoints (whose coordinates are zeroed).
     """
 
     cameras: CameraBatch
     keypoints: torch.Tensor
+    normalized: torch.Tensor
     confidence: torch.Tensor
 
     @staticmethod
     def from_arrays(
         cameras: CameraBatch, keypoints: np.ndarray, confidence: np.ndarray, dtype: torch.dtype = torch.float32
     ) -> Observations:
-        """Build from numpy arrays, zeroing the confidence and pixels of non-finite keypoints."""
+        """Build from numpy arrays, zeroing the confidence and coordinates of non-finite keypoints."""
         keypoints = np.asarray(keypoints, dtype=np.float64)
         confidence = np.asarray(confidence, dtype=np.float64)
         finite = np.isfinite(keypoints).all(axis=-1) & np.isfinite(confidence)
         conf = np.where(finite, np.clip(confidence, 0.0, None), 0.0)
         kp = np.where(finite[..., None], keypoints, 0.0)
+        K = cameras.K.detach().cpu().numpy().astype(np.float64)
+        dist = cameras.dist.detach().cpu().numpy().astype(np.float64)
+        normalized = np.stack([undistort_normalized(kp[c], K[c], dist[c]) for c in range(len(K))])
+        normalized = np.where(finite[..., None], normalized, 0.0)
         device = cameras.K.device
-        return Observations(
-            cameras=cameras,
-            keypoints=torch.as_tensor(kp, dtype=dtype, device=device),
-            confidence=torch.as_tensor(conf, dtype=dtype, device=device),
-        )
+
+        def tensor(values: np.ndarray) -> torch.Tensor:
+            return torch.as_tensor(values, dtype=dtype, device=device)
+
+        return Observations(cameras, tensor(kp), tensor(normalized), tensor(conf))
 
     @property
     def pixel_scale(self) -> torch.Tensor:
@@ -78,6 +84,45 @@ def reprojection_energy(
     squared = ((pixels - target) ** 2).sum(-1) * scale_c**2
     weighted = obs.confidence.unsqueeze(2) * robust_penalty(squared, loss, scale)
     return weighted.sum(dim=(0, -1))
+
+
+def robust_slope(squared: torch.Tensor, loss: str, scale: float) -> torch.Tensor:
+    """Derivative of :func:`robust_penalty` with respect to the squared residual."""
+    if loss == "l2":
+        return torch.ones_like(squared)
+    c2 = scale * scale
+    return (c2 / (squared + c2)) ** 2
+
+
+def reprojection_terms(
+    joints: torch.Tensor, obs: Observations, loss: str = "l2", scale: float = 0.05
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Energy ``(B, N, F)``, gradient ``(B, N, F, 17, 3)`` and Gauss-Newton curvature ``(B, N, F, 17, 3, 3)``.
+
+    Analytic and fused, for guidance: residuals are measured between undistorted
+    normalised coordinates and scaled by the focal length into pixels (then into
+    normalised image units), which equals :func:`reprojection_energy` up to the
+    lens distortion's local stretch.
+    """
+    cams = obs.cameras
+    C = len(cams)
+    cam = cams.to_camera_frame(joints)  # (C, B, N, F, 17, 3)
+    shape = (C, *([1] * (cam.dim() - 2)))
+    z = cam[..., 2:3].clamp(min=1e-3)
+    ratio = cam[..., :2] / z
+    gain = torch.stack([cams.K[:, 0, 0], cams.K[:, 1, 1]], -1) * obs.pixel_scale[:, None]  # (C, 2) units per unit
+    gain = gain.reshape(*shape, 2)
+    residual = (ratio - obs.normalized.unsqueeze(2)) * gain  # (C, B, N, F, 17, 2)
+    squared = (residual**2).sum(-1)
+    conf = obs.confidence.unsqueeze(2)
+    energy = (conf * robust_penalty(squared, loss, scale)).sum(dim=(0, -1))
+    weight = 2 * conf * robust_slope(squared, loss, scale)  # (C, B, N, F, 17)
+    R = cams.R.reshape(*shape, 3, 3)
+    jac = (gain / z)[..., None] * (R[..., :2, :] - ratio[..., None] * R[..., 2:3, :])  # (C, ..., 2, 3)
+    weighted_jac = weight[..., None, None] * jac
+    grad = (weighted_jac.transpose(-1, -2) @ residual.unsqueeze(-1)).squeeze(-1).sum(0)
+    curvature = (weighted_jac.transpose(-1, -2) @ jac).sum(0)
+    return energy, grad, curvature
 
 
 def bone_lengths_torch(joints: torch.Tensor) -> torch.Tensor:

@@ -20,7 +20,14 @@ import numpy as np
 import torch
 
 from lifting.camera import CameraBatch
-from lifting.energy import ROBUST_LOSSES, Observations, bone_constancy_energy, reprojection_energy, symmetry_energy
+from lifting.energy import (
+    ROBUST_LOSSES,
+    Observations,
+    bone_constancy_energy,
+    reprojection_energy,
+    reprojection_terms,
+    symmetry_energy,
+)
 from lifting.prior import PriorBundle
 from lifting.representation import features_to_joints, joints_to_features
 from lifting.schedule import DiffusionSchedule, sampling_steps
@@ -102,8 +109,26 @@ class SampleResult:
     energy: np.ndarray
 
 
+def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
+    """Solve many symmetric positive definite 3x3 systems ``(..., 3, 3) x = (..., 3)`` by the adjugate (fast on CPU)."""
+    m = matrix.reshape(-1, 9).T.contiguous()
+    a, b, c, d, e, f = m[0], m[1], m[2], m[4], m[5], m[8]
+    x, y, z = rhs.reshape(-1, 3).T.contiguous()
+    A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
+    D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
+    inv_det = 1.0 / (a * A + b * B + c * C)
+    solution = torch.stack([A * x + B * y + C * z, B * x + D * y + E * z, C * x + E * y + F * z], -1)
+    return (solution * inv_det[:, None]).reshape(rhs.shape)
+
+
 class GuidedProblem:
-    """The energy of a batch of windows: decoding, root placement and all energy terms."""
+    """The energy of a batch of windows: decoding, root placement and all energy terms.
+
+    The state guided is ``x0`` (normalised windows, which fix the motion up to a
+    shift) plus a world ``offset`` per frame. The offset is solved in closed form
+    (per frame, smoothed) from each new network prediction; guidance steps then
+    move both.
+    """
 
     def __init__(
         self,
@@ -120,94 +145,95 @@ class GuidedProblem:
         self.root_trajectory = root_trajectory
         self.anchor = anchor
         self.batch = obs.keypoints.shape[1]
+        self.std = torch.as_tensor(prior.normalizer.std, dtype=obs.keypoints.dtype, device=obs.keypoints.device)
 
     def local_joints(self, x0: torch.Tensor) -> torch.Tensor:
         """Normalised windows ``(B*N, F, D)`` -> joints ``(B, N, F, 17, 3)`` in the prior's frame."""
         joints = features_to_joints(self.prior.normalizer.denormalize(x0))
         return joints.reshape(self.batch, -1, *joints.shape[1:])
 
-    def place(self, local: torch.Tensor) -> torch.Tensor:
-        """Put local joints into the world: the known root trajectory, or the solved per-frame translation."""
+    def solve_offset(self, x0: torch.Tensor) -> torch.Tensor:
+        """World offset ``(B, N, F, 3)`` of the windows: known root path, or the closed-form translation."""
+        local = self.local_joints(x0)
         if self.root_trajectory is not None:
-            return local - local[..., :1, :] + self.root_trajectory[:, None, :, None, :]
-        offset = solve_translation(local, self.rays, self.obs.cameras, self.config.translation_smoothness)
+            return self.root_trajectory[:, None] - local[..., 0, :]
+        return solve_translation(local, self.rays, self.obs.cameras, self.config.translation_smoothness)
+
+    def world_joints(self, x0: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
+        """World joints ``(B, N, F, 17, 3)``; with a known root path the pelvis is pinned to it."""
+        local = self.local_joints(x0)
+        if self.root_trajectory is not None:
+            offset = self.root_trajectory[:, None] - local[..., 0, :]
         return local + offset[..., None, :]
 
-    def frame_energy(self, joints: torch.Tensor) -> torch.Tensor:
-        """Total per-frame energy ``(B, N, F)`` of world joints."""
-        c = self.config
-        energy = reprojection_energy(joints, self.obs, c.robust, c.robust_scale)
-        if c.bone_weight > 0:
-            energy = energy + c.bone_weight * bone_constancy_energy(joints)
-        if c.symmetry_weight > 0:
-            energy = energy + c.symmetry_weight * symmetry_energy(joints)
-        if self.anchor is not None:
-            gap = ((joints - self.anchor.joints) ** 2).sum(dim=(-1, -2))
-            energy = energy + self.anchor.weight * self.anchor.mask[:, None, :] * gap
-        return energy
+    def evaluate(self, x0: torch.Tensor, offset: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Energy per hypothesis ``(B*N,)`` and descent directions for ``x0`` ``(B*N, F, D)`` and the offset ``(B, N, 1, 3)``.
 
-    def energy_and_direction(self, x0: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Energy per hypothesis ``(B*N,)`` and the descent direction in ``x0`` space ``(B*N, F, D)``.
-
-        "gradient": minus the gradient with respect to ``x0`` (the paper). "gauss-newton":
-        minus a damped Gauss-Newton step per joint in world space (3x3 reprojection
-        curvature of each joint over all cameras), mapped back to ``x0``; it converges in a
-        few iterations where the plain gradient needs hundreds, and leaves the depth of a
-        single view to the prior (no curvature there, only damping).
+        "gradient": minus the gradient (the paper's update). "gauss-newton": minus a
+        damped Gauss-Newton step per joint in world space (the 3x3 reprojection
+        curvature of each joint over all cameras), mapped back onto ``x0`` and the
+        offset; it converges in a few iterations where the plain gradient needs
+        hundreds, and leaves the depth of a single view to the prior (no curvature
+        there, only damping).
         """
-        with torch.enable_grad():
-            if self.config.direction == "gradient":
-                x = x0.detach().requires_grad_(True)
-                energy = self.frame_energy(self.place(self.local_joints(x))).sum(-1)
-                (grad,) = torch.autograd.grad(energy.sum(), x)
-                return energy.detach().reshape(-1), -grad
-            joints = self.place(self.local_joints(x0.detach())).requires_grad_(True)
-            energy = self.frame_energy(joints).sum(-1)
-            (grad,) = torch.autograd.grad(energy.sum(), joints)
-        curvature = self.reprojection_curvature(joints.detach())
-        if self.anchor is not None:
-            anchored = 2 * self.anchor.weight * self.anchor.mask[:, None, :, None, None, None]
-            curvature = curvature + anchored * torch.eye(3, dtype=x0.dtype, device=x0.device)
-        damping = self.config.damping * curvature.diagonal(dim1=-2, dim2=-1).mean(dim=(-1, -2, -3, -4))
-        eye = torch.eye(3, dtype=x0.dtype, device=x0.device)
-        system = curvature + (damping.reshape(*damping.shape, 1, 1, 1, 1, 1) + 1e-9) * eye
-        step_joints = -torch.linalg.solve(system, grad.unsqueeze(-1)).squeeze(-1)
-        step_features = joints_to_features(step_joints).reshape(x0.shape)
-        direction = step_features / torch.as_tensor(self.prior.normalizer.std, dtype=x0.dtype, device=x0.device)
-        return energy.detach().reshape(-1), direction
-
-    def reprojection_curvature(self, joints: torch.Tensor) -> torch.Tensor:
-        """Gauss-Newton curvature ``(B, N, F, 17, 3, 3)`` of the reprojection energy per joint (pinhole, no distortion)."""
-        cams = self.obs.cameras
-        cam = cams.to_camera_frame(joints)  # (C, B, N, F, 17, 3)
-        z = cam[..., 2:3].clamp(min=1e-3)
-        C = len(cams)
-        focal = torch.stack([cams.K[:, 0, 0], cams.K[:, 1, 1]], -1) * self.obs.pixel_scale[:, None]  # (C, 2)
-        shape = (C, *([1] * (cam.dim() - 2)))
-        ratio = cam[..., :2] / z  # (C, ..., 2)
-        rows = cams.R[:, :2].reshape(*shape, 2, 3) - ratio[..., None] * cams.R[:, 2].reshape(*shape, 1, 3)
-        jac = focal.reshape(*shape, 2, 1) / z[..., None] * rows  # (C, ..., 2, 3)
-        weight = self.obs.confidence.unsqueeze(2)[..., None, None]
-        return (weight * jac.transpose(-1, -2) @ jac).sum(0)
-
-    def guide(self, x0: torch.Tensor, iterations: int) -> torch.Tensor:
-        """k guidance steps on ``x0`` ``(B*N, F, D)`` with the configured step rule."""
         c = self.config
-        step = torch.full((x0.shape[0], 1, 1), c.energy_scale, dtype=x0.dtype, device=x0.device)
-        energy, direction = self.energy_and_direction(x0)
+        joints = self.world_joints(x0, offset)
+        energy, grad, curvature = reprojection_terms(joints, self.obs, c.robust, c.robust_scale)
+        energy, grad, curvature = self.add_extra_terms(joints, energy, grad, curvature)
+        total = energy.sum(-1).reshape(-1)
+        if c.direction == "gradient":
+            with torch.enable_grad():
+                x = x0.detach().requires_grad_(True)
+                (grad_x,) = torch.autograd.grad(self.world_joints(x, offset), x, grad_outputs=grad)
+            return total, -grad_x, torch.zeros_like(offset[:, :, :1])
+        damping = c.damping * curvature.diagonal(dim1=-2, dim2=-1).mean(dim=(-1, -2, -3))  # (B, N)
+        eye = torch.eye(3, dtype=x0.dtype, device=x0.device)
+        system = curvature + (damping[..., None, None, None, None] + 1e-9) * eye
+        step = -solve_symmetric3(system, grad)  # (B, N, F, 17, 3)
+        direction = joints_to_features(step).reshape(x0.shape) / self.std
+        return total, direction, step[:, :, :1, 0, :]  # the shift the features cannot hold: frame 0's root
+
+    def add_extra_terms(self, joints, energy, grad, curvature):
+        """Add the structural energies (autograd, small) and the anchor (analytic) to the reprojection terms."""
+        c = self.config
+        if c.bone_weight > 0 or c.symmetry_weight > 0:
+            with torch.enable_grad():
+                j = joints.detach().requires_grad_(True)
+                extra = c.bone_weight * bone_constancy_energy(j) + c.symmetry_weight * symmetry_energy(j)
+                (extra_grad,) = torch.autograd.grad(extra.sum(), j)
+            energy, grad = energy + extra.detach(), grad + extra_grad
+        if self.anchor is not None:
+            mask = self.anchor.mask[:, None, :]
+            gap = joints - self.anchor.joints
+            energy = energy + self.anchor.weight * mask * (gap**2).sum(dim=(-1, -2))
+            grad = grad + 2 * self.anchor.weight * mask[..., None, None] * gap
+            eye = torch.eye(3, dtype=joints.dtype, device=joints.device)
+            curvature = curvature + 2 * self.anchor.weight * mask[..., None, None, None] * eye
+        return energy, grad, curvature
+
+    def guide(self, x0: torch.Tensor, iterations: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """k guidance steps on ``x0`` ``(B*N, F, D)`` and its offset with the configured step rule."""
+        c = self.config
+        offset = self.solve_offset(x0)
+        step = torch.full((x0.shape[0],), c.energy_scale, dtype=x0.dtype, device=x0.device)
+        energy, direction, shift = self.evaluate(x0, offset)
         for _ in range(iterations):
-            candidate = x0 + step * direction
-            new_energy, new_direction = self.energy_and_direction(candidate)
+            size = step.reshape(self.batch, -1, 1, 1)
+            candidate = x0 + step[:, None, None] * direction
+            candidate_offset = offset + size * shift
+            new_energy, new_direction, new_shift = self.evaluate(candidate, candidate_offset)
             finite = torch.isfinite(new_energy) & torch.isfinite(new_direction).all(dim=(1, 2))
             worse = ~finite | (new_energy > energy)
             accept = ~worse if c.step_rule == "backtrack" else torch.ones_like(worse)
-            mask = accept[:, None, None]
-            x0 = torch.where(mask, candidate, x0)
+            keep = accept.reshape(self.batch, -1, 1, 1)
+            x0 = torch.where(accept[:, None, None], candidate, x0)
+            offset = torch.where(keep, candidate_offset, offset)
             energy = torch.where(accept, new_energy, energy)
-            direction = torch.where(mask, new_direction, direction)
+            direction = torch.where(accept[:, None, None], new_direction, direction)
+            shift = torch.where(keep, new_shift, shift)
             grown = step * c.grow if c.step_rule == "backtrack" else step
-            step = torch.where(worse[:, None, None], step * c.decay, grown)
-        return x0
+            step = torch.where(worse, step * c.decay, grown)
+        return x0, offset
 
 
 def sample(
@@ -240,13 +266,13 @@ def sample(
     for i, t in enumerate(steps):
         with torch.inference_mode():
             x0 = model(x_t, torch.tensor(int(t), device=device))
-        x0 = problem.guide(x0.clone(), config.guidance_iters)
+        x0, offset = problem.guide(x0.clone(), config.guidance_iters)
         t_prev = int(steps[i + 1]) if i + 1 < len(steps) else None
         x_t = schedule.ddim_step(x_t, x0, int(t), t_prev)
         if progress is not None:
             progress(i + 1, len(steps))
     with torch.no_grad():
-        joints = problem.place(problem.local_joints(x0))
+        joints = problem.world_joints(x0, offset)
         energy = reprojection_energy(joints, obs, config.robust, config.robust_scale)
     return SampleResult(joints=joints.cpu().numpy(), energy=energy.cpu().numpy())
 
@@ -255,8 +281,5 @@ def cameras_and_rays(
     cameras: list, keypoints: np.ndarray, confidence: np.ndarray, dtype: torch.dtype = torch.float32
 ) -> tuple[Observations, RayConstraints]:
     """Observations and ray constraints for cameras (list of lifting.camera.Camera) and pixels ``(C, B, F, 17, 2)``."""
-    batch = CameraBatch.from_cameras(cameras, dtype=dtype)
-    obs = Observations.from_arrays(batch, keypoints, confidence, dtype=dtype)
-    K = np.stack([c.K for c in cameras])
-    dist = np.stack([c.dist for c in cameras])
-    return obs, ray_constraints(batch, keypoints, confidence, K, dist)
+    obs = Observations.from_arrays(CameraBatch.from_cameras(cameras, dtype=dtype), keypoints, confidence, dtype=dtype)
+    return obs, ray_constraints(obs)

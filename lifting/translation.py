@@ -17,11 +17,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
-import numpy as np
 import torch
 
 from lifting.camera import CameraBatch
+from lifting.energy import Observations
 
 
 @dataclass(frozen=True)
@@ -38,35 +37,19 @@ class RayConstraints:
     focal_scale: torch.Tensor
 
 
-def undistort_normalized(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """Pixels ``(..., 2)`` of one camera -> undistorted normalised coordinates ``(..., 2)`` (cv2.undistortPoints)."""
-    flat = np.ascontiguousarray(pixels.reshape(-1, 1, 2), dtype=np.float64)
-    out = cv2.undistortPoints(flat, K, dist)
-    return out.reshape(pixels.shape)
-
-
-def ray_constraints(
-    cameras: CameraBatch, keypoints: np.ndarray, confidence: np.ndarray, K: np.ndarray, dist: np.ndarray
-) -> RayConstraints:
-    """Ray equations from pixels ``(C, B, F, 17, 2)`` (non-finite ones get zero confidence).
-
-    ``K`` (C, 3, 3) and ``dist`` (C, 5) are the same cameras as numpy arrays for cv2.
-    """
-    finite = np.isfinite(keypoints).all(-1) & np.isfinite(confidence)
-    pixels = np.where(finite[..., None], keypoints, 0.0)
-    normalized = np.stack([undistort_normalized(pixels[c], K[c], dist[c]) for c in range(len(K))])
-    dtype, device = cameras.R.dtype, cameras.R.device
-    uv = torch.as_tensor(normalized, dtype=dtype, device=device)  # (C, B, F, 17, 2)
+def ray_constraints(obs: Observations) -> RayConstraints:
+    """Ray equations of every observed keypoint, from its undistorted normalised coordinates."""
+    cameras = obs.cameras
+    uv = obs.normalized  # (C, B, F, 17, 2)
     C = uv.shape[0]
     R = cameras.R.reshape(C, 1, 1, 1, 3, 3)
     t = cameras.t.reshape(C, 1, 1, 1, 3)
     rows = [uv[..., i, None] * R[..., 2, :] - R[..., i, :] for i in (0, 1)]
     offsets = [uv[..., i] * t[..., 2] - t[..., i] for i in (0, 1)]
-    conf = torch.as_tensor(np.where(finite, np.clip(confidence, 0, None), 0.0), dtype=dtype, device=device)
     focal = (cameras.K[:, 0, 0] + cameras.K[:, 1, 1]) / 2
     return RayConstraints(
-        A=torch.stack(rows, dim=-2), b=torch.stack(offsets, dim=-1), confidence=conf,
-        focal_scale=2 * focal / cameras.size[:, 1],
+        A=torch.stack(rows, dim=-2), b=torch.stack(offsets, dim=-1), confidence=obs.confidence,
+        focal_scale=focal * obs.pixel_scale,
     )  # fmt: skip
 
 
