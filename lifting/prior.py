@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import json
 import math
 import os
 from dataclasses import asdict, dataclass, field
@@ -117,7 +118,7 @@ def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None)
         "config": asdict(bundle.config),
         "joint_names": list(JOINT_NAMES),
         "normalizer": {"mean": bundle.normalizer.mean.tolist(), "std": bundle.normalizer.std.tolist()},
-        "manifest": bundle.manifest,
+        "manifest": json.loads(json.dumps(bundle.manifest)),  # plain Python types only (strict loading)
         "state_dict": bundle.model.state_dict(),
         "extra": extra or {},
     }

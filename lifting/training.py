@@ -136,7 +136,7 @@ def manifest_of(train: list[Clip], validation: list[Clip], config: TrainConfig, 
 
     def entry(c: Clip, split: str) -> dict:
         return {"name": c.name, "source": c.source, "licence": c.licence, "frames": len(c.joints),
-                "original_fps": c.original_fps, "split": split}  # fmt: skip
+                "original_fps": float(c.original_fps), "split": split}  # fmt: skip
 
     clips = [entry(c, "train") for c in train] + [entry(c, "validation") for c in validation]
     return {

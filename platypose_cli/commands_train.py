@@ -71,3 +71,22 @@ def train(
     train_prior(motions, str(out), prior_config, config, resume=resume_state, log=log, threads=threads or None)
     if not quiet:
         typer.echo(f"wrote {out} after {(time.time() - began) / 60:.1f} min", err=True)
+
+
+@app.command("prior-info")
+def prior_info(prior: Path = typer.Argument(None, help="Checkpoint (default: the shipped prior).")) -> None:
+    """Print a prior's size, frame rate, training data and the licence of every clip."""
+    from dataclasses import asdict
+
+    from lifting.prior import DEFAULT_PRIOR, load_prior
+
+    bundle, _ = load_prior(prior)
+    manifest = bundle.manifest
+    typer.echo(f"prior {prior or DEFAULT_PRIOR} (sha256 {bundle.checksum[:16]})")
+    typer.echo("config: " + ", ".join(f"{k}={v}" for k, v in asdict(bundle.config).items()))
+    params = sum(p.numel() for p in bundle.model.parameters())
+    typer.echo(f"parameters: {params:,}; trained {manifest.get('iterations', '?')} iterations on "
+               f"{manifest.get('train_seconds', 0) / 60:.1f} min of motion")  # fmt: skip
+    typer.echo("licences: " + ", ".join(manifest.get("licences", [])))
+    for clip in manifest.get("clips", []):
+        typer.echo(f"  {clip['split']:10s} {clip['frames']:6d} frames  {clip['licence']:20s} {clip['name']}")

@@ -48,3 +48,23 @@ def heldout_window(real_clips):
     walk = next(m for m in real_clips if "walk" in m.name)
     joints = resample(walk.joints, walk.fps, 30.0)[:16]
     return joints - joints[:, 0].mean(0) + [0.0, 0.0, 1.0]
+
+
+@pytest.fixture
+def run_cli(monkeypatch, capsys):
+    """Run ``platypose *args`` in-process through the console entry; returns (exit code, stdout, stderr)."""
+    import sys
+
+    from platypose_cli.app import main
+
+    def run(*args: str) -> tuple[int, str, str]:
+        monkeypatch.setattr(sys, "argv", ["platypose", *map(str, args)])
+        try:
+            main()
+            code = 0
+        except SystemExit as exit_info:
+            code = int(exit_info.code or 0)
+        out = capsys.readouterr()
+        return code, out.out, out.err
+
+    return run

@@ -1,0 +1,88 @@
+"""The console entry: version, help, train/eval/prior-info, and one-line errors with exit code 2."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+import torch
+
+from lifting.prior import save_prior
+
+
+def test_version_and_help_in_a_fresh_process():
+    result = subprocess.run([sys.executable, "-m", "platypose_cli", "--version"], capture_output=True, text=True)
+    assert result.returncode == 0 and result.stdout.startswith("platypose ")
+    result = subprocess.run([sys.executable, "-m", "platypose_cli", "--help"], capture_output=True, text=True)
+    assert result.returncode == 0
+    for command in ("lift", "train", "eval", "detect", "calib"):
+        assert command in result.stdout
+
+
+@pytest.fixture(scope="module")
+def prior_file(tiny_prior, tmp_path_factory):
+    path = tmp_path_factory.mktemp("cli") / "tiny.pt"
+    save_prior(path, tiny_prior)
+    return path
+
+
+def _one_line_error(code, err):
+    assert code == 2
+    lines = [line for line in err.strip().splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:"), err
+    assert "Traceback" not in err
+
+
+def test_eval_prints_the_table_and_writes_json(run_cli, prior_file, data_dir, tmp_path):
+    out_json = tmp_path / "eval.json"
+    code, out, err = run_cli("eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", prior_file,
+                             "--frames", "1,16", "--samples", "8", "--windows", "1", "--views", "4",
+                             "--json", out_json)  # fmt: skip
+    assert code == 0, err
+    assert "minMPSPE" in out and "frame-by-frame" in out
+    rows = json.loads(out_json.read_text())["rows"]
+    assert [(r["method"], r["frames"]) for r in rows] == [("platypose", 1), ("platypose", 16), ("frame-by-frame", 16)]
+    four_view = rows[1]["values"]
+    assert four_view["minMPSPE"] < 10.0  # mm: 4 views, exact 2D
+    assert 0 <= four_view["ECE"] <= 1
+
+
+def test_prior_info_lists_licences(run_cli, prior_file):
+    code, out, _ = run_cli("prior-info", prior_file)
+    assert code == 0
+    assert "Apache-2.0" in out and "humanoid3d_walk" in out
+
+
+def test_train_writes_a_loadable_checkpoint_and_resumes(run_cli, data_dir, tmp_path):
+    out = tmp_path / "p.pt"
+    clip = data_dir / "motion/deepmimic/humanoid3d_walk.txt"
+    common = ("--layers", "1", "--width", "32", "--heads", "2", "--ff-width", "32", "--max-frames", "8",
+              "--batch-size", "4", "--quiet")  # fmt: skip
+    code, _, err = run_cli("train", clip, data_dir / "motion/deepmimic/humanoid3d_run.txt", "--out", out,
+                           "--iterations", "6", "--checkpoint-every", "3", *common)  # fmt: skip
+    assert code == 0, err
+    from lifting.prior import load_prior
+
+    bundle, extra = load_prior(out)
+    assert bundle.config.width == 32 and bundle.manifest["iterations"] == 6 and extra == {}
+    assert {c["split"] for c in bundle.manifest["clips"]} == {"train", "validation"}
+
+
+@pytest.mark.parametrize(
+    "args",
+    [("--samples", "-5"), ("--robust", "cauchy"), ("--frames", "0"), ("--skip", "10")],
+)
+def test_bad_eval_arguments_give_one_line_errors(run_cli, prior_file, data_dir, args):
+    code, _, err = run_cli("eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", prior_file, *args)
+    _one_line_error(code, err)
+
+
+def test_a_checkpoint_that_is_not_ours_is_refused(run_cli, data_dir, tmp_path):
+    foreign = tmp_path / "foreign.pt"
+    torch.save({"weights": torch.zeros(3)}, foreign)
+    garbage = tmp_path / "garbage.pt"
+    garbage.write_bytes(b"not a checkpoint at all")
+    for path in (foreign, garbage):
+        code, _, err = run_cli("eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", path)
+        _one_line_error(code, err)
+        assert str(path) in err
