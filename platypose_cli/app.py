@@ -41,6 +41,7 @@ def _register() -> None:
     import platypose_cli.commands_eval  # noqa: F401
     import platypose_cli.commands_export  # noqa: F401
     import platypose_cli.commands_info  # noqa: F401
+    import platypose_cli.commands_lift  # noqa: F401
     import platypose_cli.commands_motion  # noqa: F401
     import platypose_cli.commands_train  # noqa: F401
 

@@ -1,0 +1,129 @@
+"""``platypose lift``: videos (or precomputed keypoints) -> multi-hypothesis 3D motion files, one folder per input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from platypose_cli.app import app
+from platypose_cli.detection import DetectOptions
+
+
+def lift_settings(
+    out: Path, cams: Path | None, prior: Path | None, detect: DetectOptions, sampler: dict, window: int, overlap: int,
+    formats: str, persons: str, root: str, root_file: Path | None, quiet: bool, arguments: dict,
+):  # fmt: skip
+    """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
+    from detectors.tracking import persons_count
+    from exporters.export import parse_formats
+    from lifting.errors import InputError
+    from platypose_cli.lift_run import ROOT_MODES, RunSettings
+    from platypose_cli.options import sampler_config
+
+    persons_count(persons)
+    sampler_config(**sampler)
+    if root not in ROOT_MODES:
+        raise InputError(f"--root must be one of {', '.join(ROOT_MODES)}, got {root!r}")
+    if window < 2 or not 0 <= overlap <= window // 2:
+        raise InputError(f"--window must be >= 2 and --overlap in 0..window/2, got {window} and {overlap}")
+    return RunSettings(
+        out=out, cams=cams, prior=prior, detect=detect, sampler=sampler, window=window, overlap=overlap,
+        formats=parse_formats(formats), persons=persons, root=root, root_file=root_file, quiet=quiet,
+        arguments=arguments,
+    )  # fmt: skip
+
+
+def finish(entries: list[dict], out: Path) -> None:
+    """Print the batch's outcome and exit 1 if any input failed."""
+    failed = [e for e in entries if e["status"] == "failed"]
+    counts = ", ".join(f"{sum(e['status'] == s for e in entries)} {s}" for s in ("ok", "failed", "skipped"))
+    typer.echo(f"{len(entries)} input(s): {counts}; summary in {out / 'summary.json'}")
+    for entry in failed:
+        typer.echo(f"  failed {entry['input']}: {entry['error']}", err=True)
+    if failed:
+        raise typer.Exit(1)
+
+
+@app.command("lift")
+def lift(
+    inputs: list[str] = typer.Argument(
+        None,
+        help="Videos, several views of one take (matched to --cams by name), folders (each video or sub-folder of "
+        "views is one input) or globs. Optional with --keypoints.",
+    ),
+    cams: Path | None = typer.Option(None, "--cams", help="Calibration (native JSON, Pose2Sim/anipose TOML, ...)."),
+    keypoints: Path | None = typer.Option(
+        None,
+        "--keypoints",
+        help="Precomputed 2D instead of detection: a file or OpenPose folder for one view, or a folder of per-view "
+        "sub-folders/files named after the cameras (cam01_json for cam_01).",
+    ),
+    detector: Path | None = typer.Option(None, "--detector", help="Pose model .onnx (default: bundled MoveNet)."),
+    detector_format: str | None = typer.Option(None, "--detector-format", help="Model contract (default: recognised)."),
+    person_detector: Path | None = typer.Option(None, "--person-detector", help="Person detector for top-down models."),
+    prior: Path | None = typer.Option(None, "--prior", help="Motion prior checkpoint (default: the shipped one)."),
+    out: Path = typer.Option(Path("out"), "--out", help="Output folder: OUT/<name>/ per input, OUT/summary.json."),
+    samples: int = typer.Option(50, "--samples", help="Hypotheses per person."),
+    steps: int = typer.Option(10, "--steps", help="Diffusion steps kept (of 50)."),
+    skip: int = typer.Option(2, "--skip", help="Noisiest kept steps skipped."),
+    guidance_iters: int = typer.Option(10, "--guidance-iters", help="Guidance steps per diffusion step."),
+    window: int = typer.Option(64, "--window", help="Window length in prior frames (capped by the prior)."),
+    overlap: int = typer.Option(16, "--overlap", help="Frames shared by consecutive windows."),
+    formats: str = typer.Option("npz,csv,bvh,rrd", "--formats", help="Comma-separated: npz, csv, bvh, rrd."),
+    persons: str = typer.Option("all", "--persons", help="Who to lift: all, largest, or N (the N largest)."),
+    root: str = typer.Option(
+        "auto", "--root", help="Root path: auto (triangulated with 2+ views, else solved), triangulate, solve."
+    ),
+    root_trajectory: Path | None = typer.Option(
+        None, "--root-trajectory", help="Known pelvis path: npz (frame_times, root) or CSV (time,x,y,z)."
+    ),
+    fps: float | None = typer.Option(None, "--fps", help="Frame rate of keypoints without a video beside them."),
+    image_size: str | None = typer.Option(None, "--image-size", help="HEIGHTxWIDTH of keypoints without a video."),
+    stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame."),
+    jobs: int = typer.Option(1, "--jobs", min=1, help="Inputs lifted in parallel processes."),
+    threads: int | None = typer.Option(
+        None, "--threads", min=1, help="torch and onnxruntime threads per input (default: cores / jobs)."
+    ),
+    resume: bool = typer.Option(False, "--resume", help="Skip inputs whose outputs are complete."),
+    seed: int = typer.Option(0, "--seed", help="Random seed of the sampler."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
+) -> None:
+    """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
+    arguments = {k: (str(v) if isinstance(v, Path) else v) for k, v in locals().items()}
+    from lifting.errors import InputError
+    from platypose_cli.lift_batch import run_batch
+    from platypose_cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
+
+    if keypoints is not None and detector is not None:
+        raise InputError("--keypoints and --detector exclude each other: keypoints are read, not detected")
+    if not inputs and keypoints is None:
+        raise InputError("give INPUT videos or folders, or --keypoints")
+    camera_names: tuple[str, ...] = ()
+    if cams is not None:
+        from lifting.calibration import load_calibration
+
+        camera_names = load_calibration(cams).names
+    paths = expand_inputs(inputs or [])
+    if keypoints is not None:
+        job_list = [keypoints_job(keypoints, paths, camera_names)]
+    else:
+        job_list = discover_jobs(paths, camera_names)
+    sampler = {"samples": samples, "steps": steps, "skip": skip, "guidance_iters": guidance_iters, "seed": seed}
+    detect = DetectOptions(detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps,
+                           image_size=image_size)  # fmt: skip
+    settings = lift_settings(out, cams, prior, detect, sampler, window, overlap, formats, persons, root,
+                             root_trajectory, quiet, arguments)  # fmt: skip
+    if root_trajectory is not None and len(job_list) > 1:
+        raise InputError(f"--root-trajectory {root_trajectory}: give it for one input, not {len(job_list)}")
+
+    def say(message: str) -> None:
+        if not quiet:
+            typer.echo(message, err=True)
+
+    try:
+        entries = run_batch(job_list, settings, jobs, resume, say)
+    except KeyboardInterrupt:
+        typer.echo(f"interrupted; {out / 'summary.json'} lists the inputs that finished", err=True)
+        raise typer.Exit(130) from None
+    finish(entries, out)

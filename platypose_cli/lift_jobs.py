@@ -1,0 +1,155 @@
+"""What ``platypose lift`` has to do: INPUT paths, folders and globs -> jobs, each one take of one or more views.
+
+A job is one output folder ``OUT/<name>/``. Loose videos (given on the command
+line, matched by a glob, or lying in a folder) are the views of one take when a
+calibration with several cameras is given and every video matches a camera by
+name; otherwise each video is a job of its own. Each sub-folder of an INPUT
+folder that holds videos is one take. ``--keypoints`` gives precomputed 2D for
+one take: a file or OpenPose folder for one view, or a folder whose sub-folders
+(or files) are matched to the cameras by name (Pose2Sim: ``cam01_json`` for
+camera ``cam_01``).
+"""
+
+from __future__ import annotations
+
+import glob
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from detectors.video import VIDEO_SUFFIXES, sibling_video
+from lifting.calibration.matching import match_views, normalise_view_name
+from lifting.errors import InputError
+from platypose_cli.detection import KEYPOINT_SUFFIXES, view_name
+
+
+@dataclass(frozen=True)
+class View:
+    """One camera's input: ``source`` (a video, or precomputed keypoints) and the ``video`` it shows, if known."""
+
+    name: str
+    source: Path
+    video: Path | None
+
+
+@dataclass(frozen=True)
+class Job:
+    """One take to lift into ``OUT/<name>/``; ``input`` is how the summary names it."""
+
+    name: str
+    input: str
+    views: tuple[View, ...]
+
+
+def is_video(path: Path) -> bool:
+    """Whether ``path`` is a file with a video extension."""
+    return path.is_file() and path.suffix.lower() in VIDEO_SUFFIXES
+
+
+def expand_inputs(items: Sequence[str]) -> list[Path]:
+    """Paths from INPUT arguments, globs expanded (sorted); InputError for a path or glob that matches nothing."""
+    paths: list[Path] = []
+    for item in items:
+        if Path(item).exists():
+            paths.append(Path(item))
+            continue
+        matches = sorted(glob.glob(item)) if glob.has_magic(item) else []
+        if not matches:
+            raise InputError(f"{item}: no such file or folder" + (" (the glob matches nothing)" if glob.has_magic(item) else ""))
+        paths += [Path(m) for m in matches]
+    return paths
+
+
+def _videos_in(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if is_video(p))
+
+
+def _group(videos: list[Path], take_name: str, camera_names: Sequence[str]) -> list[Job]:
+    """Loose videos -> one multi-view take if they match distinct cameras, else one job per video."""
+    if len(videos) >= 2 and len(camera_names) >= 2:
+        try:
+            match_views(camera_names, [v.stem for v in videos], allow_missing=True)
+        except InputError:
+            pass
+        else:
+            views = tuple(View(v.stem, v, v) for v in videos)
+            return [Job(take_name, ", ".join(str(v) for v in videos), views)]
+    return [Job(v.stem, str(v), (View(v.stem, v, v),)) for v in videos]
+
+
+def _unique_names(jobs: list[Job]) -> list[Job]:
+    """Rename jobs that would share an output folder: ``name``, ``name-2``, ..."""
+    seen: dict[str, int] = {}
+    unique = []
+    for job in jobs:
+        count = seen.get(job.name, 0) + 1
+        seen[job.name] = count
+        unique.append(job if count == 1 else Job(f"{job.name}-{count}", job.input, job.views))
+    return unique
+
+
+def discover_jobs(paths: Sequence[Path], camera_names: Sequence[str] = ()) -> list[Job]:
+    """Jobs for INPUT ``paths`` (videos and folders of videos or of takes); InputError when nothing is found."""
+    jobs: list[Job] = []
+    loose: list[Path] = []
+    for path in paths:
+        if is_video(path):
+            loose.append(path)
+        elif path.is_dir():
+            jobs += _group(_videos_in(path), path.resolve().name, camera_names)
+            for sub in sorted(p for p in path.iterdir() if p.is_dir()):
+                videos = _videos_in(sub)
+                jobs += _group(videos, sub.name, camera_names) if videos else []
+        elif path.suffix.lower() in KEYPOINT_SUFFIXES:
+            raise InputError(f"{path}: keypoint files go after --keypoints; INPUT is a video, a folder or a glob")
+        else:
+            raise InputError(f"{path}: not a video (known extensions: {' '.join(VIDEO_SUFFIXES)}) nor a folder")
+    if loose:
+        parents = {p.resolve().parent.name for p in loose}
+        jobs = _group(loose, parents.pop() if len(parents) == 1 else loose[0].stem, camera_names) + jobs
+    if not jobs:
+        raise InputError(f"{', '.join(str(p) for p in paths)}: no video found")
+    return _unique_names(jobs)
+
+
+def keypoint_views(keypoints: Path, camera_names: Sequence[str]) -> list[tuple[str, Path]]:
+    """(view name, source) pairs of a ``--keypoints`` path: several views when it is a folder of per-view
+    sub-folders, or of per-view files named after several calibrated cameras; else one view."""
+    if not keypoints.exists():
+        raise InputError(f"{keypoints}: no such keypoint file or folder")
+    if keypoints.is_file():
+        return [(view_name(keypoints), keypoints)]
+    subfolders = sorted(p for p in keypoints.iterdir() if p.is_dir())
+    files = sorted(p for p in keypoints.iterdir() if p.is_file() and p.suffix.lower() in KEYPOINT_SUFFIXES)
+    if subfolders:
+        return [(view_name(p), p) for p in subfolders]
+    if len(camera_names) >= 2 and 2 <= len(files) <= len(camera_names):
+        cameras = {normalise_view_name(c) for c in camera_names}
+        if all(normalise_view_name(p.stem) in cameras for p in files):
+            return [(view_name(p), p) for p in files]
+    return [(view_name(keypoints), keypoints)]
+
+
+def keypoints_job(keypoints: Path, videos: Sequence[Path], camera_names: Sequence[str]) -> Job:
+    """The one job of ``--keypoints``; ``videos`` (INPUT) are paired with the views by name, or the only view."""
+    pairs = keypoint_views(keypoints, camera_names)
+    if len(pairs) > 1 and not camera_names:
+        raise InputError(f"{keypoints}: {len(pairs)} views of keypoints need --cams to place the cameras")
+    if len(pairs) > 1:
+        try:
+            match_views(camera_names, [name for name, _ in pairs], allow_missing=True)
+        except InputError as err:
+            raise InputError(f"--keypoints {keypoints}: {err}") from None
+    by_key = {normalise_view_name(v.stem): v for v in videos}
+    views = []
+    for name, source in pairs:
+        video = videos[0] if len(pairs) == 1 and len(videos) == 1 else by_key.get(normalise_view_name(name))
+        views.append(View(name, source, video or sibling_video(source)))
+    unused = [str(v) for v in videos if v not in {view.video for view in views}]
+    if unused:
+        raise InputError(f"--keypoints {keypoints}: video(s) {', '.join(unused)} match none of its views")
+    if len(views) > 1:
+        name = keypoints.resolve().name
+    else:
+        name = videos[0].stem if videos else views[0].name
+    return Job(name, str(keypoints), tuple(views))

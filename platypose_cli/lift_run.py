@@ -1,0 +1,320 @@
+"""One job of ``platypose lift``: views -> 2D tracks -> cameras -> root paths -> hypotheses -> files in OUT/<name>/.
+
+Files are exported into a staging folder and moved into ``OUT/<name>/`` only
+when all of them are written, then ``lift.json`` (the list of outputs) is
+written last: a job that fails or is interrupted leaves earlier outputs as they
+were, and ``--resume`` trusts only folders with a ``lift.json`` whose outputs exist.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+import tempfile
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from lifting.errors import InputError
+from platypose_cli.detection import Detection, DetectOptions
+from platypose_cli.lift_jobs import Job
+
+MANIFEST = "lift.json"
+ROOT_MODES = ("auto", "triangulate", "solve")
+SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """Everything a job needs besides its views (picklable, for worker processes)."""
+
+    out: Path
+    cams: Path | None = None
+    prior: Path | None = None
+    detect: DetectOptions = field(default_factory=DetectOptions)
+    sampler: dict = field(default_factory=dict)
+    window: int = 64
+    overlap: int = 16
+    formats: tuple[str, ...] = ("npz", "csv", "bvh", "rrd")
+    persons: str = "all"
+    root: str = "auto"
+    root_file: Path | None = None
+    quiet: bool = False
+    arguments: dict = field(default_factory=dict)
+
+
+class JobLog:
+    """Timestamped lines for ``OUT/<name>/log.txt``, kept in memory and written atomically at the end."""
+
+    def __init__(self) -> None:
+        self.started = time.perf_counter()
+        self.lines: list[str] = []
+        self.warnings: list[str] = []
+
+    def __call__(self, message: str) -> None:
+        self.lines.append(f"[{time.perf_counter() - self.started:7.1f} s] {message}")
+
+    def warning(self, message: str) -> None:
+        """Log a warning and keep it for the result's meta."""
+        self.warnings.append(message)
+        self(f"warning: {message}")
+
+    def write(self, path: Path) -> None:
+        """Write the log atomically."""
+        from exporters.atomic import write_text_atomic
+
+        write_text_atomic(path, "\n".join(self.lines) + "\n")
+
+
+_PRIORS: dict[str, object] = {}
+
+
+def _prior(path: Path | None):
+    """The prior at ``path`` (default: the shipped one), loaded once per process."""
+    from lifting.prior import load_prior
+
+    key = str(path)
+    if key not in _PRIORS:
+        _PRIORS[key] = load_prior(path)[0]
+    return _PRIORS[key]
+
+
+def _check_size(camera, image_size: tuple[int, int], source: str, log: JobLog) -> None:
+    """Warn about a small calibrated/actual image size difference; InputError for a large one."""
+    if tuple(camera.size) == tuple(image_size):
+        return
+    relative = max(abs(a - b) / b for a, b in zip(camera.size, image_size))
+    said = f"calibration says {camera.width}x{camera.height} px for camera {camera.name}, {source} is {image_size[1]}x{image_size[0]}"
+    if relative > SIZE_TOLERANCE:
+        raise InputError(f"{source}: calibration mismatch: {said}")
+    log.warning(f"{said}; pixels used as they are (the principal point is what matters)")
+
+
+def view_cameras(job: Job, views, settings: RunSettings, log: JobLog) -> list:
+    """The calibrated camera of each view (by name), or the default camera of a single uncalibrated view."""
+    if settings.cams is None:
+        if len(views) > 1:
+            raise InputError(f"{job.input}: {len(views)} views need --cams to place the cameras")
+        from lifting.calibration.defaults import default_camera
+
+        log.warning("no --cams: a level camera at the origin with a 53 degree diagonal field of view is assumed")
+        return [default_camera(job.views[0].name, *views[0].image_size)]
+    from lifting.calibration import load_calibration
+    from lifting.calibration.matching import match_views
+
+    calibration = load_calibration(settings.cams)
+    try:
+        pairs = match_views(calibration.names, [v.name for v in job.views], allow_missing=True)
+    except InputError as err:
+        raise InputError(f"{job.input}: calibration mismatch with {settings.cams}: {err}") from None
+    by_view = {view: calibration.camera(camera) for camera, view in pairs.items()}
+    cameras = [by_view[v.name] for v in job.views]
+    for camera, tracks, view in zip(cameras, views, job.views):
+        _check_size(camera, tracks.image_size, str(view.source), log)
+    return cameras
+
+
+def gather_keypoints(job: Job, views, cameras, persons: str):
+    """Keypoints (C, T, P, 17, 3) of the chosen persons on the first view's clock, frame times (T,), track IDs (P,)."""
+    from detectors.tracking import persons_to_keep
+    from lifting.calibration.matching import gather_views
+
+    if len(views) > 1:
+        from detectors.multiview import match_across_views
+
+        views = match_across_views(views, cameras)
+    keep = persons_to_keep(views, persons)
+    views = views if keep is None else [v.select(keep) for v in views]
+    if views[0].num_persons == 0:
+        raise InputError(f"{job.input}: no person found")
+    step = np.median(np.diff(views[0].frame_times)) if views[0].num_frames > 1 else 1.0
+    gathered = gather_views([v.keypoints for v in views], [v.frame_times for v in views], cameras, 0.5 * step)
+    return np.stack(gathered), views[0].frame_times, views[0].track_ids
+
+
+def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) -> list[np.ndarray | None]:
+    """Per person: a known root path (T, 3) (file or triangulation), or None to solve it per hypothesis."""
+    from lifting.root import fill_gaps, triangulated_root
+
+    P = keypoints.shape[2]
+    if settings.root_file is not None:
+        from platypose_cli.root_file import read_root_trajectory
+
+        log(f"root trajectory from {settings.root_file}")
+        return list(read_root_trajectory(settings.root_file, times, P))
+    if settings.root == "solve" or (settings.root == "auto" and len(cameras) < 2):
+        log("root: solved per hypothesis from the rays of every camera")
+        return [None] * P
+    if len(cameras) < 2:
+        raise InputError("--root triangulate needs two or more calibrated views")
+    roots = triangulated_root(keypoints, cameras)
+    paths: list[np.ndarray | None] = []
+    for p in range(P):
+        covered = np.isfinite(roots[p]).all(-1).mean()
+        usable = covered >= 0.5
+        log(f"root of person {p}: pelvis triangulated in {covered:.0%} of frames; "
+            + ("gaps interpolated" if usable else "too few, solved per hypothesis instead"))  # fmt: skip
+        paths.append(fill_gaps(roots[p], times) if usable else None)
+    return paths
+
+
+def lift_keypoints(prior, keypoints, times, cameras, roots, settings: RunSettings, quiet: bool):
+    """Hypotheses (P, N, T, 17, 3) and energy (P, N, T): persons with a known root and the others lifted apart."""
+    from lifting.lift import WindowSettings, lift_tracks
+    from platypose_cli.options import sampler_config
+
+    config = sampler_config(**settings.sampler)
+    windows = WindowSettings(window=settings.window, overlap=settings.overlap)
+    P = keypoints.shape[2]
+    hypotheses = np.zeros((P, config.samples, len(times), 17, 3), np.float32)
+    energy = np.zeros((P, config.samples, len(times)), np.float32)
+    known = [p for p in range(P) if roots[p] is not None]
+    groups = [(g, root) for g, root in ((known, True), ([p for p in range(P) if roots[p] is None], False)) if g]
+    for group, has_root in groups:
+        root = np.stack([roots[p] for p in group]) if has_root else None
+        bar = _LazyBar(f"lifting {len(group)} person(s)", quiet)
+        try:
+            out = lift_tracks(prior, cameras, keypoints[:, :, group], times, config, windows, root, bar.update)
+        finally:
+            bar.close()
+        hypotheses[group], energy[group] = out.hypotheses, out.energy
+    return hypotheses, energy
+
+
+class _LazyBar:
+    """A progress bar whose length is known only at the first ``update(done, total)``."""
+
+    def __init__(self, label: str, hidden: bool) -> None:
+        self.label, self.hidden, self.bar, self.done = label, hidden, None, 0
+
+    def update(self, done: int, total: int) -> None:
+        if self.bar is None:
+            self.bar = typer.progressbar(length=total, label=self.label, file=sys.stderr, hidden=self.hidden)
+            self.bar.__enter__()
+        self.bar.update(done - self.done)
+        self.done = done
+
+    def close(self) -> None:
+        """Finish the bar's line, if it was shown."""
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+
+
+def lift_job(job: Job, settings: RunSettings, log: JobLog):
+    """The LiftResult of one job and the videos of its cameras (for the rerun recording)."""
+    from exporters.result import LiftResult
+    from lifting.root import presence
+    from platypose_cli import __version__
+
+    timings: dict[str, float] = {}
+    started = time.perf_counter()
+    detection = Detection(settings.detect)
+    views = []
+    for view in job.views:
+        tracks, seconds, frames = detection.tracks(view.source, settings.out / job.name, settings.quiet)
+        how = "read" if frames is None else ("from the cache" if frames == 0 else f"detected in {frames} frames")
+        log(f"view {view.name}: {view.source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, {seconds:.1f} s")
+        views.append(tracks)
+    del detection  # frees the onnxruntime session: its idle threads slow torch down many times over
+    timings["keypoints_s"] = time.perf_counter() - started
+    cameras = view_cameras(job, views, settings, log)
+    keypoints, times, track_ids = gather_keypoints(job, views, cameras, settings.persons)
+    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
+    roots = root_paths(keypoints, times, cameras, settings, log)
+    prior = _prior(settings.prior)
+    started = time.perf_counter()
+    hypotheses, energy = lift_keypoints(prior, keypoints, times, cameras, roots, settings, settings.quiet)
+    timings["lift_s"] = time.perf_counter() - started
+    log(f"lifted {hypotheses.shape[1]} hypotheses in {timings['lift_s']:.1f} s")
+    absent = ~presence(keypoints, times)  # (P, T)
+    hypotheses[np.broadcast_to(absent[:, None], hypotheses.shape[:3])] = np.nan
+    energy[np.broadcast_to(absent[:, None], energy.shape)] = np.nan
+    fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
+    meta = {
+        "version": __version__,
+        "input": job.input,
+        "arguments": settings.arguments,
+        "prior_sha256": prior.checksum,
+        "root": ["given" if settings.root_file else ("solved" if r is None else "triangulated") for r in roots],
+        "timings": timings,
+        "warnings": log.warnings,
+    }
+    result = LiftResult(
+        hypotheses=hypotheses,
+        median=np.median(hypotheses, axis=1),
+        keypoints2d=np.moveaxis(keypoints, 2, 1),
+        frame_times=times,
+        fps=fps,
+        track_ids=track_ids,
+        cameras=tuple(cameras),
+        energy=energy,
+        meta=meta,
+    )
+    videos = {c.name: v.video for c, v in zip(cameras, job.views) if v.video is not None}
+    return result, videos
+
+
+def export_atomically(result, videos, folder: Path, name: str, formats, log: JobLog) -> list[Path]:
+    """Export into a staging folder beside ``folder``, then move every file in; returns the final paths."""
+    from exporters import export
+
+    folder.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".partial", dir=folder.parent))
+    try:
+        written = export(result, staging, name, formats, videos, say=log)
+        final = []
+        for path in written:
+            os.replace(path, folder / path.name)
+            final.append(folder / path.name)
+        return final
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+def finished_outputs(folder: Path, formats) -> list[str] | None:
+    """The outputs listed by a complete earlier run in ``folder`` with at least ``formats``, else None."""
+    try:
+        manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+        outputs, done = list(manifest["outputs"]), set(manifest["formats"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    complete = set(formats) <= done and all(Path(p).is_file() for p in outputs)
+    return outputs if complete else None
+
+
+def run_job(job: Job, settings: RunSettings) -> dict:
+    """Lift one job; its summary entry (status ok or failed, outputs, seconds, one-line error)."""
+    from exporters.atomic import write_text_atomic
+
+    started = time.perf_counter()
+    log = JobLog()
+    folder = settings.out / job.name
+    log(f"input {job.input} -> {folder}")
+    entry = {"input": job.input, "name": job.name, "status": "failed", "outputs": [], "seconds": 0.0, "error": None}
+    try:
+        result, videos = lift_job(job, settings, log)
+        outputs = [str(p) for p in export_atomically(result, videos, folder, job.name, settings.formats, log)]
+        manifest = {"input": job.input, "formats": list(settings.formats), "outputs": outputs}
+        write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
+        entry.update(status="ok", outputs=outputs)
+    except Exception as err:  # noqa: BLE001 -- one input failing must not stop the batch; the log keeps the traceback
+        message = str(err) if isinstance(err, InputError) else f"{type(err).__name__}: {err}"
+        entry["error"] = " ".join(message.split())
+        log(f"failed: {entry['error']}")
+        if not isinstance(err, InputError):
+            log(traceback.format_exc())
+    entry["seconds"] = round(time.perf_counter() - started, 2)
+    log(f"{entry['status']} in {entry['seconds']} s")
+    log.write(folder / "log.txt")
+    return entry
+
+
+def settings_record(settings: RunSettings) -> dict:
+    """A JSON-friendly description of ``settings`` for the summary."""
+    return json.loads(json.dumps(asdict(settings), default=str))

@@ -1,0 +1,220 @@
+"""``platypose lift`` end to end on the real Pose2Sim take: 4 views and 1 view of OpenPose keypoints, a given root
+path, keypoint folder matching errors, and a batch folder with a good, a corrupt and an empty video."""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from platypose_cli.app import main
+
+TAKE = "video/pose2sim-balancing"
+
+
+def run(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
+    """Run ``platypose *args`` in-process; returns (exit code, stdout, stderr)."""
+    monkeypatch.setattr(sys, "argv", ["platypose", *args])
+    with pytest.raises(SystemExit) as exit_info:
+        main()
+    out = capsys.readouterr()
+    return int(exit_info.value.code or 0), out.out, out.err
+
+
+@pytest.fixture(scope="module")
+def prior_file(tiny_prior, tmp_path_factory) -> str:
+    """The session's tiny prior saved as a checkpoint file for ``--prior``."""
+    from lifting.prior import save_prior
+
+    path = tmp_path_factory.mktemp("lift_prior") / "tiny.pt"
+    save_prior(path, tiny_prior)
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def triangulated(data_dir):
+    """Plain DLT triangulation (T, 17, 3) of the athlete from the 4 views' OpenPose keypoints, and the cameras."""
+    from detectors.multiview import match_across_views
+    from detectors.sources import read_keypoints
+    from detectors.tracking import persons_to_keep
+    from lifting.calibration import load_calibration
+    from lifting.triangulation import triangulate
+
+    cameras = list(load_calibration(data_dir / TAKE / "calib_pose2sim.toml").cameras)
+    views = [read_keypoints(data_dir / TAKE / f"openpose-body25b/cam0{i}_json") for i in range(1, 5)]
+    views = match_across_views(views, cameras)
+    athlete = int(persons_to_keep(views, "largest")[0])
+    keypoints = np.stack([v.keypoints[:, athlete] for v in views])
+    return triangulate(keypoints[..., :2], keypoints[..., 2], cameras)
+
+
+def lift_args(data_dir, prior_file, out, *extra: str) -> tuple[str, ...]:
+    calib = str(data_dir / TAKE / "calib_pose2sim.toml")
+    common = ("--prior", prior_file, "--out", str(out), "--samples", "6", "--threads", "1", "--quiet")
+    return ("lift", "--cams", calib, *common, *extra)
+
+
+def test_four_views_match_triangulation_and_one_view_spreads(monkeypatch, capsys, data_dir, tmp_path, prior_file,
+                                                             triangulated) -> None:  # fmt: skip
+    from exporters.npz import read_npz
+
+    keypoints = data_dir / TAKE / "openpose-body25b"
+    code, out, err = run(monkeypatch, capsys, *lift_args(data_dir, prior_file, tmp_path, "--keypoints", str(keypoints),
+                                                         "--persons", "largest", "--formats", "npz,csv"))  # fmt: skip
+    assert code == 0, err
+    assert "1 ok, 0 failed" in out
+    folder = tmp_path / "openpose-body25b"
+    result = read_npz(folder / "openpose-body25b.npz")
+    assert result.hypotheses.shape == (1, 6, 100, 17, 3)
+    assert [c.name for c in result.cameras] == ["cam_01", "cam_02", "cam_03", "cam_04"]
+    assert result.meta["root"] == ["triangulated"]
+    seen = np.isfinite(triangulated).all(-1)
+    error = np.linalg.norm(result.median[0] - triangulated, axis=-1)[seen]
+    assert np.median(error) < 0.03, np.median(error)  # metres: 4 calibrated views pin every joint
+    with open(folder / "openpose-body25b.csv", newline="") as stream:
+        rows = sum(1 for _ in csv.DictReader(stream))
+    assert rows == 6 * 100 * 17
+    log = (folder / "log.txt").read_text()
+    assert "calibration says 1088x1920 px for camera cam_01" in log and "ok in" in log
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["inputs"][0]["status"] == "ok" and summary["inputs"][0]["error"] is None
+    assert sorted(Path(p).name for p in summary["inputs"][0]["outputs"]) == [
+        "openpose-body25b.csv", "openpose-body25b.npz", "openpose-body25b_summary.csv"]  # fmt: skip
+
+    one = tmp_path / "one"
+    code, _, err = run(monkeypatch, capsys, *lift_args(data_dir, prior_file, one, "--keypoints",
+                                                       str(keypoints / "cam01_json"), "--persons", "largest",
+                                                       "--formats", "npz"))  # fmt: skip
+    assert code == 0, err
+    single = read_npz(one / "cam01" / "cam01.npz")
+    assert [c.name for c in single.cameras] == ["cam_01"] and single.meta["root"] == ["solved"]
+    hyp = single.hypotheses[0]
+    spread = np.linalg.norm(hyp - single.median[0], axis=-1).mean()
+    assert spread > 0.01  # one view leaves depth open: the hypotheses differ
+    from lifting.camera import project
+
+    # every hypothesis reprojects onto cam01's keypoints (image plane pinned, depth free)
+    pixels = project(single.median[0], single.cameras[0])
+    observed = single.keypoints2d[0, 0]
+    close = np.linalg.norm(pixels - observed[..., :2], axis=-1)[observed[..., 2] > 0.3]
+    assert np.median(close) < 40, np.median(close)
+
+
+def test_given_root_trajectory_npz_and_csv(monkeypatch, capsys, data_dir, tmp_path, prior_file, triangulated) -> None:
+    from exporters.npz import read_npz
+
+    times = np.arange(100) / 60.0
+    root = triangulated[:, 0]
+    keep = np.isfinite(root).all(-1)
+    np.savez(tmp_path / "root.npz", frame_times=times[keep], root=root[keep])
+    with open(tmp_path / "root.csv", "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["time", "x", "y", "z"])
+        writer.writerows([[t, *p] for t, p in zip(times[keep], root[keep])])
+    keypoints = str(data_dir / TAKE / "openpose-body25b" / "cam01_json")
+    for name in ("root.npz", "root.csv"):
+        out = tmp_path / name.replace(".", "_")
+        args = lift_args(data_dir, prior_file, out, "--keypoints", keypoints, "--persons", "largest", "--formats",
+                         "npz", "--root-trajectory", str(tmp_path / name))  # fmt: skip
+        code, _, err = run(monkeypatch, capsys, *args)
+        assert code == 0, err
+        result = read_npz(out / "cam01" / "cam01.npz")
+        assert result.meta["root"] == ["given"]
+        pelvis = result.hypotheses[0, :, keep, 0]  # (frames, N, 3)
+        # the path goes through the prior's 30 fps clock and back: odd frames are interpolated (< 2 cm here)
+        np.testing.assert_allclose(pelvis, np.broadcast_to(root[keep][:, None], pelvis.shape), atol=0.02)
+        assert np.median(np.abs(pelvis - root[keep][:, None])) < 0.002
+
+
+def test_keypoint_views_must_match_cameras(monkeypatch, capsys, data_dir, tmp_path, prior_file) -> None:
+    source = data_dir / TAKE / "openpose-body25b"
+    views = tmp_path / "views"
+    views.mkdir()
+    (views / "cam01_json").symlink_to(source / "cam01_json")
+    (views / "left_json").symlink_to(source / "cam02_json")
+    code, _, err = run(monkeypatch, capsys, *lift_args(data_dir, prior_file, tmp_path / "o", "--keypoints", str(views)))
+    assert code == 2
+    assert "left" in err and "match no camera" in err and str(views) in err
+    args = ("lift", "--keypoints", str(views), "--prior", prior_file, "--out", str(tmp_path / "o"))
+    code, _, err = run(monkeypatch, capsys, *args)
+    assert code == 2 and "need --cams" in err
+
+
+def _write_clip(path: Path, frames: list[np.ndarray], fps: float) -> None:
+    import cv2
+
+    height, width = frames[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (width, height))
+    for frame in frames:
+        writer.write(frame)
+    writer.release()
+
+
+@pytest.fixture(scope="module")
+def batch_folder(data_dir, tmp_path_factory) -> Path:
+    """good.mp4 (the first 12 frames of cam01, halved), corrupt.mp4 (a cut-off real MP4), empty.mp4 (a blank wall)."""
+    from detectors.video import iter_frames
+
+    folder = tmp_path_factory.mktemp("batch")
+    frames = [f[::2, ::2].copy() for _, f in iter_frames(data_dir / TAKE / "cam01.mp4", max_frames=12)]
+    _write_clip(folder / "good.mp4", frames, 60.0)
+    _write_clip(folder / "empty.mp4", [np.full_like(frames[0], 128) for _ in frames], 60.0)
+    (folder / "corrupt.mp4").write_bytes((data_dir / TAKE / "cam02.mp4").read_bytes()[:3000])
+    return folder
+
+
+def test_batch_records_failures_and_resume_skips_finished(monkeypatch, capsys, tmp_path, prior_file,
+                                                          batch_folder) -> None:  # fmt: skip
+    from exporters.npz import read_npz
+
+    args = ("lift", str(batch_folder), "--prior", prior_file, "--out", str(tmp_path), "--samples", "4",
+            "--formats", "npz,bvh", "--persons", "largest", "--quiet", "--jobs", "2")  # fmt: skip
+    code, out, _ = run(monkeypatch, capsys, *args)
+    assert code == 1
+    assert "3 input(s): 1 ok, 2 failed, 0 skipped" in out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    by_name = {Path(e["input"]).name: e for e in summary["inputs"]}
+    assert [Path(e["input"]).name for e in summary["inputs"]] == ["corrupt.mp4", "empty.mp4", "good.mp4"]
+    assert summary["counts"] == {"ok": 1, "failed": 2, "skipped": 0}
+    assert by_name["good.mp4"]["status"] == "ok" and by_name["good.mp4"]["seconds"] > 0
+    assert by_name["corrupt.mp4"]["status"] == "failed" and "corrupt.mp4" in by_name["corrupt.mp4"]["error"]
+    assert by_name["empty.mp4"]["error"].endswith("no person found")
+    assert "\n" not in by_name["corrupt.mp4"]["error"] + by_name["empty.mp4"]["error"]
+    npz = tmp_path / "good" / "good.npz"
+    result = read_npz(npz)
+    assert result.hypotheses.shape[:3] == (1, 4, 12) and result.cameras[0].size == (960, 540)
+    assert "no --cams" in " ".join(result.meta["warnings"])
+    assert (tmp_path / "good" / "good_p0.bvh").read_text().startswith("HIERARCHY")
+    assert "no person found" in (tmp_path / "empty" / "log.txt").read_text()
+    assert not list(tmp_path.glob(".*partial")) and not list(tmp_path.rglob(".*.tmp"))
+
+    stamp = npz.stat().st_mtime_ns
+    code, out, _ = run(monkeypatch, capsys, *args[:-2], "--resume")
+    assert code == 1 and "1 skipped" in out
+    assert npz.stat().st_mtime_ns == stamp
+    entries = json.loads((tmp_path / "summary.json").read_text())["inputs"]
+    assert [e["status"] for e in entries] == ["failed", "failed", "skipped"]
+    assert entries[2]["outputs"] == by_name["good.mp4"]["outputs"]
+
+
+def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> None:
+    import exporters
+    from platypose_cli.lift_run import JobLog, export_atomically
+
+    folder = tmp_path / "take"
+    folder.mkdir()
+    (folder / "take.npz").write_bytes(b"earlier result")
+
+    def interrupted(result, out_dir, name, *args, **kwargs):
+        (Path(out_dir) / f"{name}.npz").write_bytes(b"half")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(exporters, "export", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        export_atomically(None, {}, folder, "take", ("npz",), JobLog())
+    assert (folder / "take.npz").read_bytes() == b"earlier result"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["take"]

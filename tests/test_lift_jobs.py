@@ -1,0 +1,65 @@
+"""Job discovery for ``platypose lift``: videos, views of one take, folders of takes, globs, ``--keypoints`` layouts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from lifting.errors import InputError
+from platypose_cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
+
+TAKE = "video/pose2sim-balancing"
+CAMERAS = ("cam_01", "cam_02", "cam_03", "cam_04")
+
+
+def _link(target: Path, link: Path) -> Path:
+    link.parent.mkdir(parents=True, exist_ok=True)
+    link.symlink_to(target)
+    return link
+
+
+def test_videos_of_calibrated_cameras_form_one_take(data_dir) -> None:
+    take = data_dir / TAKE
+    (job,) = discover_jobs(expand_inputs([str(take / "cam0[12].mp4")]), CAMERAS)
+    assert job.name == "pose2sim-balancing"
+    assert [(v.name, v.video.name) for v in job.views] == [("cam01", "cam01.mp4"), ("cam02", "cam02.mp4")]
+    # without a multi-camera calibration each video is its own input
+    jobs = discover_jobs(expand_inputs([str(take / "cam0[12].mp4")]), ())
+    assert [j.name for j in jobs] == ["cam01", "cam02"] and all(len(j.views) == 1 for j in jobs)
+
+
+def test_folder_of_videos_and_of_takes(data_dir, tmp_path) -> None:
+    take = data_dir / TAKE
+    _link(take / "cam03.mp4", tmp_path / "season" / "warmup.mp4")
+    for name in ("cam01.mp4", "cam02.mp4"):
+        _link(take / name, tmp_path / "season" / "jump1" / name)
+        _link(take / name, tmp_path / "season" / "jump2" / name)
+    jobs = discover_jobs([tmp_path / "season"], CAMERAS)
+    assert [(j.name, len(j.views)) for j in jobs] == [("warmup", 1), ("jump1", 2), ("jump2", 2)]
+    # uncalibrated: every video is an input; equal names get distinct output folders
+    names = [j.name for j in discover_jobs([tmp_path / "season"], ())]
+    assert names == ["warmup", "cam01", "cam02", "cam01-2", "cam02-2"]
+
+
+def test_bad_inputs_are_named(data_dir, tmp_path) -> None:
+    with pytest.raises(InputError, match="glob matches nothing"):
+        expand_inputs([str(tmp_path / "*.mp4")])
+    with pytest.raises(InputError, match="no video found"):
+        discover_jobs([tmp_path], CAMERAS)
+    with pytest.raises(InputError, match="after --keypoints"):
+        discover_jobs([data_dir / TAKE / "openpose-body25b" / "cam01_json" / "cam01.0000.json"], CAMERAS)
+
+
+def test_pose2sim_keypoint_layout(data_dir, tmp_path) -> None:
+    keypoints = data_dir / TAKE / "openpose-body25b"
+    job = keypoints_job(keypoints, [], CAMERAS)
+    assert job.name == "openpose-body25b"
+    assert [(v.name, v.source.name, v.video.name) for v in job.views] == [
+        (f"cam0{i}", f"cam0{i}_json", f"cam0{i}.mp4") for i in range(1, 5)]  # fmt: skip
+    single = keypoints_job(keypoints / "cam02_json", [], CAMERAS)
+    assert single.name == "cam02" and single.views[0].video.name == "cam02.mp4"
+    with pytest.raises(InputError, match="match none of its views"):
+        keypoints_job(keypoints, [data_dir / "video/sports2d-demo/demo.mp4"], CAMERAS)
+    with pytest.raises(InputError, match=r"no view for|match no camera"):
+        keypoints_job(keypoints, [], ("front", "back"))
