@@ -4,30 +4,18 @@ from __future__ import annotations
 
 import csv
 import re
-import sys
 
 import numpy as np
 import pytest
 
-from platypose_cli.app import main
-
 POSE2SIM = "video/pose2sim-balancing"
 
 
-def run(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
-    """Run ``platypose *args`` in-process; returns (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["platypose", *args])
-    with pytest.raises(SystemExit) as exit_info:
-        main()
-    out = capsys.readouterr()
-    return int(exit_info.value.code or 0), out.out, out.err
-
-
-def test_detect_video_writes_npz_and_csv(monkeypatch, capsys, data_dir, tmp_path) -> None:
+def test_detect_video_writes_npz_and_csv(run_cli, data_dir, tmp_path) -> None:
     video = str(data_dir / POSE2SIM / "cam02.mp4")
     args = ("detect", video, "--out", str(tmp_path), "--stride", "25", "--max-frames", "4", "--threads", "1", "--quiet")
     reference = str(data_dir / POSE2SIM / "openpose-body25b/cam02_json")
-    code, out, err = run(monkeypatch, capsys, *args, "--compare", reference)
+    code, out, err = run_cli(*args, "--compare", reference)
     assert code == 0, err
     assert "4 frames" in out and "ms/frame" in out
     compared = re.search(r"\(person 0, 4/100 frames\): median ([0-9.]+) px", out)
@@ -44,13 +32,13 @@ def test_detect_video_writes_npz_and_csv(monkeypatch, capsys, data_dir, tmp_path
     with open(folder / "cam02_keypoints2d.csv", newline="") as stream:
         rows = list(csv.DictReader(stream))
     assert len(rows) == keypoints.shape[1] * 4 * 17
-    code, out, _ = run(monkeypatch, capsys, *args)
+    code, out, _ = run_cli(*args)
     assert code == 0 and "read from the cache" in out
 
 
-def test_detect_converts_an_openpose_folder(monkeypatch, capsys, data_dir, tmp_path) -> None:
+def test_detect_converts_an_openpose_folder(run_cli, data_dir, tmp_path) -> None:
     folder = str(data_dir / POSE2SIM / "openpose-body25b/cam03_json")
-    code, out, err = run(monkeypatch, capsys, "detect", folder, "--out", str(tmp_path), "--persons", "largest")
+    code, out, err = run_cli("detect", folder, "--out", str(tmp_path), "--persons", "largest")
     assert code == 0, err
     with np.load(tmp_path / "cam03" / "cam03_keypoints2d.npz") as data:
         assert data["keypoints2d"].shape == (1, 1, 100, 17, 3)
@@ -65,18 +53,18 @@ def test_detect_converts_an_openpose_folder(monkeypatch, capsys, data_dir, tmp_p
         (("VIDEO", "--detector-format", "nonsense"), "unknown --detector-format 'nonsense'"),
     ],
 )
-def test_detect_errors_are_one_line_exit_2(monkeypatch, capsys, data_dir, tmp_path, args, message) -> None:
+def test_detect_errors_are_one_line_exit_2(run_cli, data_dir, tmp_path, args, message) -> None:
     args = tuple(str(data_dir / POSE2SIM / "cam01.mp4") if a == "VIDEO" else a for a in args)
-    code, _, err = run(monkeypatch, capsys, "detect", *args, "--out", str(tmp_path), "--max-frames", "1", "--quiet")
+    code, _, err = run_cli("detect", *args, "--out", str(tmp_path), "--max-frames", "1", "--quiet")
     assert code == 2
     assert message in err and err.count("\n") == 1
 
 
-def test_detect_views_with_calibration_share_ids(monkeypatch, capsys, data_dir, tmp_path) -> None:
+def test_detect_views_with_calibration_share_ids(run_cli, data_dir, tmp_path) -> None:
     folder = data_dir / POSE2SIM / "openpose-body25b"
     views = [str(folder / f"cam0{i}_json") for i in (1, 2, 3)]
     calib = str(data_dir / POSE2SIM / "calib_pose2sim.toml")
-    code, out, err = run(monkeypatch, capsys, "detect", *views, "--cams", calib, "--out", str(tmp_path))
+    code, out, err = run_cli("detect", *views, "--cams", calib, "--out", str(tmp_path))
     assert code == 0, err
     assert "person 1: not seen in this view" in out  # the person in the background is not in cam03
     seen = {}

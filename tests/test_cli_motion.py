@@ -3,25 +3,11 @@
 from __future__ import annotations
 
 import json
-import sys
-
-import pytest
-
-from platypose_cli.app import main
 
 
-def run(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
-    """Run ``platypose *args`` in-process; returns (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["platypose", *args])
-    with pytest.raises(SystemExit) as exit_info:
-        main()
-    out = capsys.readouterr()
-    return int(exit_info.value.code or 0), out.out, out.err
-
-
-def test_info_text_on_folder(data_dir, monkeypatch, capsys):
-    code, out, _ = run(monkeypatch, capsys, "motion", "info", str(data_dir / "motion/cmu-asf-amc"),
-                       str(data_dir / "motion/gait-c3d/biomdp_vicon_CMJ_kinem_kinet_emg.c3d"))  # fmt: skip
+def test_info_text_on_folder(data_dir, run_cli):
+    code, out, _ = run_cli("motion", "info", str(data_dir / "motion/cmu-asf-amc"),
+                           str(data_dir / "motion/gait-c3d/biomdp_vicon_CMJ_kinem_kinet_emg.c3d"))  # fmt: skip
     assert code == 0
     assert "test [asf_amc]: 2751 frames at 120 fps = 22.93 s" in out
     assert "licence: MIT package; CMU mocap terms" in out
@@ -30,9 +16,9 @@ def test_info_text_on_folder(data_dir, monkeypatch, capsys):
     assert "2 clip(s)" in out
 
 
-def test_info_json_and_fps_override(data_dir, monkeypatch, capsys):
-    code, out, err = run(monkeypatch, capsys, "motion", "info", "--json", "--fps", "60",
-                         str(data_dir / "motion/holosoma-climb/mocap_climb_seq_4_joint_positions_f0-2303.npy"))  # fmt: skip
+def test_info_json_and_fps_override(data_dir, run_cli):
+    code, out, err = run_cli("motion", "info", "--json", "--fps", "60",
+                             str(data_dir / "motion/holosoma-climb/mocap_climb_seq_4_joint_positions_f0-2303.npy"))  # fmt: skip
     assert code == 0 and "1 clip(s)" in err
     (summary,) = [json.loads(line) for line in out.splitlines()]
     assert summary["fps"] == 60 and summary["frames"] == 2303 and summary["licence"] == "Apache-2.0"
@@ -40,16 +26,16 @@ def test_info_json_and_fps_override(data_dir, monkeypatch, capsys):
     assert 0.35 < summary["bone_lengths_m"]["left_hip-left_knee"] < 0.5
 
 
-def test_info_bad_file_exits_2_with_one_line(tmp_path, monkeypatch, capsys):
+def test_info_bad_file_exits_2_with_one_line(tmp_path, run_cli):
     bad = tmp_path / "bad.bvh"
     bad.write_text("HIERARCHY\nROOT\n")
-    code, out, err = run(monkeypatch, capsys, "motion", "info", str(bad))
+    code, out, err = run_cli("motion", "info", str(bad))
     assert code == 2 and err.count("\n") == 1 and "bad.bvh" in err
 
 
-def test_info_name_map_file(tmp_path, data_dir, monkeypatch, capsys):
+def test_info_name_map_file(tmp_path, data_dir, run_cli):
     mapping = tmp_path / "map.json"
     mapping.write_text("[1, 2]")
-    code, _, err = run(monkeypatch, capsys, "motion", "info", "--name-map", str(mapping),
-                       str(data_dir / "motion/mocapbank/test_mocapbank.bvh"))  # fmt: skip
+    code, _, err = run_cli("motion", "info", "--name-map", str(mapping),
+                           str(data_dir / "motion/mocapbank/test_mocapbank.bvh"))  # fmt: skip
     assert code == 2 and "map.json" in err

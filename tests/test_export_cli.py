@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import json
-import sys
 
 import numpy as np
 import pytest
@@ -12,16 +11,6 @@ from export_helpers import two_person_result
 
 from exporters import export
 from lifting.errors import InputError
-from platypose_cli.app import main
-
-
-def run(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
-    """Run ``platypose *args`` in-process; returns (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["platypose", *args])
-    with pytest.raises(SystemExit) as exit_info:
-        main()
-    out = capsys.readouterr()
-    return int(exit_info.value.code or 0), out.out, out.err
 
 
 @pytest.fixture(scope="module")
@@ -55,14 +44,14 @@ def test_export_rejects_bad_options_before_writing(result, data_dir, tmp_path):
     assert not out.exists()
 
 
-def test_info_and_export_commands(result, data_dir, tmp_path, monkeypatch, capsys):
+def test_info_and_export_commands(result, data_dir, tmp_path, run_cli):
     export(result, tmp_path, "clip", ["npz"])
-    code, out, _ = run(monkeypatch, capsys, "info", str(tmp_path / "clip.npz"))
+    code, out, _ = run_cli("info", str(tmp_path / "clip.npz"))
     assert code == 0
     assert "2 person(s) x 6 hypotheses x 30 frames at 120.000 fps" in out
     assert "person 7: present in 25/30 frames" in out and "camera cam02: 1080x1920 px" in out
-    code, out, err = run(
-        monkeypatch, capsys, "export", str(tmp_path / "clip.npz"), "--formats", "csv,rrd", "--out",
+    code, out, err = run_cli(
+        "export", str(tmp_path / "clip.npz"), "--formats", "csv,rrd", "--out",
         str(tmp_path / "re"), "--video", f"cam01={data_dir / 'video/pose2sim-balancing/cam01.mp4'}",
     )  # fmt: skip
     assert code == 0, err
@@ -72,10 +61,10 @@ def test_info_and_export_commands(result, data_dir, tmp_path, monkeypatch, capsy
     assert np.float32(first["median_x_m"]) == result.median[0, 0, 0, 0]
 
 
-def test_commands_report_bad_input_with_exit_code_2(result, tmp_path, monkeypatch, capsys):
+def test_commands_report_bad_input_with_exit_code_2(result, tmp_path, run_cli):
     (tmp_path / "broken.npz").write_bytes(b"PK\x03\x04 not really")
-    code, _, err = run(monkeypatch, capsys, "info", str(tmp_path / "broken.npz"))
+    code, _, err = run_cli("info", str(tmp_path / "broken.npz"))
     assert code == 2 and "broken.npz" in err and len(err.strip().splitlines()) == 1
     export(result, tmp_path, "clip", ["npz"])
-    code, _, err = run(monkeypatch, capsys, "export", str(tmp_path / "clip.npz"), "--video", "x.mp4")
+    code, _, err = run_cli("export", str(tmp_path / "clip.npz"), "--video", "x.mp4")
     assert code == 2 and "CAMERA=PATH" in err
