@@ -37,6 +37,7 @@ def _register() -> None:
     """Import the sub-command modules, each of which adds its commands to ``app``."""
     # Sub-command modules register themselves on import; keep this list sorted.
     import platypose_cli.commands_calib  # noqa: F401
+    import platypose_cli.commands_demo  # noqa: F401
     import platypose_cli.commands_detect  # noqa: F401
     import platypose_cli.commands_eval  # noqa: F401
     import platypose_cli.commands_export  # noqa: F401

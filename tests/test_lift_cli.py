@@ -218,3 +218,19 @@ def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> Non
         export_atomically(None, {}, folder, "take", ("npz",), JobLog())
     assert (folder / "take.npz").read_bytes() == b"earlier result"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["take"]
+
+
+def test_demo_lifts_the_bundled_take(monkeypatch, capsys, tmp_path, prior_file) -> None:
+    from exporters.npz import read_npz
+
+    args = ("demo", "--out", str(tmp_path), "--source", "keypoints", "--prior", prior_file, "--samples", "4",
+            "--threads", "1", "--quiet")  # fmt: skip
+    code, out, err = run(monkeypatch, capsys, *args)
+    assert code == 0, err
+    folder = tmp_path / "openpose-body25b"
+    assert f"outputs in {folder}/" in out and "1 person(s) x 4 hypotheses x 100 frames" in out
+    result = read_npz(folder / "openpose-body25b.npz")
+    assert len(result.cameras) == 4 and result.num_persons == 1
+    pelvis = np.median(result.median[0, :, 0, 2])
+    assert 0.8 < pelvis < 1.1 and f"pelvis {pelvis:.2f} m" in out  # a standing adult, floor at z = 0
+    assert {p.suffix for p in folder.iterdir()} >= {".npz", ".csv", ".bvh", ".rrd"}

@@ -1,0 +1,77 @@
+"""``platypose demo``: lift the bundled Pose2Sim take (a real lab clip with its calibration) end to end."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from platypose_cli.app import app
+
+DEMO_TAKE = Path(__file__).resolve().parents[1] / "data" / "video" / "pose2sim-balancing"
+SOURCES = ("videos", "keypoints")
+
+
+def demo_job(take: Path, source: str):
+    """The demo's job: cam01 + cam02 videos (bundled detector) or the OpenPose keypoints of all 4 views."""
+    from lifting.calibration import load_calibration
+    from lifting.errors import InputError
+    from platypose_cli.lift_jobs import discover_jobs, keypoints_job
+
+    if not (take / "calib_pose2sim.toml").is_file():
+        raise InputError(f"{take}: the demo take is not there; run the demo from a source checkout of platypose")
+    names = load_calibration(take / "calib_pose2sim.toml").names
+    if source == "keypoints":
+        return keypoints_job(take / "openpose-body25b", [], names)
+    if source != "videos":
+        raise InputError(f"--source must be one of {', '.join(SOURCES)}, got {source!r}")
+    return discover_jobs([take / "cam01.mp4", take / "cam02.mp4"], names)[0]
+
+
+def describe(npz: Path) -> list[str]:
+    """A few lines about a lift result: size, and per person presence, pelvis height and hypothesis spread."""
+    import numpy as np
+
+    from exporters.npz import read_npz
+
+    result = read_npz(npz)
+    lines = [f"{result.num_persons} person(s) x {result.num_hypotheses} hypotheses x {result.num_frames} frames "
+             f"({result.frame_times[-1] - result.frame_times[0]:.2f} s) seen by {len(result.cameras)} camera(s)"]  # fmt: skip
+    for p, track in enumerate(result.track_ids):
+        on = result.present()[p]
+        spread = np.linalg.norm(result.hypotheses[p][:, on] - result.median[p][on], axis=-1).mean() * 1000
+        lines.append(f"  person {track}: present in {on.sum()} frames, pelvis {np.median(result.median[p][on, 0, 2]):.2f} m "
+                     f"above the floor, hypotheses within {spread:.0f} mm of the median on average")  # fmt: skip
+    return lines
+
+
+@app.command("demo")
+def demo(
+    out: Path = typer.Option(Path("out/demo"), "--out", help="Output folder."),
+    source: str = typer.Option(
+        "videos", "--source", help="videos: detect in cam01 + cam02; keypoints: the shipped OpenPose 2D of 4 views."
+    ),
+    prior: Path | None = typer.Option(None, "--prior", help="Motion prior checkpoint (default: the shipped one)."),
+    samples: int = typer.Option(20, "--samples", help="Hypotheses per person."),
+    threads: int | None = typer.Option(None, "--threads", min=1, help="torch and onnxruntime threads (default: all)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
+) -> None:
+    """Lift the bundled Pose2Sim balancing take (real lab videos, 4-camera calibration) and say where the files are."""
+    from platypose_cli.commands_lift import finish, lift_settings
+    from platypose_cli.detection import DetectOptions
+    from platypose_cli.lift_batch import run_batch
+
+    job = demo_job(DEMO_TAKE, source)
+    typer.echo(f"demo: {job.input} with {DEMO_TAKE / 'calib_pose2sim.toml'}")
+    sampler = {"samples": samples, "steps": 10, "skip": 2, "guidance_iters": 10, "seed": 0}
+    arguments = {"command": "demo", "source": source, "samples": samples, "prior": str(prior) if prior else None}
+    settings = lift_settings(out, DEMO_TAKE / "calib_pose2sim.toml", prior, DetectOptions(threads=threads), sampler,
+                             64, 16, "npz,csv,bvh,rrd", "largest", "auto", None, quiet, arguments)  # fmt: skip
+    entries = run_batch([job], settings, 1, False, lambda m: None if quiet else typer.echo(m, err=True))
+    if entries[0]["status"] == "ok":
+        typer.echo("\n".join(describe(out / job.name / f"{job.name}.npz")))
+        typer.echo(f"outputs in {out / job.name}/:")
+        for path in entries[0]["outputs"]:
+            typer.echo(f"  {Path(path).name}")
+        typer.echo(f"look at it: rerun {out / job.name / f'{job.name}.rrd'}")
+    finish(entries, out)
