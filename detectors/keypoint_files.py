@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from detectors.atomic import atomic_open
 from detectors.types import PoseTrack2D
 from detectors.video import timing_from_video
+from lifting.atomic import atomic_open
 from lifting.errors import InputError
 from lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 
@@ -76,7 +76,7 @@ def read_keypoints_npz(path: str | Path, camera: int = 0) -> PoseTrack2D:
 def write_keypoints_csv(tracks: PoseTrack2D, path: str | Path) -> Path:
     """Write tracks as long CSV rows ``person,frame,time,joint,x,y,confidence``, atomically."""
     path = Path(path)
-    with atomic_open(path, "w") as stream:
+    with atomic_open(path, "w", newline="") as stream:
         writer = csv.writer(stream)
         writer.writerow(CSV_HEADER)
         for p, track_id in enumerate(tracks.track_ids.tolist()):

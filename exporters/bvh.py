@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from exporters.atomic import atomic_path
 from exporters.ik import CHILDREN, fit_rotations, forward_kinematics, local_euler
+from lifting.atomic import atomic_open
 from lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
 
 CM_PER_M = 100.0
@@ -150,7 +150,7 @@ def write_bvh(joints: np.ndarray, fps: float, path: Path | str) -> BvhFit:
     offsets, values = motion_channels(joints)
     error = np.linalg.norm(channels_to_positions(values, offsets)[present] - joints[present], axis=-1)
     header = _hierarchy(offsets) + ["MOTION", f"Frames: {len(values)}", f"Frame Time: {1.0 / fps:.8f}"]
-    with atomic_path(Path(path)) as tmp, open(tmp, "w", encoding="ascii", newline="\n") as f:
+    with atomic_open(path, "w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(header) + "\n")
         np.savetxt(f, values, fmt=f"%.{DECIMALS}f", delimiter=" ")
     return BvhFit(mean_m=float(error.mean()), max_m=float(error.max()))

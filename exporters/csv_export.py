@@ -13,8 +13,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from exporters.atomic import atomic_path
 from exporters.result import LiftResult
+from lifting.atomic import atomic_open
 from lifting.skeleton import JOINT_NAMES, NUM_JOINTS
 
 LONG_COLUMNS = ("person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m")
@@ -26,7 +26,7 @@ SUMMARY_COLUMNS = ("person", "frame", "time_s", "joint") + tuple(
 
 def _write_table(table: pa.Table, path: Path) -> Path:
     """Write ``table`` as CSV with a plain header row, atomically."""
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+    with atomic_open(path) as f:
         f.write((",".join(table.column_names) + "\n").encode())
         pacsv.write_csv(table, f, pacsv.WriteOptions(include_header=False, quoting_style="none"))
     return path

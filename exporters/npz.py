@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from exporters.atomic import atomic_path
 from exporters.result import LiftResult
+from lifting.atomic import atomic_open
 from lifting.calibration.model import Calibration, new_meta
 from lifting.calibration.native import FORMAT, calibration_from_dict, calibration_to_dict
 from lifting.camera import Camera
@@ -56,7 +56,7 @@ def write_npz(result: LiftResult, path: Path | str) -> Path:
         arrays = result_arrays(result)
     except TypeError as err:
         raise InputError(f"{path}: meta is not JSON-serialisable ({err})") from None
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+    with atomic_open(path) as f:
         np.savez(f, **arrays)
     return path
 

@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from exporters import rerun_adapter as rra
-from exporters.atomic import atomic_path
 from exporters.result import LiftResult
 from exporters.video import jpeg_frames, needs_reencode, reencode_h264
+from lifting.atomic import atomic_path
 from lifting.errors import InputError
 from lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import typer
 
+from lifting.atomic import write_text_atomic
 from lifting.errors import InputError
 from platypose_cli.app import app
 from platypose_cli.options import int_list, sampler_config
@@ -75,6 +76,4 @@ def evaluate_command(
     if json_out:
         payload = {"prior": bundle.checksum, "cameras": len(cameras), "noise_px": noise_px,
                    "config": config.__dict__, "rows": [r.as_dict() for r in rows]}  # fmt: skip
-        tmp = json_out.with_name(f".{json_out.name}.tmp")
-        tmp.write_text(json.dumps(payload, indent=2))
-        os.replace(tmp, json_out)
+        write_text_atomic(json_out, json.dumps(payload, indent=2))

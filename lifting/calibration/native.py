@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Any
 
+from lifting.atomic import write_text_atomic
 from lifting.calibration import validate
 from lifting.calibration.model import Calibration, new_meta
 from lifting.calibration.world import unit_scale, up_vector
@@ -107,8 +107,4 @@ def read_native(path: Path) -> Calibration:
 
 def write_native(path: Path, calibration: Calibration) -> None:
     """Write a native ``calib.json`` atomically (temp file in the same folder, then rename)."""
-    text = json.dumps(calibration_to_dict(calibration), indent=1, allow_nan=False)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(text + "\n", encoding="utf-8")
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(calibration_to_dict(calibration), indent=1, allow_nan=False) + "\n")

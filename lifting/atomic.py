@@ -1,0 +1,40 @@
+"""Atomic file writes: write a temporary file in the target's folder, then rename it over the target."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import IO, Any
+
+
+@contextmanager
+def atomic_path(target: Path | str) -> Iterator[Path]:
+    """Yield a temporary path beside ``target``; on success it replaces ``target`` (mode 644), else it is removed."""
+    target = Path(target)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(handle)
+    tmp = Path(name)
+    try:
+        yield tmp
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, target)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+@contextmanager
+def atomic_open(target: Path | str, mode: str = "wb", **open_args: Any) -> Iterator[IO]:
+    """Open a temporary file beside ``target`` with ``open(mode, **open_args)``; it replaces ``target`` on success."""
+    with atomic_path(target) as tmp, open(tmp, mode, **open_args) as stream:
+        yield stream
+
+
+def write_text_atomic(target: Path | str, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``target`` atomically and return the path."""
+    with atomic_open(target, "w", encoding="utf-8") as stream:
+        stream.write(text)
+    return Path(target)
