@@ -35,8 +35,8 @@ def describe(npz: Path) -> list[str]:
     from exporters.npz import read_npz
 
     result = read_npz(npz)
-    lines = [f"{result.num_persons} person(s) x {result.num_hypotheses} hypotheses x {result.num_frames} frames "
-             f"({result.frame_times[-1] - result.frame_times[0]:.2f} s) seen by {len(result.cameras)} camera(s)"]  # fmt: skip
+    size = f"{result.num_persons} person(s) x {result.num_hypotheses} hypotheses x {result.num_frames} frames"
+    lines = [f"{size} ({result.frame_times[-1] - result.frame_times[0]:.2f} s) seen by {len(result.cameras)} camera(s)"]
     for p, track in enumerate(result.track_ids):
         on = result.present()[p]
         spread = np.linalg.norm(result.hypotheses[p][:, on] - result.median[p][on], axis=-1).mean() * 1000
