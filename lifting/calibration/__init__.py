@@ -8,7 +8,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +18,7 @@ from lifting.calibration.model import Calibration
 from lifting.calibration.native import read_native, write_native
 from lifting.calibration.opencv_yml import is_easymocap, read_opencv_yml
 from lifting.calibration.toml_format import read_toml
+from lifting.calibration.validate import read_json
 from lifting.calibration.world import to_z_up_metres
 from lifting.errors import InputError
 
@@ -30,10 +30,7 @@ MAX_CAMERA_DISTANCE_M = 100.0
 
 def _read_json(path: Path, subject: str | None) -> Calibration:
     """Native or Human3.6M JSON, by content."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise InputError(f"{path}: not valid JSON ({err})") from None
+    data = read_json(path)
     if isinstance(data, dict) and "format" in data:
         return read_native(path)
     if is_h36m(data):

@@ -14,7 +14,6 @@ the image and record the largest remaining difference in pixels in ``meta``.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -120,10 +119,7 @@ def _subject_extrinsics(data: dict, source: str, subject: str | None, count: int
 def read_h36m(path: Path, subject: str | None = None) -> Calibration:
     """Read a Human3.6M camera JSON for one subject's extrinsics (the only one if ``subject`` is None)."""
     source = str(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise InputError(f"{source}: not valid JSON ({err})") from None
+    data = validate.read_json(path)
     if not is_h36m(data):
         raise InputError(f"{source}: not a Human3.6M camera file (no intrinsics list)")
     subject, extrinsics = _subject_extrinsics(data, source, subject, len(data["intrinsics"]))

@@ -98,11 +98,7 @@ def calibration_to_dict(calibration: Calibration) -> dict[str, Any]:
 
 def read_native(path: Path) -> Calibration:
     """Read a native ``calib.json``."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise InputError(f"{path}: not valid JSON ({err})") from None
-    return calibration_from_dict(data, str(path))
+    return calibration_from_dict(validate.read_json(path), str(path))
 
 
 def write_native(path: Path, calibration: Calibration) -> None:

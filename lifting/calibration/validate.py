@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -11,6 +14,14 @@ from lifting.camera import Camera
 from lifting.errors import InputError
 
 ROTATION_TOLERANCE = 1e-5
+
+
+def read_json(path: Path) -> Any:
+    """The content of a JSON file, else InputError naming the file."""
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise InputError(f"{path}: not valid JSON ({err})") from None
 
 
 def as_array(value: object, shape: tuple[int, ...], source: str, what: str) -> np.ndarray:
