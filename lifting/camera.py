@@ -78,8 +78,10 @@ def project(points: np.ndarray, camera: Camera) -> np.ndarray:
 
 def undistort_normalized(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray) -> np.ndarray:
     """Pixels ``(..., 2)`` of one camera -> undistorted normalised coordinates ``(..., 2)`` (cv2.undistortPoints)."""
-    flat = np.ascontiguousarray(pixels.reshape(-1, 1, 2), dtype=np.float64)
-    return cv2.undistortPoints(flat, K, dist).reshape(pixels.shape)
+    flat = np.ascontiguousarray(np.reshape(pixels, (-1, 1, 2)), dtype=np.float64)
+    if flat.shape[0] == 0:
+        return np.zeros(np.shape(pixels))
+    return cv2.undistortPoints(flat, K, dist).reshape(np.shape(pixels))
 
 
 @dataclass(frozen=True)

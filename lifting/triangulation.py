@@ -10,21 +10,12 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 
-import cv2
 import numpy as np
 
-from lifting.camera import Camera, project
+from lifting.camera import Camera, project, undistort_normalized
 
 # A person hypothesis must triangulate at least this fraction of the joints to be chosen.
 MIN_JOINT_FRACTION = 0.5
-
-
-def undistort_normalised(pixels: np.ndarray, camera: Camera) -> np.ndarray:
-    """Pixels ``(..., 2)`` -> undistorted normalised image coordinates ``(..., 2)`` (x/z, y/z in the camera)."""
-    pts = np.ascontiguousarray(np.asarray(pixels, dtype=np.float64).reshape(-1, 1, 2))
-    if pts.shape[0] == 0:
-        return np.zeros(np.shape(pixels))
-    return cv2.undistortPoints(pts, camera.K, camera.dist).reshape(np.shape(pixels))
 
 
 def triangulate(
@@ -42,7 +33,7 @@ def triangulate(
     usable = (weight > 0) & np.all(np.isfinite(flat), axis=-1)
     weight = np.where(usable, weight, 0.0)
     flat = np.where(usable[..., None], flat, 0.0)
-    norm = np.stack([undistort_normalised(flat[c], cam) for c, cam in enumerate(cameras)])
+    norm = np.stack([undistort_normalized(flat[c], cam.K, cam.dist) for c, cam in enumerate(cameras)])
     P = np.stack([np.hstack([cam.R, cam.t[:, None]]) for cam in cameras])  # (C, 3, 4)
     rows_x = norm[..., 0:1] * P[:, None, 2] - P[:, None, 0]  # (C, N, 4)
     rows_y = norm[..., 1:2] * P[:, None, 2] - P[:, None, 1]

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import torch
 
-from lifting.camera import Camera, CameraBatch, project
+from lifting.camera import Camera, CameraBatch, project, undistort_normalized
 
 
 def _random_camera(rng: np.random.Generator, name: str) -> Camera:
@@ -45,3 +45,13 @@ def test_projection_is_differentiable():
 def test_camera_center():
     cam = _random_camera(np.random.default_rng(2), "c")
     assert np.allclose(cam.R @ cam.center + cam.t, 0)
+
+
+def test_undistort_inverts_projection_and_takes_no_points():
+    cam = _random_camera(np.random.default_rng(3), "c")
+    points = np.random.default_rng(4).uniform(-1, 1, (6, 4, 3))
+    in_camera = points @ cam.R.T + cam.t
+    normalized = undistort_normalized(project(points, cam), cam.K, cam.dist)
+    assert normalized.shape == (6, 4, 2)
+    assert np.abs(normalized - in_camera[..., :2] / in_camera[..., 2:]).max() < 1e-6
+    assert undistort_normalized(np.zeros((0, 17, 2)), cam.K, cam.dist).shape == (0, 17, 2)
