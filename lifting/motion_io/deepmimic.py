@@ -20,6 +20,7 @@ from lifting.errors import InputError
 from lifting.joint_maps import DEEPMIMIC_RECIPE, apply_recipe
 from lifting.motion import Motion
 from lifting.motion_io.kinematics import forward_kinematics, rate_from_step, y_up_to_z_up
+from lifting.timebase import interpolate
 
 URDF_NAME = "humanoid.urdf"
 URDF_SCALE = 0.25
@@ -118,10 +119,7 @@ def resample_uniform(points: np.ndarray, durations: np.ndarray) -> tuple[np.ndar
     times = np.concatenate([[0.0], np.cumsum(durations[:-1])])
     if np.allclose(np.diff(times), step, rtol=0.01):
         return points, rate_from_step(step)
-    grid = np.arange(0.0, times[-1] + 1e-9, step)
-    flat = points.reshape(len(times), -1)
-    resampled = np.stack([np.interp(grid, times, flat[:, k]) for k in range(flat.shape[1])], axis=1)
-    return resampled.reshape(len(grid), *points.shape[1:]), rate_from_step(step)
+    return interpolate(points, times, np.arange(0.0, times[-1] + 1e-9, step)), rate_from_step(step)
 
 
 def is_deepmimic(path: Path) -> bool:
