@@ -7,12 +7,7 @@ from pathlib import Path
 import typer
 
 from platypose_cli.app import app
-from platypose_cli.detection import (
-    Detection,
-    DetectOptions,
-    image_size_option,
-    view_name,
-)
+from platypose_cli.detection import Detection, DetectOptions, image_size_option, view_name
 
 
 def _summary(tracks, seconds: float, frames_run: int | None) -> list[str]:

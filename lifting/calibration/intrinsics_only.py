@@ -12,11 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from lifting.calibration import validate
-from lifting.calibration.defaults import (
-    SIZE_FROM_CENTRE_NOTE,
-    complete_camera,
-    size_from_principal_point,
-)
+from lifting.calibration.defaults import SIZE_FROM_CENTRE_NOTE, complete_camera, size_from_principal_point
 from lifting.calibration.model import Calibration, new_meta
 from lifting.errors import InputError
 
