@@ -47,12 +47,16 @@ class SamplerConfig:
     keeps every step and only cuts the scale. ``translation_smoothness``
     couples per-frame root offsets (0: independent frames). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared).
+    ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
+    took a step gaining less than ``guidance_tol`` (relative) or its step has shrunk
+    to nothing (0: always k).
     """
 
     samples: int = 50
     steps: int = 10
     skip: int = 2
     guidance_iters: int = 10
+    guidance_tol: float = 1e-3
     energy_scale: float = 1.0
     decay: float = 0.1
     grow: float = 2.0
@@ -72,6 +76,7 @@ class SamplerConfig:
             (1 <= self.steps <= 50, f"steps must be in 1..50, got {self.steps}"),
             (0 <= self.skip < self.steps, f"skip must be in 0..{self.steps - 1}, got {self.skip}"),
             (self.guidance_iters >= 0, f"guidance iterations must be >= 0, got {self.guidance_iters}"),
+            (self.guidance_tol >= 0, f"guidance tolerance must be >= 0, got {self.guidance_tol}"),
             (self.energy_scale > 0, f"energy scale must be positive, got {self.energy_scale}"),
             (0 < self.decay < 1, f"decay must be in (0, 1), got {self.decay}"),
             (self.grow >= 1, f"grow must be >= 1, got {self.grow}"),
@@ -228,11 +233,15 @@ class GuidedProblem:
             keep = accept.reshape(self.batch, -1, 1, 1)
             x0 = torch.where(accept[:, None, None], candidate, x0)
             offset = torch.where(keep, candidate_offset, offset)
+            gain = (energy - new_energy) / energy.abs().clamp(min=1e-12)
             energy = torch.where(accept, new_energy, energy)
             direction = torch.where(accept[:, None, None], new_direction, direction)
             shift = torch.where(keep, new_shift, shift)
             grown = step * c.grow if c.step_rule == "backtrack" else step
             step = torch.where(worse, step * c.decay, grown)
+            converged = (accept & (gain <= c.guidance_tol)) | (step < 1e-4 * c.energy_scale)
+            if c.guidance_tol > 0 and bool(converged.all()):
+                break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
         return x0, offset
 
 
