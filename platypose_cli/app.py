@@ -36,6 +36,7 @@ def _root(
 def _register() -> None:
     """Import the sub-command modules, each of which adds its commands to ``app``."""
     # Sub-command modules register themselves on import; keep this list sorted.
+    import platypose_cli.commands_bench  # noqa: F401
     import platypose_cli.commands_calib  # noqa: F401
     import platypose_cli.commands_demo  # noqa: F401
     import platypose_cli.commands_detect  # noqa: F401

@@ -1,0 +1,107 @@
+"""The end-to-end part of ``platypose bench``: a looped single-view clip, detected with MoveNet and lifted."""
+
+from __future__ import annotations
+
+import resource
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from lifting.errors import InputError
+
+
+def loop_video(source: Path, target: Path, frames: int, fps: float) -> tuple[int, int]:
+    """Write ``frames`` frames of ``source``, looped from its start as often as needed, to ``target`` (mp4v at ``fps``).
+
+    Returns the image size (height, width).
+    """
+    import cv2
+
+    from detectors.video import iter_frames, video_info
+
+    height, width = video_info(source).image_size
+    writer = cv2.VideoWriter(str(target), cv2.VideoWriter_fourcc(*"mp4v"), fps, (width, height))
+    if not writer.isOpened():
+        raise InputError(f"{target}: OpenCV cannot write an mp4v video here")
+    written = 0
+    try:
+        while written < frames:
+            before = written
+            for _, frame in iter_frames(source, max_frames=frames - written):
+                writer.write(frame)
+                written += 1
+            if written == before:
+                raise InputError(f"{source}: no frames decoded")
+    finally:
+        writer.release()
+    return height, width
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far, in MiB (``ru_maxrss``: KiB on Linux, bytes on macOS)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 2**10
+
+
+@dataclass(frozen=True)
+class ClipTiming:
+    """Seconds to detect a clip of ``frames`` frames (``tracks`` tracks found) and to lift one person, peak memory."""
+
+    frames: int
+    tracks: int
+    detect_s: float
+    lift_s: float
+    peak_rss_mb: float
+
+
+def lift_clip(video: Path, prior, samples: int, threads: int | None, say: Callable[[str], None]) -> ClipTiming:
+    """Detect people in ``video`` with the bundled MoveNet, then lift the largest track with ``samples`` hypotheses.
+
+    One person is lifted over the whole clip (lifting time grows linearly with
+    persons; a looped clip starts new tracks at its seams). The view has the
+    default camera (no calibration), like ``platypose lift`` without ``--cams``.
+    """
+    from detectors.contracts import load_detector
+    from detectors.pipeline import detect_video
+    from detectors.tracking import select_persons
+    from lifting.calibration.defaults import default_camera
+    from lifting.lift import lift_tracks
+    from lifting.sampler import SamplerConfig
+
+    started = time.perf_counter()
+    detector = load_detector(threads=threads)
+    tracks = detect_video(video, detector, progress=_every(100, "detected", say))
+    del detector  # idle onnxruntime threads would slow torch down
+    detect_s = time.perf_counter() - started
+    if tracks.num_persons == 0:
+        raise InputError(f"{video}: no person detected")
+    say(f"{tracks.num_frames} frames, {tracks.num_persons} track(s) in {detect_s:.1f} s; lifting the largest")
+    camera = default_camera("bench", *tracks.image_size)
+    started = time.perf_counter()
+    lift_tracks(
+        prior,
+        [camera],
+        select_persons(tracks, "largest").keypoints[None],
+        tracks.frame_times,
+        SamplerConfig(samples=samples),
+        progress=_every(1, "windows lifted", say),
+    )
+    return ClipTiming(
+        frames=tracks.num_frames,
+        tracks=tracks.num_persons,
+        detect_s=detect_s,
+        lift_s=time.perf_counter() - started,
+        peak_rss_mb=peak_rss_mb(),
+    )
+
+
+def _every(step: int, what: str, say: Callable[[str], None]) -> Callable[[int, int], None]:
+    """A ``progress(done, total)`` callback saying ``done/total what`` every ``step`` and at the end."""
+
+    def progress(done: int, total: int) -> None:
+        if done % step == 0 or done == total:
+            say(f"  {done}/{total} {what}")
+
+    return progress

@@ -1,0 +1,187 @@
+"""``platypose bench``: sampler speed, network utilisation against a matmul reference, and an end-to-end clip."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import tempfile
+from pathlib import Path
+
+import typer
+
+from platypose_cli.app import app
+
+DEMO_VIDEO = Path(__file__).resolve().parents[1] / "data" / "video" / "sports2d-demo" / "demo.mp4"
+SKIPPED_STEPS = 2  # as ``platypose lift``: --steps 10 --skip 2 runs 8 network calls
+CLIP_FPS = 30.0
+CLIP_HYPOTHESES = 50
+
+
+def sampler_section(prior, samples: int, frames: int, steps: int, k: int, repeats: int, matmul_size: int) -> dict:
+    """Time the sampler and the matmul reference; the ``sampler`` part of the report."""
+    from lifting.benchmark import matmul_gflops, time_sampler
+    from lifting.errors import InputError
+    from platypose_cli.options import sampler_config
+
+    if not 1 <= frames <= prior.config.max_frames:
+        raise InputError(f"--frames {frames}: the prior's windows hold 1..{prior.config.max_frames} frames")
+    if not 1 <= steps <= prior.config.diffusion_steps - SKIPPED_STEPS:
+        raise InputError(f"--steps must be in 1..{prior.config.diffusion_steps - SKIPPED_STEPS}, got {steps}")
+    if repeats < 1 or matmul_size < 1:
+        raise InputError(f"--repeats and --matmul-size must be positive, got {repeats} and {matmul_size}")
+    config = sampler_config(samples=samples, steps=steps + SKIPPED_STEPS, skip=SKIPPED_STEPS, guidance_iters=k)
+    timing = time_sampler(prior, config, frames, repeats)
+    reference = matmul_gflops(matmul_size, repeats)
+    return {
+        "samples": samples,
+        "frames": frames,
+        "steps": timing.calls,
+        "guidance_iters": k,
+        "repeats": repeats,
+        "run_s": timing.run_s,
+        "hypothesis_frames_per_s": samples * frames / timing.run_s,
+        "step_s": timing.step_s,
+        "network_step_s": timing.network_step_s,
+        "guidance_step_s": timing.guidance_step_s,
+        "network_gflop_per_step": timing.flops_per_call / 1e9,
+        "network_gflops": timing.network_gflops,
+        "matmul_size": matmul_size,
+        "matmul_gflops": reference,
+        "utilisation": timing.network_gflops / reference,
+    }
+
+
+def clip_section(prior, video: Path, seconds: float, threads: int | None, say) -> dict:
+    """Loop ``video`` into a ``seconds`` long 30 fps clip, detect and lift it; the ``end_to_end`` part of the report."""
+    from platypose_cli.bench_clip import lift_clip, loop_video
+
+    frames = max(1, round(seconds * CLIP_FPS))
+    with tempfile.TemporaryDirectory(prefix="platypose-bench-") as folder:
+        clip = Path(folder) / "clip.mp4"
+        say(f"writing a {frames}-frame clip looped from {video.name}")
+        height, width = loop_video(video, clip, frames, CLIP_FPS)
+        timing = lift_clip(clip, prior, CLIP_HYPOTHESES, threads, say)
+    return {
+        "video": str(video),
+        "seconds": frames / CLIP_FPS,
+        "fps": CLIP_FPS,
+        "frames": timing.frames,
+        "image_size": [height, width],
+        "tracks": timing.tracks,
+        "hypotheses": CLIP_HYPOTHESES,
+        "detect_s": timing.detect_s,
+        "lift_s": timing.lift_s,
+        "total_s": timing.detect_s + timing.lift_s,
+        "peak_rss_mb": timing.peak_rss_mb,
+    }
+
+
+def _row(label: str, value: str) -> str:
+    """One indented table row: the label padded to a fixed column, then the value."""
+    return f"  {label:<34s}{value:>10s}"
+
+
+def report_lines(report: dict) -> list[str]:
+    """The printed table of a bench report (the same numbers as the JSON)."""
+    m, p, s = report["machine"], report["prior"], report["sampler"]
+    lines = [
+        (
+            f"machine: {m['cpu']}, {m['cores']} cores, {m['threads']} torch thread(s), "
+            f"load average {m['load_average'][0]:.2f} (1 min)"
+        ),
+        f"prior: {p['path']} ({p['layers']} layers, width {p['width']}, {p['heads']} heads, FF {p['ff_width']})",
+        (
+            f"sampler: {s['samples']} hypotheses x {s['frames']} frames, {s['steps']} steps x "
+            f"{s['guidance_iters']} guidance iterations, median of {s['repeats']} runs after a warm-up"
+        ),
+        _row("hypothesis-frames per second", f"{s['hypothesis_frames_per_s']:.1f}"),
+        _row("seconds per run", f"{s['run_s']:.3f}"),
+        _row("seconds per diffusion step", f"{s['step_s']:.4f}"),
+        _row("  network", f"{s['network_step_s']:.4f}"),
+        _row("  guidance", f"{s['guidance_step_s']:.4f}"),
+        _row("network GFLOP per step (analytic)", f"{s['network_gflop_per_step']:.3f}"),
+        _row("network GFLOP/s", f"{s['network_gflops']:.2f}"),
+        _row(f"matmul GFLOP/s ({s['matmul_size']}^2 float32)", f"{s['matmul_gflops']:.2f}"),
+        _row("utilisation (network / matmul)", f"{100 * s['utilisation']:.1f} %"),
+    ]
+    e = report["end_to_end"]
+    if e is not None:
+        lines += [
+            (
+                f"end-to-end: {e['seconds']:g} s clip at {e['fps']:g} fps ({e['frames']} frames, "
+                f"{e['image_size'][1]}x{e['image_size'][0]}), {e['tracks']} track(s), the largest lifted with "
+                f"{e['hypotheses']} hypotheses"
+            ),
+            _row("detection seconds", f"{e['detect_s']:.1f}"),
+            _row("lifting seconds (1 person)", f"{e['lift_s']:.1f}"),
+            _row("total seconds", f"{e['total_s']:.1f}"),
+        ]
+    lines.append(f"peak RSS of the whole run: {report['peak_rss_mb']:.0f} MiB")
+    return lines
+
+
+@app.command("bench")
+def bench(
+    prior_path: Path | None = typer.Option(None, "--prior", help="Motion prior checkpoint (default: the shipped one)."),
+    samples: int = typer.Option(200, "--samples", help="Hypotheses sampled together (one window)."),
+    frames: int = typer.Option(64, "--frames", help="Frames per window."),
+    steps: int = typer.Option(8, "--steps", help="Diffusion steps run (network calls; 2 more are kept and skipped)."),
+    k: int = typer.Option(10, "--k", help="Guidance iterations per diffusion step."),
+    repeats: int = typer.Option(3, "--repeats", help="Timed runs after one warm-up; medians are reported."),
+    matmul_size: int = typer.Option(2048, "--matmul-size", help="Side of the square float32 matmul reference."),
+    threads: int | None = typer.Option(
+        None, "--threads", min=1, help="torch and onnxruntime threads (default: torch's)."
+    ),
+    end_to_end: bool = typer.Option(True, "--end-to-end/--no-end-to-end", help="Also detect and lift a looped clip."),
+    clip_seconds: float = typer.Option(60.0, "--clip-seconds", help="Length of the end-to-end clip (30 fps)."),
+    video: Path = typer.Option(DEMO_VIDEO, "--video", help="Video looped into the end-to-end clip."),
+    json_path: Path | None = typer.Option(None, "--json", help="Also write the report as JSON here."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
+) -> None:
+    """Time the guided sampler and a whole single-view clip on this machine (docs/bench.md)."""
+    import torch
+
+    from lifting.atomic import write_text_atomic
+    from lifting.errors import InputError
+    from lifting.prior import load_prior
+    from platypose_cli.bench_clip import peak_rss_mb
+
+    def say(message: str) -> None:
+        if not quiet:
+            typer.echo(message, err=True)
+
+    if end_to_end and clip_seconds <= 0:
+        raise InputError(f"--clip-seconds must be positive, got {clip_seconds}")
+    if end_to_end and not video.is_file():
+        raise InputError(f"{video}: video to loop not found (give --video)")
+    if threads is not None:
+        torch.set_num_threads(threads)
+    prior, _ = load_prior(prior_path)
+    config = prior.config
+    say(f"timing the sampler: {samples} x {frames} frames, 1 warm-up and {repeats} runs")
+    report = {
+        "machine": {
+            "cpu": platform.processor() or platform.machine(),
+            "cores": os.cpu_count(),
+            "threads": torch.get_num_threads(),
+            "load_average": list(os.getloadavg()),
+            "torch": torch.__version__,
+        },
+        "prior": {
+            "path": str(prior_path or "shipped default"),
+            "sha256": prior.checksum,
+            "layers": config.layers,
+            "width": config.width,
+            "heads": config.heads,
+            "ff_width": config.ff_width,
+        },
+        "sampler": sampler_section(prior, samples, frames, steps, k, repeats, matmul_size),
+        "end_to_end": clip_section(prior, video, clip_seconds, threads, say) if end_to_end else None,
+        "peak_rss_mb": peak_rss_mb(),
+    }
+    for line in report_lines(report):
+        typer.echo(line)
+    if json_path is not None:
+        write_text_atomic(json_path, json.dumps(report, indent=2) + "\n")
+        say(f"wrote {json_path}")
