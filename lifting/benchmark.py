@@ -4,12 +4,11 @@ The network is timed by a thin wrapper around ``prior.model.forward``; guidance
 is the rest of each diffusion step (energy, directions, root solve, DDIM). FLOPs
 are counted analytically from the prior's config (matrix products only), so the
 achieved GFLOP/s can be set against a large float32 ``torch.mm`` timed in the
-same process with the same thread count.
+same process with the same thread count, between the sampler's runs.
 """
 
 from __future__ import annotations
 
-import statistics
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -64,25 +63,18 @@ def timed_forward(model: MotionPrior) -> Iterator[list[float]]:
         del model.forward  # back to the class's method
 
 
-def median_seconds(run: Callable[[], object], repeats: int, warmup: int = 1) -> float:
-    """Median wall time in seconds of ``repeats`` calls of ``run`` after ``warmup`` untimed calls."""
-    for _ in range(warmup):
-        run()
-    times = []
-    for _ in range(repeats):
-        started = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - started)
-    return statistics.median(times)
-
-
-def matmul_gflops(size: int, repeats: int) -> float:
-    """Achieved GFLOP/s of a float32 ``torch.mm`` of two ``size`` x ``size`` matrices (median of ``repeats``)."""
+def matmul_probe(size: int) -> Callable[[], float]:
+    """A function timing one float32 ``torch.mm`` of two ``size`` x ``size`` matrices; it returns the GFLOP/s."""
     generator = torch.Generator().manual_seed(0)
     a = torch.randn(size, size, generator=generator)
     b = torch.randn(size, size, generator=generator)
-    seconds = median_seconds(lambda: torch.mm(a, b), repeats)
-    return 2.0 * size**3 / seconds / 1e9
+
+    def probe() -> float:
+        started = time.perf_counter()
+        torch.mm(a, b)
+        return 2.0 * size**3 / (time.perf_counter() - started) / 1e9
+
+    return probe
 
 
 def walking_view(prior: PriorBundle, frames: int) -> tuple[list, np.ndarray]:
@@ -118,8 +110,14 @@ class SamplerTiming:
         return self.flops_per_call / self.network_step_s / 1e9
 
 
-def time_sampler(prior: PriorBundle, config: SamplerConfig, frames: int, repeats: int) -> SamplerTiming:
-    """Time ``sample`` on one synthetic window of ``frames`` frames: a warm-up run, then the median of ``repeats``."""
+def time_sampler(
+    prior: PriorBundle, config: SamplerConfig, frames: int, repeats: int, between: Callable[[], object] | None = None
+) -> SamplerTiming:
+    """Time ``sample`` on one synthetic window of ``frames`` frames: a warm-up run, then the median of ``repeats``.
+
+    ``between`` is called after each timed run, outside the timing (a reference
+    measured this way sees the same load as the sampler on a shared machine).
+    """
     cameras, keypoints = walking_view(prior, frames)
     obs, rays = cameras_and_rays(cameras, keypoints[..., :2], keypoints[..., 2])
     calls = len(sampling_steps(config.steps, config.skip, prior.config.diffusion_steps))
@@ -132,6 +130,8 @@ def time_sampler(prior: PriorBundle, config: SamplerConfig, frames: int, repeats
             sample(prior, obs, rays, config, frames)
             runs.append(time.perf_counter() - started)
             networks.append(sum(durations))
+            if between is not None:
+                between()
     middle = sorted(range(repeats), key=runs.__getitem__)[(repeats - 1) // 2]  # the median run (lower for even)
     run_s, network_s = runs[middle], networks[middle]
     return SamplerTiming(

@@ -20,7 +20,9 @@ CLIP_HYPOTHESES = 50
 
 def sampler_section(prior, samples: int, frames: int, steps: int, k: int, repeats: int, matmul_size: int) -> dict:
     """Time the sampler and the matmul reference; the ``sampler`` part of the report."""
-    from lifting.benchmark import matmul_gflops, time_sampler
+    import statistics
+
+    from lifting.benchmark import matmul_probe, time_sampler
     from lifting.errors import InputError
     from platypose_cli.options import sampler_config
 
@@ -31,8 +33,11 @@ def sampler_section(prior, samples: int, frames: int, steps: int, k: int, repeat
     if repeats < 1 or matmul_size < 1:
         raise InputError(f"--repeats and --matmul-size must be positive, got {repeats} and {matmul_size}")
     config = sampler_config(samples=samples, steps=steps + SKIPPED_STEPS, skip=SKIPPED_STEPS, guidance_iters=k)
-    timing = time_sampler(prior, config, frames, repeats)
-    reference = matmul_gflops(matmul_size, repeats)
+    probe = matmul_probe(matmul_size)
+    probe()  # warm-up
+    rates: list[float] = []
+    timing = time_sampler(prior, config, frames, repeats, between=lambda: rates.append(probe()))
+    reference = statistics.median(rates)
     return {
         "samples": samples,
         "frames": frames,
