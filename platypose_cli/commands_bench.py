@@ -18,11 +18,8 @@ CLIP_FPS = 30.0
 CLIP_HYPOTHESES = 50
 
 
-def sampler_section(prior, samples: int, frames: int, steps: int, k: int, repeats: int, matmul_size: int) -> dict:
-    """Time the sampler and the matmul reference; the ``sampler`` part of the report."""
-    import statistics
-
-    from lifting.benchmark import matmul_probe, time_sampler
+def sampler_settings(prior, samples: int, frames: int, steps: int, k: int, repeats: int, matmul_size: int):
+    """The SamplerConfig of ``steps`` network calls; InputError for sizes the prior or the bench cannot run."""
     from lifting.errors import InputError
     from platypose_cli.options import sampler_config
 
@@ -32,20 +29,28 @@ def sampler_section(prior, samples: int, frames: int, steps: int, k: int, repeat
         raise InputError(f"--steps must be in 1..{prior.config.diffusion_steps - SKIPPED_STEPS}, got {steps}")
     if repeats < 1 or matmul_size < 1:
         raise InputError(f"--repeats and --matmul-size must be positive, got {repeats} and {matmul_size}")
-    config = sampler_config(samples=samples, steps=steps + SKIPPED_STEPS, skip=SKIPPED_STEPS, guidance_iters=k)
+    return sampler_config(samples=samples, steps=steps + SKIPPED_STEPS, skip=SKIPPED_STEPS, guidance_iters=k)
+
+
+def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int) -> dict:
+    """Time the sampler and the matmul reference; the ``sampler`` part of the report."""
+    import statistics
+
+    from lifting.benchmark import matmul_probe, time_sampler
+
     probe = matmul_probe(matmul_size)
     probe()  # warm-up
     rates: list[float] = []
     timing = time_sampler(prior, config, frames, repeats, between=lambda: rates.append(probe()))
     reference = statistics.median(rates)
     return {
-        "samples": samples,
+        "samples": config.samples,
         "frames": frames,
         "steps": timing.calls,
-        "guidance_iters": k,
+        "guidance_iters": config.guidance_iters,
         "repeats": repeats,
         "run_s": timing.run_s,
-        "hypothesis_frames_per_s": samples * frames / timing.run_s,
+        "hypothesis_frames_per_s": config.samples * frames / timing.run_s,
         "step_s": timing.step_s,
         "network_step_s": timing.network_step_s,
         "guidance_step_s": timing.guidance_step_s,
@@ -93,7 +98,7 @@ def report_lines(report: dict) -> list[str]:
     lines = [
         (
             f"machine: {m['cpu']}, {m['cores']} cores, {m['threads']} torch thread(s), "
-            f"load average {m['load_average'][0]:.2f} (1 min)"
+            f"load average {m['load_average'][0]:.2f} (1 min) {m['load_average'][1]:.2f} (5 min) at the end"
         ),
         f"prior: {p['path']} ({p['layers']} layers, width {p['width']}, {p['heads']} heads, FF {p['ff_width']})",
         (
@@ -121,6 +126,7 @@ def report_lines(report: dict) -> list[str]:
             _row("detection seconds", f"{e['detect_s']:.1f}"),
             _row("lifting seconds (1 person)", f"{e['lift_s']:.1f}"),
             _row("total seconds", f"{e['total_s']:.1f}"),
+            _row("peak RSS MiB", f"{e['peak_rss_mb']:.0f}"),
         ]
     lines.append(f"peak RSS of the whole run: {report['peak_rss_mb']:.0f} MiB")
     return lines
@@ -133,7 +139,7 @@ def bench(
     frames: int = typer.Option(64, "--frames", help="Frames per window."),
     steps: int = typer.Option(8, "--steps", help="Diffusion steps run (network calls; 2 more are kept and skipped)."),
     k: int = typer.Option(10, "--k", help="Guidance iterations per diffusion step."),
-    repeats: int = typer.Option(3, "--repeats", help="Timed runs after one warm-up; medians are reported."),
+    repeats: int = typer.Option(3, "--repeats", help="Timed runs after one warm-up; the median run is reported."),
     matmul_size: int = typer.Option(2048, "--matmul-size", help="Side of the square float32 matmul reference."),
     threads: int | None = typer.Option(
         None, "--threads", min=1, help="torch and onnxruntime threads (default: torch's)."
@@ -149,7 +155,7 @@ def bench(
 
     from lifting.atomic import write_text_atomic
     from lifting.errors import InputError
-    from lifting.prior import load_prior
+    from lifting.prior import DEFAULT_PRIOR, load_prior
     from platypose_cli.bench_clip import peak_rss_mb
 
     def say(message: str) -> None:
@@ -163,8 +169,11 @@ def bench(
     if threads is not None:
         torch.set_num_threads(threads)
     prior, _ = load_prior(prior_path)
-    config = prior.config
+    sampler = sampler_settings(prior, samples, frames, steps, k, repeats, matmul_size)
+    clip = clip_section(prior, video, clip_seconds, threads, say) if end_to_end else None  # first: own peak memory
     say(f"timing the sampler: {samples} x {frames} frames, 1 warm-up and {repeats} runs")
+    timed = sampler_section(prior, sampler, frames, repeats, matmul_size)
+    config = prior.config
     report = {
         "machine": {
             "cpu": platform.processor() or platform.machine(),
@@ -174,15 +183,15 @@ def bench(
             "torch": torch.__version__,
         },
         "prior": {
-            "path": str(prior_path or "shipped default"),
+            "path": str(prior_path or DEFAULT_PRIOR),
             "sha256": prior.checksum,
             "layers": config.layers,
             "width": config.width,
             "heads": config.heads,
             "ff_width": config.ff_width,
         },
-        "sampler": sampler_section(prior, samples, frames, steps, k, repeats, matmul_size),
-        "end_to_end": clip_section(prior, video, clip_seconds, threads, say) if end_to_end else None,
+        "sampler": timed,
+        "end_to_end": clip,
         "peak_rss_mb": peak_rss_mb(),
     }
     for line in report_lines(report):
