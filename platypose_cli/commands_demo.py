@@ -40,8 +40,9 @@ def describe(npz: Path) -> list[str]:
     for p, track in enumerate(result.track_ids):
         on = result.present()[p]
         spread = np.linalg.norm(result.hypotheses[p][:, on] - result.median[p][on], axis=-1).mean() * 1000
-        lines.append(f"  person {track}: present in {on.sum()} frames, pelvis {np.median(result.median[p][on, 0, 2]):.2f} m "
-                     f"above the floor, hypotheses within {spread:.0f} mm of the median on average")  # fmt: skip
+        pelvis = np.median(result.median[p][on, 0, 2])
+        lines.append(f"  person {track}: present in {on.sum()} frames, pelvis {pelvis:.2f} m above the floor, "
+                     f"hypotheses within {spread:.0f} mm of the median on average")  # fmt: skip
     return lines
 
 
@@ -53,7 +54,9 @@ def demo(
     ),
     prior: Path | None = typer.Option(None, "--prior", help="Motion prior checkpoint (default: the shipped one)."),
     samples: int = typer.Option(20, "--samples", help="Hypotheses per person."),
-    threads: int | None = typer.Option(None, "--threads", min=1, help="torch and onnxruntime threads (default: all)."),
+    threads: int = typer.Option(
+        1, "--threads", min=1, help="torch and onnxruntime threads (1: fastest on a busy machine)."
+    ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
 ) -> None:
     """Lift the bundled Pose2Sim balancing take (real lab videos, 4-camera calibration) and say where the files are."""

@@ -17,7 +17,7 @@ from pathlib import Path
 import typer
 
 from platypose_cli.lift_jobs import Job
-from platypose_cli.lift_run import RunSettings, finished_outputs, run_job
+from platypose_cli.lift_run import RunSettings, finished_outputs, job_entry, run_job
 
 SUMMARY = "summary.json"
 
@@ -45,10 +45,6 @@ def write_summary(out: Path, entries: list[dict], started: str, arguments: dict)
     return write_text_atomic(out / SUMMARY, json.dumps(summary, indent=1) + "\n")
 
 
-def _skipped(job: Job, outputs: list[str]) -> dict:
-    return {"input": job.input, "name": job.name, "status": "skipped", "outputs": outputs, "seconds": 0.0, "error": None}
-
-
 def run_batch(
     jobs: Sequence[Job],
     settings: RunSettings,
@@ -66,7 +62,7 @@ def run_batch(
     for index, job in enumerate(jobs):
         outputs = finished_outputs(settings.out / job.name, settings.formats) if resume else None
         if outputs is not None:
-            entries[index] = _skipped(job, outputs)
+            entries[index] = job_entry(job, "skipped", outputs)
             say(f"{job.name}: skipped, finished earlier ({len(outputs)} files)")
         else:
             todo.append(index)
@@ -107,8 +103,8 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
                 try:
                     entry = future.result()
                 except Exception as err:  # noqa: BLE001 -- a worker that died (e.g. out of memory) fails its input only
-                    entry = {"input": jobs[index].input, "name": jobs[index].name, "status": "failed", "outputs": [],
-                             "seconds": 0.0, "error": f"worker process failed: {type(err).__name__}: {err}"}  # fmt: skip
+                    error = f"worker process failed: {type(err).__name__}: {err}"
+                    entry = job_entry(jobs[index], "failed", error=error)
                 record(index, entry)
                 bar.update(1)
         except BaseException:

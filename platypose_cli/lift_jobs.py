@@ -55,7 +55,8 @@ def expand_inputs(items: Sequence[str]) -> list[Path]:
             continue
         matches = sorted(glob.glob(item)) if glob.has_magic(item) else []
         if not matches:
-            raise InputError(f"{item}: no such file or folder" + (" (the glob matches nothing)" if glob.has_magic(item) else ""))
+            why = " (the glob matches nothing)" if glob.has_magic(item) else ""
+            raise InputError(f"{item}: no such file or folder{why}")
         paths += [Path(m) for m in matches]
     return paths
 

@@ -90,7 +90,8 @@ def _check_size(camera, image_size: tuple[int, int], source: str, log: JobLog) -
     if tuple(camera.size) == tuple(image_size):
         return
     relative = max(abs(a - b) / b for a, b in zip(camera.size, image_size))
-    said = f"calibration says {camera.width}x{camera.height} px for camera {camera.name}, {source} is {image_size[1]}x{image_size[0]}"
+    said = (f"calibration says {camera.width}x{camera.height} px for camera {camera.name}, "
+            f"{source} is {image_size[1]}x{image_size[0]}")  # fmt: skip
     if relative > SIZE_TOLERANCE:
         raise InputError(f"{source}: calibration mismatch: {said}")
     log.warning(f"{said}; pixels used as they are (the principal point is what matters)")
@@ -152,7 +153,7 @@ def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) ->
         log("root: solved per hypothesis from the rays of every camera")
         return [None] * P
     if len(cameras) < 2:
-        raise InputError("--root triangulate needs two or more calibrated views")
+        raise InputError(f"--root triangulate needs two or more calibrated views, got {len(cameras)}")
     roots = triangulated_root(keypoints, cameras)
     paths: list[np.ndarray | None] = []
     for p in range(P):
@@ -219,7 +220,8 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog):
     for view in job.views:
         tracks, seconds, frames = detection.tracks(view.source, settings.out / job.name, settings.quiet)
         how = "read" if frames is None else ("from the cache" if frames == 0 else f"detected in {frames} frames")
-        log(f"view {view.name}: {view.source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, {seconds:.1f} s")
+        log(f"view {view.name}: {view.source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), "
+            f"{how}, {seconds:.1f} s")  # fmt: skip
         views.append(tracks)
     del detection  # frees the onnxruntime session: its idle threads slow torch down many times over
     timings["keypoints_s"] = time.perf_counter() - started
@@ -288,6 +290,13 @@ def finished_outputs(folder: Path, formats) -> list[str] | None:
     return outputs if complete else None
 
 
+def job_entry(job: Job, status: str, outputs: list[str] | None = None, seconds: float = 0.0,
+              error: str | None = None) -> dict:  # fmt: skip
+    """A summary.json entry for ``job``."""
+    return {"input": job.input, "name": job.name, "status": status, "outputs": outputs or [], "seconds": seconds,
+            "error": error}  # fmt: skip
+
+
 def run_job(job: Job, settings: RunSettings) -> dict:
     """Lift one job; its summary entry (status ok or failed, outputs, seconds, one-line error)."""
     from exporters.atomic import write_text_atomic
@@ -296,7 +305,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     log = JobLog()
     folder = settings.out / job.name
     log(f"input {job.input} -> {folder}")
-    entry = {"input": job.input, "name": job.name, "status": "failed", "outputs": [], "seconds": 0.0, "error": None}
+    entry = job_entry(job, "failed")
     try:
         result, videos = lift_job(job, settings, log)
         outputs = [str(p) for p in export_atomically(result, videos, folder, job.name, settings.formats, log)]
