@@ -55,6 +55,7 @@ class SamplerConfig:
     samples: int = 50
     steps: int = 10
     skip: int = 2
+    eta: float = 0.0
     guidance_iters: int = 10
     guidance_tol: float = 1e-3
     energy_scale: float = 1.0
@@ -75,6 +76,7 @@ class SamplerConfig:
             (self.samples >= 1, f"samples must be at least 1, got {self.samples}"),
             (1 <= self.steps <= 50, f"steps must be in 1..50, got {self.steps}"),
             (0 <= self.skip < self.steps, f"skip must be in 0..{self.steps - 1}, got {self.skip}"),
+            (0 <= self.eta <= 1, f"eta must be in [0, 1], got {self.eta}"),
             (self.guidance_iters >= 0, f"guidance iterations must be >= 0, got {self.guidance_iters}"),
             (self.guidance_tol >= 0, f"guidance tolerance must be >= 0, got {self.guidance_tol}"),
             (self.energy_scale > 0, f"energy scale must be positive, got {self.energy_scale}"),
@@ -277,7 +279,8 @@ def sample(
             x0 = model(x_t, torch.tensor(int(t), device=device))
         x0, offset = problem.guide(x0.clone(), config.guidance_iters)
         t_prev = int(steps[i + 1]) if i + 1 < len(steps) else None
-        x_t = schedule.ddim_step(x_t, x0, int(t), t_prev)
+        fresh = torch.randn(shape, generator=generator).to(device=device, dtype=dtype) if config.eta > 0 else None
+        x_t = schedule.ddim_step(x_t, x0, int(t), t_prev, config.eta, fresh)
         if progress is not None:
             progress(i + 1, len(steps))
     with torch.no_grad():

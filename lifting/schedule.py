@@ -59,11 +59,26 @@ class DiffusionSchedule:
         abar = self._abar(t, x0)
         return abar.sqrt() * x0 + (1 - abar).sqrt() * noise
 
-    def ddim_step(self, x_t: torch.Tensor, x0_hat: torch.Tensor, t: int, t_prev: int | None) -> torch.Tensor:
-        """Re-noise the (guided) prediction ``x0_hat`` from step ``t`` to ``t_prev`` (None: the end, returns x0_hat)."""
+    def ddim_step(
+        self,
+        x_t: torch.Tensor,
+        x0_hat: torch.Tensor,
+        t: int,
+        t_prev: int | None,
+        eta: float = 0.0,
+        noise: torch.Tensor | None = None,
+    ) -> torch.Tensor:
+        """Re-noise the (guided) prediction ``x0_hat`` from step ``t`` to ``t_prev`` (None: the end, returns x0_hat).
+
+        ``eta = 0`` is deterministic DDIM; ``eta > 0`` replaces that share of the
+        carried noise by fresh ``noise`` (``eta = 1``: DDPM-like ancestral sampling).
+        """
         if t_prev is None:
             return x0_hat
         abar_t = self._abar(t, x_t)
         abar_prev = self._abar(t_prev, x_t)
         eps = (x_t - abar_t.sqrt() * x0_hat) / (1 - abar_t).sqrt()
-        return abar_prev.sqrt() * x0_hat + (1 - abar_prev).sqrt() * eps
+        sigma = eta * ((1 - abar_prev) / (1 - abar_t) * (1 - abar_t / abar_prev)).clamp(min=0).sqrt()
+        carried = (1 - abar_prev - sigma**2).clamp(min=0).sqrt() * eps
+        fresh = sigma * noise if noise is not None and eta > 0 else 0.0
+        return abar_prev.sqrt() * x0_hat + carried + fresh

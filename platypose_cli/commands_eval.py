@@ -28,6 +28,7 @@ def evaluate_command(
     prior: Path = typer.Option(None, help="Prior checkpoint (default: the shipped one)."),
     steps: int = typer.Option(10, help="Respaced diffusion steps T."),
     skip: int = typer.Option(2, help="Skipped steps S."),
+    eta: float = typer.Option(0.0, help="DDIM eta: 0 deterministic re-noising, 1 fresh noise (more diversity)."),
     guidance_iters: int = typer.Option(10, "--k", help="Guidance steps per diffusion step."),
     energy_scale: float = typer.Option(1.0, "--lambda", help="Guidance scale."),
     robust: str = typer.Option("l2", help="Reprojection loss: l2 or geman-mcclure."),
@@ -45,7 +46,7 @@ def evaluate_command(
 
     frames_list = int_list(frames, "--frames")
     samples_list = int_list(samples, "--samples")
-    config = sampler_config(steps=steps, skip=skip, guidance_iters=guidance_iters, energy_scale=energy_scale,
+    config = sampler_config(steps=steps, skip=skip, eta=eta, guidance_iters=guidance_iters, energy_scale=energy_scale,
                             robust=robust, bone_weight=bone_weight, symmetry_weight=symmetry_weight, seed=seed)  # fmt: skip
     bundle, _ = load_prior(prior)
     if max(frames_list) > bundle.config.max_frames:
