@@ -8,19 +8,22 @@ the pass, a fragment that ends and one that starts within ``stitch_gap_s``
 are joined when the pose moved less than ``stitch_cost + stitch_speed * gap``
 person sizes (repairs the ID switches left by occlusions and missed
 detections); best pairs first, each fragment joined at most once per end.
-Tracks with fewer than ``min_track_frames`` observed frames are dropped.
+Tracks with fewer than ``min_track_frames`` observed frames are dropped. Last,
+with ``repair_switches``, two tracks that came close and switched identities are
+swapped back from the switch on (``detectors.id_repair``).
 """
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from detectors.id_repair import SwitchRepairConfig, repair_id_switches
 from detectors.keypoints import missing_persons
+from detectors.pose_metrics import person_size, pose_distance
 from detectors.types import PoseTrack2D
 from lifting.errors import InputError
 
@@ -39,6 +42,7 @@ class TrackerConfig:
     min_joints: int = 4
     min_confidence: float = 0.2
     min_track_frames: int = 3
+    repair_switches: bool = True  # swap identities back where two tracks that came close were switched
 
 
 @dataclass
@@ -58,31 +62,6 @@ class _Track:
         predicted = last.copy()
         predicted[:, :2] += velocity * (time - times[self.frames[-1]])
         return predicted
-
-
-def person_size(pose: np.ndarray, min_confidence: float = 0.0) -> np.ndarray:
-    """Person size in pixels, ``(..., 17, 3) -> (...)``: square root of the keypoint box area, at least 0.3 times the
-    box's longer side (so a pose seen edge-on is not tiny); NaN with fewer than 2 visible joints."""
-    visible = pose[..., 2] > min_confidence
-    xy = np.where(visible[..., None], pose[..., :2], np.nan)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        extent = np.nanmax(xy, axis=-2) - np.nanmin(xy, axis=-2)
-    size = np.fmax(np.sqrt(np.maximum(extent[..., 0] * extent[..., 1], 0.0)), 0.3 * np.max(extent, axis=-1))
-    return np.where(visible.sum(axis=-1) >= 2, np.maximum(size, 1.0), np.nan)
-
-
-def pose_distance(a: np.ndarray, b: np.ndarray, min_confidence: float) -> float:
-    """Median distance over joints visible in both poses (17, 3), in units of the larger person size; inf if < 3 shared.
-
-    The larger size is used so that a partial (small) detection does not inflate the distance.
-    """
-    shared = (a[:, 2] > min_confidence) & (b[:, 2] > min_confidence)
-    if shared.sum() < 3:
-        return np.inf
-    scale = np.fmax(person_size(a, min_confidence), person_size(b, min_confidence))
-    distances = np.linalg.norm(a[shared, :2] - b[shared, :2], axis=-1)
-    return float(np.median(distances) / scale)
 
 
 def _assign(tracks: list[_Track], detections: np.ndarray, time: float, times: np.ndarray, gates: np.ndarray,
@@ -175,6 +154,9 @@ def track_detections(
     keypoints = missing_persons(len(times), len(tracks))
     for p, track in enumerate(tracks):
         keypoints[track.frames, p] = np.stack(track.poses)
+    if config.repair_switches:
+        repair = SwitchRepairConfig(min_confidence=config.min_confidence, min_joints=config.min_joints)
+        keypoints = repair_id_switches(keypoints, times, repair)[0]
     return PoseTrack2D(keypoints, times, np.arange(len(tracks)), image_size, source)
 
 

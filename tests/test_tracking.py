@@ -1,16 +1,20 @@
-"""Tracking: real MoveNet detections of the Sports2D demo, and constructed crossings, gaps and fragments."""
+"""Tracking: real MoveNet detections of the Sports2D demo, and constructed crossings, gaps, fragments and ID switches."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from detectors.cache import read_detections
+from detectors.id_repair import repair_id_switches
 from detectors.keypoints import to_our_joints
+from detectors.pose_metrics import person_size
 from detectors.tracking import TrackerConfig, select_persons, track_detections
 from lifting.errors import InputError
+from lifting.skeleton import MIRROR
 
 # A standing person (17 joints, our order) about 100 px tall, feet at y = 0.
 _BODY = np.array(
@@ -118,3 +122,131 @@ def test_stored_demo_detections_are_the_bundled_detector_output(data_dir: Path, 
         np.testing.assert_allclose(fresh, stored, atol=0.05, equal_nan=True)
         checked += 1
     assert checked == 3
+
+
+# --- ID-switch repair: real poses of the Sports2D demo, moved, mirrored, swapped -------------------------------------
+
+
+@pytest.fixture(scope="module")
+def demo_tracks(demo_detections) -> tuple[np.ndarray, np.ndarray]:
+    """The demo's two tracks (T, 2, 17, 3) as tracking and stitching give them (no repair), and frame times (T,)."""
+    detections, indices = demo_detections
+    times = indices / 30.0
+    config = TrackerConfig(repair_switches=False)
+    return track_detections(detections, times, (994, 1768), "demo", config).keypoints, times
+
+
+def _centres(poses: np.ndarray) -> np.ndarray:
+    """Median of the visible joints, (..., 17, 3) -> (..., 2)."""
+    visible = np.where(poses[..., 2:] > 0.2, poses[..., :2], np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmedian(visible, axis=-2)
+
+
+def _woman_on_man(keypoints: np.ndarray) -> np.ndarray:
+    """The demo tracks with the woman moved (one constant shift) so that she walks through the man at frame 75."""
+    moved = keypoints.copy()
+    centres = _centres(keypoints[75])
+    moved[:, 1, :, :2] += centres[0] - centres[1]
+    return moved
+
+
+def _swapped(keypoints: np.ndarray, frame: int) -> np.ndarray:
+    """Tracks (T, 2, 17, 3) with the two people's identities switched from ``frame`` on."""
+    switched = keypoints.copy()
+    switched[frame:] = keypoints[frame:, ::-1]
+    return switched
+
+
+def _walkers(walk: np.ndarray, scale: float, meet: int, bounce: bool = False) -> list[np.ndarray]:
+    """A real walk (T, 17, 3) and its mirror image scaled by ``scale`` walking the other way; they meet at frame
+    ``meet`` and pass each other (or both turn back there, ``bounce``). Per-frame detections."""
+    if bounce:
+        walk = np.concatenate([walk[:meet], walk[meet - np.arange(len(walk) - meet)]])
+    centre = _centres(walk[meet])
+    mirrored = walk[:, list(MIRROR)].copy()
+    mirrored[..., 0] = 2 * centre[0] - mirrored[..., 0]
+    mirrored[..., :2] = centre + scale * (mirrored[..., :2] - centre)
+    people = [[p for p in pair if (p[:, 2] > 0.2).sum() >= 4] for pair in zip(walk, mirrored)]
+    return [np.stack(pair) if pair else np.zeros((0, 17, 3)) for pair in people]
+
+
+def _direction_and_size(keypoints: np.ndarray, frames: slice) -> tuple[np.ndarray, np.ndarray]:
+    """Per track (T, P, 17, 3): median x-centre and median size over ``frames``, (P,) each."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        x = np.nanmedian(_centres(keypoints[frames])[..., 0], axis=0)
+        return x, np.nanmedian(person_size(keypoints[frames], 0.2), axis=0)
+
+
+def test_repair_changes_nothing_on_the_demo(demo_detections, demo_tracks) -> None:
+    """The man (ID 0) and the woman (ID 1) stay as they are, also when the woman is moved to walk through the man."""
+    keypoints, times = demo_tracks
+    detections, _ = demo_detections
+    default = track_detections(detections, times, (994, 1768), "demo")  # repair is on by default
+    np.testing.assert_array_equal(default.keypoints, keypoints)
+    assert repair_id_switches(keypoints, times)[1] == []
+    moved = _woman_on_man(keypoints)
+    centres, sizes = _centres(moved), person_size(moved, 0.2)
+    with np.errstate(invalid="ignore"):
+        near = np.linalg.norm(centres[:, 0] - centres[:, 1], axis=-1) < np.fmax(sizes[:, 0], sizes[:, 1])
+    assert near.sum() >= 20  # they overlap for a good second
+    repaired, swaps = repair_id_switches(moved, times)
+    assert swaps == []
+    np.testing.assert_array_equal(repaired, moved)
+
+
+@pytest.mark.parametrize("frame", [60, 75, 90])
+def test_injected_switch_of_real_people_is_repaired(demo_tracks, frame: int) -> None:
+    """The man and the woman (moved to walk through him) switched from a frame on: the repair swaps them back there."""
+    keypoints, times = demo_tracks
+    moved = _woman_on_man(keypoints)
+    repaired, swaps = repair_id_switches(_swapped(moved, frame), times)
+    assert swaps == [(frame, 0, 1)]
+    np.testing.assert_array_equal(repaired, moved)
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.75])
+def test_real_walkers_crossing_keep_their_ids(demo_tracks, scale: float) -> None:
+    """The woman's real walk and a mirrored, scaled copy pass each other: each track keeps its direction and size,
+    also when both are missed while they overlap and stitching alone would join them wrongly."""
+    keypoints, times = demo_tracks
+    frames = _walkers(keypoints[:, 1].astype(np.float64), scale, meet=115)
+    hidden = [np.zeros((0, 17, 3)) if 110 <= t < 150 else people for t, people in enumerate(frames)]
+    for detections in (frames, hidden):
+        tracks = track_detections(detections, times, (994, 1768), "walkers").keypoints
+        assert tracks.shape[1] == 2
+        x_start, size_start = _direction_and_size(tracks, slice(50, 100))
+        x_end, size_end = _direction_and_size(tracks, slice(160, 190))
+        assert x_end[0] < x_start[0] - 500 and x_end[1] > x_start[1] + 500  # she walks left, her copy right
+        np.testing.assert_allclose(size_start[1] / size_start[0], scale, atol=0.05)
+        np.testing.assert_allclose(size_end[1] / size_end[0], scale, atol=0.05)
+    unrepaired = track_detections(hidden, times, (994, 1768), "walkers", TrackerConfig(repair_switches=False))
+    x_end = _direction_and_size(unrepaired.keypoints, slice(160, 190))[0]
+    assert x_end[0] > x_end[1]  # without the repair the stitched tracks turn back: the switch the repair undoes
+
+
+def test_walkers_of_different_size_turning_back_are_not_swapped(demo_tracks) -> None:
+    """Two real walkers of different size meet and both turn back: motion alone would say they passed each other,
+    but their body sizes keep each identity."""
+    keypoints, times = demo_tracks
+    frames = _walkers(keypoints[:, 1].astype(np.float64), 0.75, meet=115, bounce=True)
+    tracks = track_detections(frames, times, (994, 1768), "bounce").keypoints
+    x_start, size_start = _direction_and_size(tracks, slice(50, 100))
+    x_end, size_end = _direction_and_size(tracks, slice(130, 180))
+    np.testing.assert_allclose(size_end / size_start, 1.0, atol=0.05)
+    np.testing.assert_allclose(x_end, x_start, atol=60)
+
+
+@pytest.mark.parametrize("delay", [10, 20])
+def test_no_swap_on_a_coin_flip(demo_tracks, delay: int) -> None:
+    """The man and a copy of himself a few frames late and 15 px aside, switched: too alike to tell, left as they are."""
+    keypoints, times = demo_tracks
+    man = keypoints[:110, 0]
+    late = np.concatenate([keypoints[:delay, 1], man[:-delay]])  # the woman's first frames: all missing
+    late[..., 0] += 15
+    twins = _swapped(np.stack([man, late], axis=1), 40)
+    repaired, swaps = repair_id_switches(twins, times[:110])
+    assert swaps == []
+    np.testing.assert_array_equal(repaired, twins)
