@@ -159,16 +159,22 @@ def _swapped(keypoints: np.ndarray, frame: int) -> np.ndarray:
     return switched
 
 
-def _walkers(walk: np.ndarray, scale: float, meet: int, bounce: bool = False) -> list[np.ndarray]:
-    """A real walk (T, 17, 3) and its mirror image scaled by ``scale`` walking the other way; they meet at frame
-    ``meet`` and pass each other (or both turn back there, ``bounce``). Per-frame detections."""
-    if bounce:
-        walk = np.concatenate([walk[:meet], walk[meet - np.arange(len(walk) - meet)]])
+def _mirrored(walk: np.ndarray, scale: float, meet: int) -> np.ndarray:
+    """A real walk (T, 17, 3) mirrored left-right about its centre at frame ``meet`` and scaled by ``scale`` about it:
+    a smaller (or equal) person walking the other way who meets the original there."""
     centre = _centres(walk[meet])
     mirrored = walk[:, list(MIRROR)].copy()
     mirrored[..., 0] = 2 * centre[0] - mirrored[..., 0]
     mirrored[..., :2] = centre + scale * (mirrored[..., :2] - centre)
-    people = [[p for p in pair if (p[:, 2] > 0.2).sum() >= 4] for pair in zip(walk, mirrored)]
+    return mirrored
+
+
+def _walkers(walk: np.ndarray, scale: float, meet: int, bounce: bool = False) -> list[np.ndarray]:
+    """Per-frame detections of a real walk (T, 17, 3) and its ``_mirrored`` copy; they meet at frame ``meet`` and
+    pass each other (or both turn back there, ``bounce``)."""
+    if bounce:
+        walk = np.concatenate([walk[:meet], walk[meet - np.arange(len(walk) - meet)]])
+    people = [[p for p in pair if (p[:, 2] > 0.2).sum() >= 4] for pair in zip(walk, _mirrored(walk, scale, meet))]
     return [np.stack(pair) if pair else np.zeros((0, 17, 3)) for pair in people]
 
 
@@ -205,6 +211,21 @@ def test_injected_switch_of_real_people_is_repaired(demo_tracks, frame: int) -> 
     repaired, swaps = repair_id_switches(_swapped(moved, frame), times)
     assert swaps == [(frame, 0, 1)]
     np.testing.assert_array_equal(repaired, moved)
+
+
+def test_two_switches_among_three_real_people_are_repaired(demo_tracks) -> None:
+    """The man, the moved woman and a smaller mirrored copy of her meeting her at frame 150: she is switched with the
+    man at 60 and then (from his column) with the copy at 150; both switches are undone, in order."""
+    keypoints, times = demo_tracks
+    moved = _woman_on_man(keypoints)
+    three = np.concatenate([moved, _mirrored(moved[:, 1], 0.75, meet=150)[:, None]], axis=1)
+    assert repair_id_switches(three, times)[1] == []
+    switched = _swapped(three[:, :2], 60)
+    switched = np.concatenate([switched, three[:, 2:]], axis=1)
+    switched[150:, [0, 2]] = switched[150:, [2, 0]]
+    repaired, swaps = repair_id_switches(switched, times)
+    assert swaps == [(60, 0, 1), (150, 1, 2)]
+    np.testing.assert_array_equal(repaired, three)
 
 
 @pytest.mark.parametrize("scale", [1.0, 0.75])
