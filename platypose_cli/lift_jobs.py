@@ -113,22 +113,27 @@ def discover_jobs(paths: Sequence[Path], camera_names: Sequence[str] = ()) -> li
     return _unique_names(jobs)
 
 
+def _view(source: Path) -> tuple[str, Path]:
+    """(view name, source) of a keypoint file or folder; ``cam02_keypoints2d.npz`` (platypose detect) is view cam02."""
+    return view_name(source).removesuffix("_keypoints2d"), source
+
+
 def keypoint_views(keypoints: Path, camera_names: Sequence[str]) -> list[tuple[str, Path]]:
     """(view name, source) pairs of a ``--keypoints`` path: several views when it is a folder of per-view
     sub-folders, or of per-view files named after several calibrated cameras; else one view."""
     if not keypoints.exists():
         raise InputError(f"{keypoints}: no such keypoint file or folder")
     if keypoints.is_file():
-        return [(view_name(keypoints), keypoints)]
+        return [_view(keypoints)]
     subfolders = sorted(p for p in keypoints.iterdir() if p.is_dir())
     files = sorted(p for p in keypoints.iterdir() if p.is_file() and p.suffix.lower() in KEYPOINT_SUFFIXES)
     if subfolders:
-        return [(view_name(p), p) for p in subfolders]
+        return [_view(p) for p in subfolders]
     if len(camera_names) >= 2 and 2 <= len(files) <= len(camera_names):
         cameras = {normalise_view_name(c) for c in camera_names}
-        if all(normalise_view_name(p.stem) in cameras for p in files):
-            return [(view_name(p), p) for p in files]
-    return [(view_name(keypoints), keypoints)]
+        if all(normalise_view_name(_view(p)[0]) in cameras for p in files):
+            return [_view(p) for p in files]
+    return [_view(keypoints)]
 
 
 def keypoints_job(keypoints: Path, videos: Sequence[Path], camera_names: Sequence[str]) -> Job:

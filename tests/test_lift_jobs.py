@@ -63,3 +63,14 @@ def test_pose2sim_keypoint_layout(data_dir, tmp_path) -> None:
         keypoints_job(keypoints, [data_dir / "video/sports2d-demo/demo.mp4"], CAMERAS)
     with pytest.raises(InputError, match=r"no view for|match no camera"):
         keypoints_job(keypoints, [], ("front", "back"))
+
+
+def test_per_view_keypoint_files_match_cameras(tmp_path) -> None:
+    for name in ("cam01_keypoints2d.npz", "cam03_keypoints2d.npz"):  # as written by platypose detect
+        (tmp_path / name).touch()
+    job = keypoints_job(tmp_path, [], CAMERAS)
+    assert [(v.name, v.source.name) for v in job.views] == [("cam01", "cam01_keypoints2d.npz"),
+                                                           ("cam03", "cam03_keypoints2d.npz")]  # fmt: skip
+    # files that do not all name cameras are one view's source, not several views
+    (tmp_path / "notes.json").touch()
+    assert len(keypoints_job(tmp_path, [], CAMERAS).views) == 1
