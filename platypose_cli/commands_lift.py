@@ -64,10 +64,14 @@ def lift(
     person_detector: Path | None = typer.Option(None, "--person-detector", help="Person detector for top-down models."),
     prior: Path | None = typer.Option(None, "--prior", help="Motion prior checkpoint (default: the shipped one)."),
     out: Path = typer.Option(Path("out"), "--out", help="Output folder: OUT/<name>/ per input, OUT/summary.json."),
-    samples: int = typer.Option(50, "--samples", help="Hypotheses per person."),
-    steps: int = typer.Option(10, "--steps", help="Diffusion steps kept (of 50)."),
-    skip: int = typer.Option(2, "--skip", help="Noisiest kept steps skipped."),
-    guidance_iters: int = typer.Option(10, "--guidance-iters", help="Guidance steps per diffusion step."),
+    samples: int | None = typer.Option(None, "--samples", help="Hypotheses per person [sampler default: 50]."),
+    steps: int | None = typer.Option(None, "--steps", help="Diffusion steps kept, of 50 [10]."),
+    skip: int | None = typer.Option(None, "--skip", help="Noisiest kept steps skipped [2]."),
+    guidance_iters: int | None = typer.Option(None, "--guidance-iters", help="Guidance steps per diffusion step [10]."),
+    eta: float | None = typer.Option(None, "--eta", help="DDIM eta: 0 deterministic re-noising, 1 fresh noise [0]."),
+    robust: str | None = typer.Option(None, "--robust", help="Reprojection loss: l2 or geman-mcclure [l2]."),
+    bone_weight: float | None = typer.Option(None, "--bone-weight", help="Constant bone lengths over time [0: off]."),
+    symmetry_weight: float | None = typer.Option(None, "--symmetry-weight", help="Left/right bone symmetry [0: off]."),
     window: int = typer.Option(64, "--window", help="Window length in prior frames (capped by the prior)."),
     overlap: int = typer.Option(16, "--overlap", help="Frames shared by consecutive windows."),
     formats: str = typer.Option("npz,csv,bvh,rrd", "--formats", help="Comma-separated: npz, csv, bvh, rrd."),
@@ -86,7 +90,7 @@ def lift(
         None, "--threads", min=1, help="torch and onnxruntime threads per input (default: cores / jobs)."
     ),
     resume: bool = typer.Option(False, "--resume", help="Skip inputs whose outputs are complete."),
-    seed: int = typer.Option(0, "--seed", help="Random seed of the sampler."),
+    seed: int | None = typer.Option(None, "--seed", help="Random seed of the sampler [0]."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
 ) -> None:
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
@@ -109,7 +113,10 @@ def lift(
         job_list = [keypoints_job(keypoints, paths, camera_names)]
     else:
         job_list = discover_jobs(paths, camera_names)
-    sampler = {"samples": samples, "steps": steps, "skip": skip, "guidance_iters": guidance_iters, "seed": seed}
+    given = {"samples": samples, "steps": steps, "skip": skip, "eta": eta, "guidance_iters": guidance_iters,
+             "robust": robust, "bone_weight": bone_weight, "symmetry_weight": symmetry_weight,
+             "seed": seed}  # fmt: skip
+    sampler = {k: v for k, v in given.items() if v is not None}  # the rest: SamplerConfig's defaults
     detect = DetectOptions(detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps,
                            image_size=image_size)  # fmt: skip
     settings = lift_settings(out, cams, prior, detect, sampler, window, overlap, formats, persons, root,
