@@ -97,28 +97,32 @@ def _check_size(camera, image_size: tuple[int, int], source: str, log: JobLog) -
     log.warning(f"{said}; pixels used as they are (the principal point is what matters)")
 
 
-def view_cameras(job: Job, views, settings: RunSettings, log: JobLog) -> list:
-    """The calibrated camera of each view (by name), or the default camera of a single uncalibrated view."""
-    if settings.cams is None:
-        if len(views) > 1:
-            raise InputError(f"{job.input}: {len(views)} views need --cams to place the cameras")
-        from lifting.calibration.defaults import default_camera
-
-        log.warning("no --cams: a level camera at the origin with a 53 degree diagonal field of view is assumed")
-        return [default_camera(job.views[0].name, *views[0].image_size)]
+def calibrated_cameras(job: Job, cams: Path) -> list:
+    """The camera of ``cams`` matching each view by name; InputError (calibration mismatch) when one has none."""
     from lifting.calibration import load_calibration
     from lifting.calibration.matching import match_views
 
-    calibration = load_calibration(settings.cams)
+    calibration = load_calibration(cams)
     try:
         pairs = match_views(calibration.names, [v.name for v in job.views], allow_missing=True)
     except InputError as err:
-        raise InputError(f"{job.input}: calibration mismatch with {settings.cams}: {err}") from None
+        raise InputError(f"{job.input}: calibration mismatch with {cams}: {err}") from None
     by_view = {view: calibration.camera(camera) for camera, view in pairs.items()}
-    cameras = [by_view[v.name] for v in job.views]
-    for camera, tracks, view in zip(cameras, views, job.views):
-        _check_size(camera, tracks.image_size, str(view.source), log)
-    return cameras
+    return [by_view[v.name] for v in job.views]
+
+
+def view_cameras(job: Job, views, calibrated: list | None, log: JobLog) -> list:
+    """The calibrated cameras checked against the views' image sizes, or the default camera of a single view."""
+    if calibrated is not None:
+        for camera, tracks, view in zip(calibrated, views, job.views):
+            _check_size(camera, tracks.image_size, str(view.source), log)
+        return calibrated
+    if len(views) > 1:
+        raise InputError(f"{job.input}: {len(views)} views need --cams to place the cameras")
+    from lifting.calibration.defaults import default_camera
+
+    log.warning("no --cams: a level camera at the origin with a 53 degree diagonal field of view is assumed")
+    return [default_camera(job.views[0].name, *views[0].image_size)]
 
 
 def gather_keypoints(job: Job, views, cameras, persons: str):
@@ -215,6 +219,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog):
 
     timings: dict[str, float] = {}
     started = time.perf_counter()
+    calibrated = calibrated_cameras(job, settings.cams) if settings.cams is not None else None
     detection = Detection(settings.detect)
     views = []
     for view in job.views:
@@ -223,9 +228,8 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog):
         log(f"view {view.name}: {view.source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), "
             f"{how}, {seconds:.1f} s")  # fmt: skip
         views.append(tracks)
-    del detection  # frees the onnxruntime session: its idle threads slow torch down many times over
     timings["keypoints_s"] = time.perf_counter() - started
-    cameras = view_cameras(job, views, settings, log)
+    cameras = view_cameras(job, views, calibrated, log)
     keypoints, times, track_ids = gather_keypoints(job, views, cameras, settings.persons)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
     roots = root_paths(keypoints, times, cameras, settings, log)

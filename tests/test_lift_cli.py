@@ -234,3 +234,18 @@ def test_demo_lifts_the_bundled_take(monkeypatch, capsys, tmp_path, prior_file) 
     pelvis = np.median(result.median[0, :, 0, 2])
     assert 0.8 < pelvis < 1.1 and f"pelvis {pelvis:.2f} m" in out  # a standing adult, floor at z = 0
     assert {p.suffix for p in folder.iterdir()} >= {".npz", ".csv", ".bvh", ".rrd"}
+
+
+def test_calibration_mismatches_fail_their_input(monkeypatch, capsys, data_dir, tmp_path, prior_file,
+                                                 batch_folder) -> None:  # fmt: skip
+    folder = tmp_path / "in"
+    folder.mkdir()
+    (folder / "cam01.mp4").symlink_to(batch_folder / "good.mp4")  # cam01 at half the calibrated size
+    (folder / "side.mp4").symlink_to(batch_folder / "good.mp4")  # no camera of that name
+    code, out, _ = run(monkeypatch, capsys, *lift_args(data_dir, prior_file, tmp_path / "out", str(folder)))
+    assert code == 1 and "0 ok, 2 failed" in out
+    errors = {e["name"]: e["error"] for e in json.loads((tmp_path / "out" / "summary.json").read_text())["inputs"]}
+    assert "calibration mismatch: calibration says 1088x1920 px for camera cam_01" in errors["cam01"]
+    assert "is 540x960" in errors["cam01"]
+    assert "calibration mismatch" in errors["side"] and "side match no camera" in errors["side"]
+    assert not (tmp_path / "out" / "side" / "side.detections.npz").exists()  # refused before detecting
