@@ -8,8 +8,14 @@ import typer
 
 from platypose_cli.app import app
 
-DEMO_TAKE = Path(__file__).resolve().parents[1] / "data" / "video" / "pose2sim-balancing"
+TAKE_PATH = Path("data") / "video" / "pose2sim-balancing"
 SOURCES = ("videos", "keypoints")
+
+
+def demo_take() -> Path:
+    """The bundled take: beside the installed source tree (editable install), else under the working directory."""
+    beside = Path(__file__).resolve().parents[1] / TAKE_PATH
+    return beside if beside.is_dir() else Path.cwd() / TAKE_PATH
 
 
 def demo_job(take: Path, source: str):
@@ -19,7 +25,7 @@ def demo_job(take: Path, source: str):
     from platypose_cli.lift_jobs import discover_jobs, keypoints_job
 
     if not (take / "calib_pose2sim.toml").is_file():
-        raise InputError(f"{take}: the demo take is not there; run the demo from a source checkout of platypose")
+        raise InputError(f"{take}: the demo take is not there; run the demo from the root of a platypose checkout")
     names = load_calibration(take / "calib_pose2sim.toml").names
     if source == "keypoints":
         return keypoints_job(take / "openpose-body25b", [], names)
@@ -64,11 +70,12 @@ def demo(
     from platypose_cli.detection import DetectOptions
     from platypose_cli.lift_batch import run_batch
 
-    job = demo_job(DEMO_TAKE, source)
-    typer.echo(f"demo: {job.input} with {DEMO_TAKE / 'calib_pose2sim.toml'}")
+    take = demo_take()
+    job = demo_job(take, source)
+    typer.echo(f"demo: {job.input} with {take / 'calib_pose2sim.toml'}")
     sampler = {"samples": samples, "steps": 10, "skip": 2, "guidance_iters": 10, "seed": 0}
     arguments = {"command": "demo", "source": source, "samples": samples, "prior": str(prior) if prior else None}
-    settings = lift_settings(out, DEMO_TAKE / "calib_pose2sim.toml", prior, DetectOptions(threads=threads), sampler,
+    settings = lift_settings(out, take / "calib_pose2sim.toml", prior, DetectOptions(threads=threads), sampler,
                              64, 16, "npz,csv,bvh,rrd", "largest", "auto", None, quiet, arguments)  # fmt: skip
     entries = run_batch([job], settings, 1, False, lambda m: None if quiet else typer.echo(m, err=True))
     if entries[0]["status"] == "ok":
