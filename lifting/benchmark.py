@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from lifting.calibration.defaults import default_camera
-from lifting.camera import project
+from lifting.camera import Camera, project
 from lifting.prior import MotionPrior, PriorBundle, PriorConfig
 from lifting.representation import features_to_joints
 from lifting.sampler import SamplerConfig, cameras_and_rays, sample
@@ -77,7 +77,7 @@ def matmul_probe(size: int) -> Callable[[], float]:
     return probe
 
 
-def walking_view(prior: PriorBundle, frames: int) -> tuple[list, np.ndarray]:
+def walking_view(prior: PriorBundle, frames: int) -> tuple[list[Camera], np.ndarray]:
     """One default camera and the pixels ``(1, 1, frames, 17, 3)`` (x, y, confidence 1) of a person walking past it.
 
     The person is the prior's mean pose, ``BENCH_DISTANCE_M`` in front of the camera,

@@ -47,12 +47,14 @@ def peak_rss_mb() -> float:
 
 @dataclass(frozen=True)
 class ClipTiming:
-    """Seconds to detect a clip of ``frames`` frames (``tracks`` tracks found) and to lift one person, peak memory."""
+    """Seconds to detect a clip of ``frames`` frames (``tracks`` tracks found) and to lift one person; peak memory
+    after detection and after lifting."""
 
     frames: int
     tracks: int
     detect_s: float
     lift_s: float
+    detect_peak_rss_mb: float
     peak_rss_mb: float
 
 
@@ -75,6 +77,7 @@ def lift_clip(video: Path, prior, samples: int, threads: int | None, say: Callab
     tracks = detect_video(video, detector, progress=_every(100, "detected", say))
     del detector  # idle onnxruntime threads would slow torch down
     detect_s = time.perf_counter() - started
+    detect_peak = peak_rss_mb()
     if tracks.num_persons == 0:
         raise InputError(f"{video}: no person detected")
     say(f"{tracks.num_frames} frames, {tracks.num_persons} track(s) in {detect_s:.1f} s; lifting the largest")
@@ -93,6 +96,7 @@ def lift_clip(video: Path, prior, samples: int, threads: int | None, say: Callab
         tracks=tracks.num_persons,
         detect_s=detect_s,
         lift_s=time.perf_counter() - started,
+        detect_peak_rss_mb=detect_peak,
         peak_rss_mb=peak_rss_mb(),
     )
 

@@ -83,6 +83,7 @@ def clip_section(prior, video: Path, seconds: float, threads: int | None, say) -
         "detect_s": timing.detect_s,
         "lift_s": timing.lift_s,
         "total_s": timing.detect_s + timing.lift_s,
+        "detect_peak_rss_mb": timing.detect_peak_rss_mb,
         "peak_rss_mb": timing.peak_rss_mb,
     }
 
@@ -126,7 +127,8 @@ def report_lines(report: dict) -> list[str]:
             _row("detection seconds", f"{e['detect_s']:.1f}"),
             _row("lifting seconds (1 person)", f"{e['lift_s']:.1f}"),
             _row("total seconds", f"{e['total_s']:.1f}"),
-            _row("peak RSS MiB", f"{e['peak_rss_mb']:.0f}"),
+            _row("peak RSS MiB after detection", f"{e['detect_peak_rss_mb']:.0f}"),
+            _row("peak RSS MiB after lifting", f"{e['peak_rss_mb']:.0f}"),
         ]
     lines.append(f"peak RSS of the whole run: {report['peak_rss_mb']:.0f} MiB")
     return lines
