@@ -131,6 +131,8 @@ def report_lines(report: dict) -> list[str]:
             _row("peak RSS MiB after lifting", f"{e['peak_rss_mb']:.0f}"),
         ]
     lines.append(f"peak RSS of the whole run: {report['peak_rss_mb']:.0f} MiB")
+    if m["load_average"][0] > m["cores"]:
+        lines.append("note: load average above the core count; other work shared the CPU, compare utilisation")
     return lines
 
 

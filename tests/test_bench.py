@@ -127,6 +127,8 @@ def test_bench_cli_reports_consistent_positive_figures(run_cli, tiny_prior_path,
     assert f"{s['hypothesis_frames_per_s']:.1f}" in stdout
     assert f"{100 * s['utilisation']:.1f} %" in stdout
     assert "end-to-end" not in stdout
+    loaded = report["machine"]["load_average"][0] > report["machine"]["cores"]
+    assert ("note: load average above the core count" in stdout) == loaded
 
 
 def test_bench_cli_end_to_end_on_a_real_clip(run_cli, tiny_prior_path, data_dir, tmp_path) -> None:
