@@ -15,7 +15,7 @@ import sys
 import tempfile
 import time
 import traceback
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -327,7 +327,3 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     log.write(folder / "log.txt")
     return entry
 
-
-def settings_record(settings: RunSettings) -> dict:
-    """A JSON-friendly description of ``settings`` for the summary."""
-    return json.loads(json.dumps(asdict(settings), default=str))
