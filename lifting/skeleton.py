@@ -61,8 +61,8 @@ SYMMETRIC_BONES: tuple[tuple[int, int], ...] = tuple(
 ROOT = 0
 
 
-def bone_vectors(joints: np.ndarray) -> np.ndarray:
-    """Bone vectors child - parent, ``(..., 17, 3) -> (..., 16, 3)``."""
+def bone_vectors(joints):
+    """Bone vectors child - parent, ``(..., 17, 3) -> (..., 16, 3)`` (numpy arrays or torch tensors)."""
     child = [c for c, _ in BONES]
     parent = [p for _, p in BONES]
     return joints[..., child, :] - joints[..., parent, :]
