@@ -89,7 +89,10 @@ def lift(
     threads: int | None = typer.Option(
         None, "--threads", min=1, help="torch and onnxruntime threads per input (default: cores / jobs)."
     ),
-    resume: bool = typer.Option(False, "--resume", help="Skip inputs whose outputs are complete."),
+    resume: bool = typer.Option(
+        False, "--resume", help="Skip inputs whose outputs are complete, and unchanged inputs that failed."
+    ),
+    retry_failed: bool = typer.Option(False, "--retry-failed", help="With --resume: run failed inputs again."),
     seed: int | None = typer.Option(None, "--seed", help="Random seed of the sampler [0]."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
 ) -> None:
@@ -129,7 +132,7 @@ def lift(
             typer.echo(message, err=True)
 
     try:
-        entries = run_batch(job_list, settings, jobs, resume, say)
+        entries = run_batch(job_list, settings, jobs, resume, say, retry_failed)
     except KeyboardInterrupt:
         typer.echo(f"interrupted; {out / 'summary.json'} lists the inputs that finished", err=True)
         raise typer.Exit(130) from None

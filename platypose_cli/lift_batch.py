@@ -17,7 +17,14 @@ from pathlib import Path
 import typer
 
 from platypose_cli.lift_jobs import Job
-from platypose_cli.lift_run import RunSettings, finished_outputs, job_entry, run_job
+from platypose_cli.lift_run import (
+    RunSettings,
+    earlier_failure,
+    fingerprint,
+    finished_outputs,
+    job_entry,
+    run_job,
+)
 
 SUMMARY = "summary.json"
 
@@ -51,8 +58,12 @@ def run_batch(
     workers: int = 1,
     resume: bool = False,
     say: Callable[[str], None] = lambda _: None,
+    retry_failed: bool = False,
 ) -> list[dict]:
-    """Run ``jobs`` (resume: skip finished ones); the summary entries in job order, summary.json kept current.
+    """Run ``jobs``; the summary entries in job order, summary.json kept current.
+
+    ``resume`` skips finished inputs, and inputs that failed before with the same files and settings (unless
+    ``retry_failed``): they keep status "failed" with the earlier error, and nothing is run for them.
 
     Ctrl-C stops the batch after writing the summary of what finished (KeyboardInterrupt is re-raised).
     """
@@ -60,10 +71,15 @@ def run_batch(
     entries: dict[int, dict] = {}
     todo = []
     for index, job in enumerate(jobs):
-        outputs = finished_outputs(settings.out / job.name, settings.formats) if resume else None
+        folder = settings.out / job.name
+        outputs = finished_outputs(folder, settings.formats) if resume else None
+        failed = earlier_failure(folder, fingerprint(job, settings)) if resume and not retry_failed else None
         if outputs is not None:
             entries[index] = job_entry(job, "skipped", outputs)
             say(f"{job.name}: skipped, finished earlier ({len(outputs)} files)")
+        elif failed is not None:
+            entries[index] = job_entry(job, "failed", error=f"earlier run: {failed}")
+            say(f"{job.name}: not retried, failed earlier with the same files and settings (--retry-failed)")
         else:
             todo.append(index)
 

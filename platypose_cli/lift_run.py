@@ -8,6 +8,7 @@ were, and ``--resume`` trusts only folders with a ``lift.json`` whose outputs ex
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
@@ -15,7 +16,7 @@ import sys
 import tempfile
 import time
 import traceback
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,7 @@ from platypose_cli.detection import Detection, DetectOptions
 from platypose_cli.lift_jobs import Job
 
 MANIFEST = "lift.json"
+FAILURE = "failed.json"
 ROOT_MODES = ("auto", "triangulate", "solve")
 SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
 
@@ -294,6 +296,32 @@ def finished_outputs(folder: Path, formats) -> list[str] | None:
     return outputs if complete else None
 
 
+def _stamp(path: Path) -> list:
+    """What identifies a file's or folder's content cheaply: path, size (or entry count) and latest change."""
+    if path.is_dir():
+        entries = list(path.iterdir())
+        return [str(path), len(entries), max((e.stat().st_mtime_ns for e in entries), default=0)]
+    stat = path.stat() if path.exists() else None
+    return [str(path), stat.st_size if stat else None, stat.st_mtime_ns if stat else None]
+
+
+def fingerprint(job: Job, settings: RunSettings) -> str:
+    """A digest of the job's input files and the settings that decide whether it can succeed."""
+    files = [v.source for v in job.views] + [p for p in (settings.cams, settings.root_file, settings.prior) if p]
+    decisive = [str(replace(settings.detect, threads=None)), settings.persons, settings.root, settings.sampler, settings.window,
+                settings.overlap, [_stamp(Path(f)) for f in files]]  # fmt: skip
+    return hashlib.sha256(json.dumps(decisive, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def earlier_failure(folder: Path, digest: str) -> str | None:
+    """The error of an earlier failed run of the same input and settings in ``folder``, else None."""
+    try:
+        failure = json.loads((folder / FAILURE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return failure.get("error") if isinstance(failure, dict) and failure.get("fingerprint") == digest else None
+
+
 def job_entry(job: Job, status: str, outputs: list[str] | None = None, seconds: float = 0.0,
               error: str | None = None) -> dict:  # fmt: skip
     """A summary.json entry for ``job``."""
@@ -315,6 +343,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         outputs = [str(p) for p in export_atomically(result, videos, folder, job.name, settings.formats, log)]
         manifest = {"input": job.input, "formats": list(settings.formats), "outputs": outputs}
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
+        (folder / FAILURE).unlink(missing_ok=True)
         entry.update(status="ok", outputs=outputs)
     except Exception as err:  # noqa: BLE001 -- one input failing must not stop the batch; the log keeps the traceback
         message = str(err) if isinstance(err, InputError) else f"{type(err).__name__}: {err}"
@@ -322,6 +351,8 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         log(f"failed: {entry['error']}")
         if not isinstance(err, InputError):
             log(traceback.format_exc())
+        failure = {"input": job.input, "error": entry["error"], "fingerprint": fingerprint(job, settings)}
+        write_text_atomic(folder / FAILURE, json.dumps(failure, indent=1))
     entry["seconds"] = round(time.perf_counter() - started, 2)
     log(f"{entry['status']} in {entry['seconds']} s")
     log.write(folder / "log.txt")

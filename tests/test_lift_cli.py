@@ -192,13 +192,18 @@ def test_batch_records_failures_and_resume_skips_finished(monkeypatch, capsys, t
     assert "no person found" in (tmp_path / "empty" / "log.txt").read_text()
     assert not list(tmp_path.glob(".*partial")) and not list(tmp_path.rglob(".*.tmp"))
 
-    stamp = npz.stat().st_mtime_ns
+    watched = (npz, tmp_path / "empty" / "log.txt", tmp_path / "corrupt" / "log.txt")
+    stamps = [p.stat().st_mtime_ns for p in watched]
     code, out, _ = run(monkeypatch, capsys, *args[:-2], "--resume")
-    assert code == 1 and "1 skipped" in out
-    assert npz.stat().st_mtime_ns == stamp
+    assert code == 1 and "0 ok, 2 failed, 1 skipped" in out  # nothing is run again
+    assert [p.stat().st_mtime_ns for p in watched] == stamps
     entries = json.loads((tmp_path / "summary.json").read_text())["inputs"]
     assert [e["status"] for e in entries] == ["failed", "failed", "skipped"]
+    assert entries[1]["error"] == "earlier run: " + by_name["empty.mp4"]["error"]
     assert entries[2]["outputs"] == by_name["good.mp4"]["outputs"]
+    code, out, _ = run(monkeypatch, capsys, *args[:-2], "--resume", "--retry-failed")
+    assert code == 1 and "0 ok, 2 failed, 1 skipped" in out
+    assert (tmp_path / "empty" / "log.txt").stat().st_mtime_ns > stamps[1]  # tried again
 
 
 def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> None:
