@@ -31,6 +31,7 @@ from lifting.energy import (
 from lifting.prior import PriorBundle
 from lifting.representation import features_to_joints, joints_to_features
 from lifting.schedule import DiffusionSchedule, sampling_steps
+from lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_vectors
 from lifting.translation import RayConstraints, ray_constraints, solve_translation
 
 STEP_RULES = ("backtrack", "paper")
@@ -45,7 +46,10 @@ class SamplerConfig:
     step fails; ``step_rule`` "backtrack" rejects steps that raise the energy (or are
     not finite) and multiplies the step by ``grow`` after each accepted one, "paper"
     keeps every step and only cuts the scale. ``translation_smoothness``
-    couples per-frame root offsets (0: independent frames). ``bone_weight`` and
+    couples per-frame root offsets (0: independent frames). ``size_prior`` places each
+    new network prediction where a person of typical adult size would stand (one
+    view cannot tell a small near person from a tall far one; guidance then fits the
+    pose at that place). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared).
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
     took a step gaining less than ``guidance_tol`` (relative) or its step has shrunk
@@ -67,6 +71,7 @@ class SamplerConfig:
     robust: str = "l2"
     robust_scale: float = 0.05
     translation_smoothness: float = 1.0
+    size_prior: bool = True
     bone_weight: float = 0.0
     symmetry_weight: float = 0.0
     seed: int = 0
@@ -114,6 +119,20 @@ class SampleResult:
 
     joints: np.ndarray
     energy: np.ndarray
+
+
+def typical_size(joints: torch.Tensor, limits: tuple[float, float] = (0.5, 2.0)) -> torch.Tensor:
+    """Scale the poses ``(B, N, F, 17, 3)`` of each window about their pelvis so that their median is of adult size.
+
+    Size is the sum of limb and trunk lengths; one factor per window (median over its
+    hypotheses and frames, clamped to ``limits``) keeps the hypotheses' relative sizes.
+    """
+    lengths = bone_vectors(joints).norm(dim=-1)[..., list(SIZE_BONES)].sum(-1)  # (B, N, F)
+    typical = sum(TYPICAL_BONE_LENGTHS[b] for b in SIZE_BONES)
+    size = lengths.flatten(1).median(dim=-1).values.clamp(min=1e-3)  # (B,)
+    scale = (typical / size).clamp(*limits)
+    root = joints[..., :1, :]
+    return root + scale[:, None, None, None, None] * (joints - root)
 
 
 def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
@@ -164,6 +183,8 @@ class GuidedProblem:
         local = self.local_joints(x0)
         if self.root_trajectory is not None:
             return self.root_trajectory[:, None] - local[..., 0, :]
+        if self.config.size_prior:
+            local = typical_size(local)
         return solve_translation(local, self.rays, self.obs.cameras, self.config.translation_smoothness)
 
     def world_joints(self, x0: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:

@@ -60,6 +60,18 @@ SYMMETRIC_BONES: tuple[tuple[int, int], ...] = tuple(
 
 ROOT = 0
 
+# Median adult bone lengths (m) of the bundled real mocap (holosoma, DeepMimic, CMU,
+# mocapbank; medians per clip, then across clips), in BONES order.
+TYPICAL_BONE_LENGTHS: tuple[float, ...] = (
+    0.085, 0.422, 0.410, 0.085, 0.422, 0.410, 0.240, 0.240, 0.116, 0.050, 0.183, 0.275, 0.259, 0.183, 0.275, 0.259,
+)  # fmt: skip
+
+# Bones whose lengths measure a person's size the same way in every source (legs,
+# arms, trunk); the neck and head segments depend on how each source places them.
+SIZE_BONES: tuple[int, ...] = tuple(
+    b for b, (c, _) in enumerate(BONES) if JOINT_NAMES[c] not in ("neck", "head", "right_hip", "left_hip")
+)
+
 
 def bone_vectors(joints):
     """Bone vectors child - parent, ``(..., 17, 3) -> (..., 16, 3)`` (numpy arrays or torch tensors)."""
