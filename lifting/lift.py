@@ -2,7 +2,8 @@
 
 Input is 2D keypoints of P persons seen by C calibrated cameras on one clock;
 output is N hypotheses per person at the input's frame times, each one
-continuous motion across windows (see :mod:`lifting.windows`).
+continuous motion across windows (see :mod:`lifting.windows`). Each window's
+persons and hypotheses go through the network as one batch.
 """
 
 from __future__ import annotations
@@ -17,16 +18,15 @@ from lifting.camera import Camera
 from lifting.prior import PriorBundle
 from lifting.sampler import Anchor, SamplerConfig, cameras_and_rays, sample
 from lifting.timebase import interpolate
-from lifting.windows import WindowPlan, anchors_for_odd, cut, plan_windows, stitch
+from lifting.windows import WindowPlan, continuation_anchor, cut, plan_windows, stitch
 
 
 @dataclass(frozen=True)
 class WindowSettings:
-    """Window length and overlap (prior frames), windows per network batch, weight of the overlap anchors."""
+    """Window length and overlap (prior frames) and the weight of the overlap anchors."""
 
     window: int = 64
     overlap: int = 16
-    batch_windows: int = 16
     anchor_weight: float = 100.0
 
 
@@ -84,14 +84,11 @@ def lift_tracks(
         roots = cut(interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock), plan, axis=0)  # (W, F, P, 3)
         roots = np.moveaxis(roots, 2, 1)  # (W, P, F, 3)
     runner = _WindowRunner(prior, list(cameras), per_window, roots, config, settings, plan, progress)
-    even = np.arange(0, plan.count, 2)
-    odd = np.arange(1, plan.count, 2)
     joints = np.zeros((plan.count, P, config.samples, plan.length, 17, 3), dtype=np.float32)
     energy = np.zeros((plan.count, P, config.samples, plan.length), dtype=np.float32)
-    joints[even], energy[even] = runner.run(even, None)
-    if len(odd):
-        anchors, masks = anchors_for_odd(joints[even], plan)
-        joints[odd], energy[odd] = runner.run(odd, (anchors, masks))
+    for w in range(plan.count):
+        anchor = continuation_anchor(joints[w - 1], plan) if w > 0 else None
+        joints[w], energy[w] = runner.run(w, anchor)
     stitched = stitch(np.moveaxis(joints, 3, 1), plan)  # (T', P, N, 17, 3)
     stitched_energy = stitch(np.moveaxis(energy, 3, 1), plan)  # (T', P, N)
     hypotheses = interpolate(stitched, clock, frame_times)  # (T, P, N, 17, 3)
@@ -103,39 +100,24 @@ def lift_tracks(
 
 
 class _WindowRunner:
-    """Samples chosen windows of all persons in batches of ``settings.batch_windows`` windows."""
+    """Samples one window of all persons at a time (persons and hypotheses in one batch)."""
 
     def __init__(self, prior, cameras, per_window, roots, config, settings, plan: WindowPlan, progress) -> None:
         self.prior, self.cameras, self.per_window, self.roots = prior, cameras, per_window, roots
         self.config, self.settings, self.plan, self.progress = config, settings, plan, progress
-        self.done = 0
 
-    def run(self, windows: np.ndarray, anchors: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
-        """Joints (W', P, N, F, 17, 3) and energy (W', P, N, F) of the given windows."""
-        P = self.per_window.shape[2]
-        out_joints, out_energy = [], []
-        step = max(1, self.settings.batch_windows)
-        for begin in range(0, len(windows), step):
-            chosen = windows[begin : begin + step]
-            kp = self.per_window[chosen]  # (w, C, P, F, 17, 3)
-            w, C, _, F = kp.shape[:4]
-            flat = np.moveaxis(kp, 1, 0).reshape(C, w * P, F, 17, 3)
-            obs, rays = cameras_and_rays(self.cameras, flat[..., :2], flat[..., 2])
-            root = None
-            if self.roots is not None:
-                root = torch.as_tensor(self.roots[chosen].reshape(w * P, F, 3), dtype=obs.keypoints.dtype)
-            anchor = None
-            if anchors is not None:
-                a_joints, a_masks = anchors[0][begin : begin + step], anchors[1][begin : begin + step]
-                anchor = Anchor(
-                    joints=torch.as_tensor(a_joints.reshape(w * P, *a_joints.shape[2:]), dtype=obs.keypoints.dtype),
-                    mask=torch.as_tensor(np.repeat(a_masks, P, axis=0), dtype=obs.keypoints.dtype),
-                    weight=self.settings.anchor_weight,
-                )
-            result = sample(self.prior, obs, None if root is not None else rays, self.config, F, root, anchor)
-            out_joints.append(result.joints.reshape(w, P, *result.joints.shape[1:]))
-            out_energy.append(result.energy.reshape(w, P, *result.energy.shape[1:]))
-            self.done += len(chosen)
-            if self.progress is not None:
-                self.progress(self.done, self.plan.count)
-        return np.concatenate(out_joints), np.concatenate(out_energy)
+    def run(self, w: int, anchor: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+        """Joints (P, N, F, 17, 3) and energy (P, N, F) of window ``w``; ``anchor`` = joints (P, N, F, 17, 3), mask (F,)."""
+        kp = self.per_window[w]  # (C, P, F, 17, 3)
+        P, F = kp.shape[1:3]
+        obs, rays = cameras_and_rays(self.cameras, kp[..., :2], kp[..., 2])
+        dtype = obs.keypoints.dtype
+        root = torch.as_tensor(self.roots[w], dtype=dtype) if self.roots is not None else None
+        held = None
+        if anchor is not None:
+            mask = torch.as_tensor(np.repeat(anchor[1][None], P, axis=0), dtype=dtype)
+            held = Anchor(torch.as_tensor(anchor[0], dtype=dtype), mask, self.settings.anchor_weight)
+        result = sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
+        if self.progress is not None:
+            self.progress(w + 1, self.plan.count)
+        return result.joints, result.energy

@@ -105,7 +105,9 @@ class Anchor:
     """Known joints for some frames of each hypothesis (window continuation).
 
     ``joints`` (B, N, F, 17, 3) world metres; ``mask`` (B, F) is 1 where a frame is
-    anchored, 0 elsewhere; ``weight`` per squared metre, in energy units.
+    anchored, 0 elsewhere, and frame 0 must be anchored. Anchored frames are in-painted
+    (their features replace the prediction's at every step, so the network continues
+    them) and held by an energy of ``weight`` per squared metre.
     """
 
     joints: torch.Tensor
@@ -171,6 +173,7 @@ class GuidedProblem:
         self.root_trajectory = root_trajectory
         self.anchor = anchor
         self.batch = obs.keypoints.shape[1]
+        self.anchor_features: torch.Tensor | None = None
         self.std = torch.as_tensor(prior.normalizer.std, dtype=obs.keypoints.dtype, device=obs.keypoints.device)
 
     def local_joints(self, x0: torch.Tensor) -> torch.Tensor:
@@ -183,9 +186,21 @@ class GuidedProblem:
         local = self.local_joints(x0)
         if self.root_trajectory is not None:
             return self.root_trajectory[:, None] - local[..., 0, :]
+        if self.anchor is not None:  # continuation: frame 0 is anchored, the features carry the rest
+            return (self.anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]).expand_as(local[..., 0, :])
         if self.config.size_prior:
             local = typical_size(local)
         return solve_translation(local, self.rays, self.obs.cameras, self.config.translation_smoothness)
+
+    def inpaint(self, x0: torch.Tensor) -> torch.Tensor:
+        """Replace the anchored frames of ``x0`` ``(B*N, F, D)`` by the anchor's features (RePaint-style continuation)."""
+        if self.anchor is None:
+            return x0
+        if self.anchor_features is None:
+            joints = self.anchor.joints.reshape(-1, *self.anchor.joints.shape[2:])
+            self.anchor_features = self.prior.normalizer.normalize(joints_to_features(joints))
+        mask = self.anchor.mask.repeat_interleave(x0.shape[0] // self.batch, dim=0)[..., None] > 0
+        return torch.where(mask, self.anchor_features, x0)
 
     def world_joints(self, x0: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
         """World joints ``(B, N, F, 17, 3)``; with a known root path the pelvis is pinned to it."""
@@ -298,8 +313,10 @@ def sample(
     for i, t in enumerate(steps):
         with torch.inference_mode():
             x0 = model(x_t, torch.tensor(int(t), device=device))
-        x0, offset = problem.guide(x0.clone(), config.guidance_iters)
+        x0, offset = problem.guide(problem.inpaint(x0.clone()), config.guidance_iters)
         t_prev = int(steps[i + 1]) if i + 1 < len(steps) else None
+        if t_prev is not None:  # the last prediction keeps its own overlap, pulled by the anchor energy, for blending
+            x0 = problem.inpaint(x0)
         fresh = torch.randn(shape, generator=generator).to(device=device, dtype=dtype) if config.eta > 0 else None
         x_t = schedule.ddim_step(x_t, x0, int(t), t_prev, config.eta, fresh)
         if progress is not None:

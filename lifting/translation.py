@@ -85,5 +85,8 @@ def solve_translation(
     frames = torch.arange(F)
     system[:, :, frames, :, frames, :] = (normal + regulariser).permute(2, 0, 1, 3, 4)
     system = system + mu[..., None, None, None, None] * torch.einsum("fg,ik->figk", penalty, eye)
-    solution = torch.linalg.solve(system.reshape(B, N, 3 * F, 3 * F), rhs.reshape(B, N, 3 * F, 1))
+    # Cholesky (the system is symmetric positive definite): torch's batched LU solve on CPU returns wrong
+    # results with several threads for matrices of 160 x 160 and more (pytorch issue 142815).
+    factor = torch.linalg.cholesky(system.reshape(B, N, 3 * F, 3 * F))
+    solution = torch.cholesky_solve(rhs.reshape(B, N, 3 * F, 1), factor)
     return solution.reshape(B, N, F, 3)

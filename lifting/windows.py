@@ -1,10 +1,12 @@
 """Cutting a long track into overlapping windows and stitching hypotheses back into one motion each.
 
 Windows of F frames start every ``F - O`` frames (O = overlap <= F / 2), the
-last one padded past the end. Even windows never overlap each other, so they
-are sampled first, all in one batch; odd windows are then sampled with their
-overlaps anchored to hypothesis k of both neighbours, so hypothesis k is one
-continuous motion. Overlaps are blended with a linear ramp.
+last one padded past the end. Windows are sampled in order, each one's first O
+frames anchored to (in-painted from) the last O frames of hypothesis k of the
+window before, so hypothesis k is one continuous motion. (Sampling windows
+independently and bridging them does not work with one camera: independent
+windows put hypothesis k at different depths, and a bridge has to jump.)
+Overlaps are blended with a linear ramp.
 """
 
 from __future__ import annotations
@@ -79,22 +81,14 @@ def stitch(windows: np.ndarray, plan: WindowPlan) -> np.ndarray:
     return out[: plan.total]
 
 
-def anchors_for_odd(even_joints: np.ndarray, plan: WindowPlan) -> tuple[np.ndarray, np.ndarray]:
-    """Anchor joints and masks for the odd windows from the sampled even ones.
+def continuation_anchor(previous: np.ndarray, plan: WindowPlan) -> tuple[np.ndarray, np.ndarray]:
+    """Anchor joints ``(..., F, 17, 3)`` and mask ``(F,)`` continuing the previous window ``(..., F, 17, 3)``.
 
-    ``even_joints`` (W_even, ..., F, 17, 3) with the frame axis third from the end;
-    returns anchors (W_odd, ..., F, 17, 3) and masks (W_odd, F).
+    The previous window's last O frames become the new window's first O frames.
     """
-    odd = np.arange(1, plan.count, 2)
     O, F = plan.overlap, plan.length
-    anchors = np.zeros((len(odd), *even_joints.shape[1:]), dtype=even_joints.dtype)
-    masks = np.zeros((len(odd), F))
-    for i, w in enumerate(odd):
-        before = even_joints[(w - 1) // 2]
-        anchors[i][..., :O, :, :] = before[..., F - O :, :, :]
-        masks[i, :O] = 1.0
-        if w + 1 < plan.count:
-            after = even_joints[(w + 1) // 2]
-            anchors[i][..., F - O :, :, :] = after[..., :O, :, :]
-            masks[i, F - O :] = 1.0
-    return anchors, masks
+    anchor = np.zeros_like(previous)
+    anchor[..., :O, :, :] = previous[..., F - O :, :, :]
+    mask = np.zeros(F)
+    mask[:O] = 1.0
+    return anchor, mask

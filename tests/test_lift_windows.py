@@ -1,0 +1,58 @@
+"""Windows over long tracks: planning, blending, and no jump at the seams of a lifted real motion."""
+
+import numpy as np
+import pytest
+
+from lifting.camera import project
+from lifting.camera_rigs import ring_cameras
+from lifting.lift import WindowSettings, lift_tracks
+from lifting.sampler import SamplerConfig
+from lifting.timebase import resample
+from lifting.windows import blend_weights, cut, plan_windows, stitch
+
+
+def test_plan_covers_the_track_and_weights_sum_to_one():
+    plan = plan_windows(100, 16, 4)
+    assert plan.starts.tolist() == list(range(0, 100, 12))[: plan.count]
+    assert plan.padded_total >= 100 and plan.starts[-1] < 100
+    weights = blend_weights(plan)
+    coverage = np.zeros(plan.padded_total)
+    for w, start in enumerate(plan.starts):
+        coverage[start : start + plan.length] += weights[w]
+    assert np.allclose(coverage, 1.0)
+    values = np.arange(100, dtype=float)[:, None] * np.ones((1, 3))
+    assert np.allclose(stitch(cut(values, plan, axis=0), plan), values)  # identical windows blend to themselves
+    assert plan_windows(10, 16, 4).starts.tolist() == [0]
+    with pytest.raises(ValueError):
+        plan_windows(100, 16, 9)  # overlap above half a window
+
+
+def test_window_seams_of_a_lifted_real_motion_stay_small(data_dir):
+    """Shipped prior, one view: steps across seams stay within 3x the fastest step inside windows.
+
+    Independently sampled, bridged windows jumped by 54 cm here (5x the inside maximum);
+    sequential in-painted continuation brings seams to about 2x. The issue's goal (no
+    larger than inside) is not reached yet: the prior's continuation right after the
+    in-painted frames kinks by a few centimetres.
+    """
+    from lifting.motion_io import load_motion_paths
+    from lifting.prior import load_prior
+
+    prior, _ = load_prior()
+    climb = load_motion_paths([data_dir / "motion" / "holosoma-climb"])[1]
+    truth = resample(climb.joints, climb.fps, 30.0)[:60]  # 2 s of real climbing
+    truth = truth - truth[:, 0].mean(0) + [0.0, 0.0, 1.0]
+    cams = ring_cameras(4)[:1]
+    pixels = np.stack([project(truth, c) for c in cams])[:, :, None]  # (C, T, P=1, 17, 2)
+    keypoints = np.concatenate([pixels, np.ones(pixels.shape[:-1] + (1,))], -1)
+    times = np.arange(len(truth)) / 30.0
+    settings = WindowSettings(window=16, overlap=4)
+    out = lift_tracks(prior, cams, keypoints, times, SamplerConfig(samples=4), settings)
+    hyps = out.hypotheses[0]  # (N, T, 17, 3)
+    assert hyps.shape == (4, 60, 17, 3) and np.isfinite(hyps).all()
+    speed = np.linalg.norm(np.diff(hyps, axis=1), axis=-1).max(-1)  # (N, T-1) fastest joint per frame step
+    plan = plan_windows(60, 16, 4)
+    seam = np.zeros(59, dtype=bool)
+    for start in plan.starts[1:]:
+        seam[start - 1 : start + settings.overlap + 1] = True  # steps into, inside and out of each overlap
+    assert speed[:, seam].max() <= 3 * speed[:, ~seam].max(), (speed[:, seam].max(), speed[:, ~seam].max())
