@@ -13,7 +13,6 @@ import hashlib
 import io
 import json
 import math
-import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -21,6 +20,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from lifting.atomic import atomic_open
 from lifting.errors import InputError
 from lifting.representation import FEATURES_PER_FRAME, Normalizer
 from lifting.schedule import TRAIN_STEPS
@@ -125,11 +125,8 @@ def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None)
     buffer = io.BytesIO()
     torch.save(payload, buffer)
     data = buffer.getvalue()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
+    with atomic_open(path, "wb") as stream:
+        stream.write(data)
     return hashlib.sha256(data).hexdigest()
 
 

@@ -42,6 +42,16 @@ def tiny_prior(real_clips, tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def prior_file(tiny_prior, tmp_path_factory) -> str:
+    """The session's tiny prior saved as a checkpoint file for ``--prior``."""
+    from lifting.prior import save_prior
+
+    path = tmp_path_factory.mktemp("prior_file") / "tiny.pt"
+    save_prior(path, tiny_prior)
+    return str(path)
+
+
+@pytest.fixture(scope="session")
 def heldout_window(real_clips):
     """A 16-frame, 30 fps window of real walking (DeepMimic), pelvis centred near (0, 0, 1) m."""
     from lifting.timebase import resample

@@ -7,7 +7,6 @@ import sys
 import pytest
 import torch
 
-from lifting.prior import save_prior
 
 
 def test_version_and_help_in_a_fresh_process():
@@ -17,13 +16,6 @@ def test_version_and_help_in_a_fresh_process():
     assert result.returncode == 0
     for command in ("lift", "train", "eval", "detect", "calib"):
         assert command in result.stdout
-
-
-@pytest.fixture(scope="module")
-def prior_file(tiny_prior, tmp_path_factory):
-    path = tmp_path_factory.mktemp("cli") / "tiny.pt"
-    save_prior(path, tiny_prior)
-    return path
 
 
 def _one_line_error(code, err):

@@ -5,34 +5,13 @@ from __future__ import annotations
 
 import csv
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from platypose_cli.app import main
 
 TAKE = "video/pose2sim-balancing"
-
-
-def run(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
-    """Run ``platypose *args`` in-process; returns (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["platypose", *args])
-    with pytest.raises(SystemExit) as exit_info:
-        main()
-    out = capsys.readouterr()
-    return int(exit_info.value.code or 0), out.out, out.err
-
-
-@pytest.fixture(scope="module")
-def prior_file(tiny_prior, tmp_path_factory) -> str:
-    """The session's tiny prior saved as a checkpoint file for ``--prior``."""
-    from lifting.prior import save_prior
-
-    path = tmp_path_factory.mktemp("lift_prior") / "tiny.pt"
-    save_prior(path, tiny_prior)
-    return str(path)
 
 
 @pytest.fixture(scope="module")
@@ -58,12 +37,12 @@ def lift_args(data_dir, prior_file, out, *extra: str) -> tuple[str, ...]:
     return ("lift", "--cams", calib, *common, *extra)
 
 
-def test_four_views_match_triangulation_and_one_view_spreads(monkeypatch, capsys, data_dir, tmp_path, prior_file,
+def test_four_views_match_triangulation_and_one_view_spreads(run_cli, data_dir, tmp_path, prior_file,
                                                              triangulated) -> None:  # fmt: skip
     from exporters.npz import read_npz
 
     keypoints = data_dir / TAKE / "openpose-body25b"
-    code, out, err = run(monkeypatch, capsys, *lift_args(data_dir, prior_file, tmp_path, "--keypoints", str(keypoints),
+    code, out, err = run_cli(*lift_args(data_dir, prior_file, tmp_path, "--keypoints", str(keypoints),
                                                          "--persons", "largest", "--formats", "npz,csv"))  # fmt: skip
     assert code == 0, err
     assert "1 ok, 0 failed" in out
@@ -86,7 +65,7 @@ def test_four_views_match_triangulation_and_one_view_spreads(monkeypatch, capsys
         "openpose-body25b.csv", "openpose-body25b.npz", "openpose-body25b_summary.csv"]  # fmt: skip
 
     one = tmp_path / "one"
-    code, _, err = run(monkeypatch, capsys, *lift_args(data_dir, prior_file, one, "--keypoints",
+    code, _, err = run_cli(*lift_args(data_dir, prior_file, one, "--keypoints",
                                                        str(keypoints / "cam01_json"), "--persons", "largest",
                                                        "--formats", "npz"))  # fmt: skip
     assert code == 0, err
@@ -104,7 +83,7 @@ def test_four_views_match_triangulation_and_one_view_spreads(monkeypatch, capsys
     assert np.median(close) < 40, np.median(close)
 
 
-def test_given_root_trajectory_npz_and_csv(monkeypatch, capsys, data_dir, tmp_path, prior_file, triangulated) -> None:
+def test_given_root_trajectory_npz_and_csv(run_cli, data_dir, tmp_path, prior_file, triangulated) -> None:
     from exporters.npz import read_npz
 
     times = np.arange(100) / 60.0
@@ -120,7 +99,7 @@ def test_given_root_trajectory_npz_and_csv(monkeypatch, capsys, data_dir, tmp_pa
         out = tmp_path / name.replace(".", "_")
         args = lift_args(data_dir, prior_file, out, "--keypoints", keypoints, "--persons", "largest", "--formats",
                          "npz", "--root-trajectory", str(tmp_path / name))  # fmt: skip
-        code, _, err = run(monkeypatch, capsys, *args)
+        code, _, err = run_cli(*args)
         assert code == 0, err
         result = read_npz(out / "cam01" / "cam01.npz")
         assert result.meta["root"] == ["given"]
@@ -130,17 +109,17 @@ def test_given_root_trajectory_npz_and_csv(monkeypatch, capsys, data_dir, tmp_pa
         assert np.median(np.abs(pelvis - root[keep][:, None])) < 0.002
 
 
-def test_keypoint_views_must_match_cameras(monkeypatch, capsys, data_dir, tmp_path, prior_file) -> None:
+def test_keypoint_views_must_match_cameras(run_cli, data_dir, tmp_path, prior_file) -> None:
     source = data_dir / TAKE / "openpose-body25b"
     views = tmp_path / "views"
     views.mkdir()
     (views / "cam01_json").symlink_to(source / "cam01_json")
     (views / "left_json").symlink_to(source / "cam02_json")
-    code, _, err = run(monkeypatch, capsys, *lift_args(data_dir, prior_file, tmp_path / "o", "--keypoints", str(views)))
+    code, _, err = run_cli(*lift_args(data_dir, prior_file, tmp_path / "o", "--keypoints", str(views)))
     assert code == 2
     assert "left" in err and "match no camera" in err and str(views) in err
     args = ("lift", "--keypoints", str(views), "--prior", prior_file, "--out", str(tmp_path / "o"))
-    code, _, err = run(monkeypatch, capsys, *args)
+    code, _, err = run_cli(*args)
     assert code == 2 and "need --cams" in err
 
 
@@ -167,13 +146,13 @@ def batch_folder(data_dir, tmp_path_factory) -> Path:
     return folder
 
 
-def test_batch_records_failures_and_resume_skips_finished(monkeypatch, capsys, tmp_path, prior_file,
+def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, prior_file,
                                                           batch_folder) -> None:  # fmt: skip
     from exporters.npz import read_npz
 
     args = ("lift", str(batch_folder), "--prior", prior_file, "--out", str(tmp_path), "--samples", "4",
             "--formats", "npz,bvh", "--persons", "largest", "--quiet", "--jobs", "2")  # fmt: skip
-    code, out, _ = run(monkeypatch, capsys, *args)
+    code, out, _ = run_cli(*args)
     assert code == 1
     assert "3 input(s): 1 ok, 2 failed, 0 skipped" in out
     summary = json.loads((tmp_path / "summary.json").read_text())
@@ -194,14 +173,14 @@ def test_batch_records_failures_and_resume_skips_finished(monkeypatch, capsys, t
 
     watched = (npz, tmp_path / "empty" / "log.txt", tmp_path / "corrupt" / "log.txt")
     stamps = [p.stat().st_mtime_ns for p in watched]
-    code, out, _ = run(monkeypatch, capsys, *args[:-2], "--resume")
+    code, out, _ = run_cli(*args[:-2], "--resume")
     assert code == 1 and "0 ok, 2 failed, 1 skipped" in out  # nothing is run again
     assert [p.stat().st_mtime_ns for p in watched] == stamps
     entries = json.loads((tmp_path / "summary.json").read_text())["inputs"]
     assert [e["status"] for e in entries] == ["failed", "failed", "skipped"]
     assert entries[1]["error"] == "earlier run: " + by_name["empty.mp4"]["error"]
     assert entries[2]["outputs"] == by_name["good.mp4"]["outputs"]
-    code, out, _ = run(monkeypatch, capsys, *args[:-2], "--resume", "--retry-failed")
+    code, out, _ = run_cli(*args[:-2], "--resume", "--retry-failed")
     assert code == 1 and "0 ok, 2 failed, 1 skipped" in out
     assert (tmp_path / "empty" / "log.txt").stat().st_mtime_ns > stamps[1]  # tried again
 
@@ -225,12 +204,12 @@ def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> Non
     assert sorted(p.name for p in tmp_path.iterdir()) == ["take"]
 
 
-def test_demo_lifts_the_bundled_take(monkeypatch, capsys, tmp_path, prior_file) -> None:
+def test_demo_lifts_the_bundled_take(run_cli, tmp_path, prior_file) -> None:
     from exporters.npz import read_npz
 
     args = ("demo", "--out", str(tmp_path), "--source", "keypoints", "--prior", prior_file, "--samples", "4",
             "--threads", "1", "--quiet")  # fmt: skip
-    code, out, err = run(monkeypatch, capsys, *args)
+    code, out, err = run_cli(*args)
     assert code == 0, err
     folder = tmp_path / "openpose-body25b"
     assert f"outputs in {folder}/" in out and "1 person(s) x 4 hypotheses x 100 frames" in out
@@ -241,13 +220,13 @@ def test_demo_lifts_the_bundled_take(monkeypatch, capsys, tmp_path, prior_file) 
     assert {p.suffix for p in folder.iterdir()} >= {".npz", ".csv", ".bvh", ".rrd"}
 
 
-def test_calibration_mismatches_fail_their_input(monkeypatch, capsys, data_dir, tmp_path, prior_file,
+def test_calibration_mismatches_fail_their_input(run_cli, data_dir, tmp_path, prior_file,
                                                  batch_folder) -> None:  # fmt: skip
     folder = tmp_path / "in"
     folder.mkdir()
     (folder / "cam01.mp4").symlink_to(batch_folder / "good.mp4")  # cam01 at half the calibrated size
     (folder / "side.mp4").symlink_to(batch_folder / "good.mp4")  # no camera of that name
-    code, out, _ = run(monkeypatch, capsys, *lift_args(data_dir, prior_file, tmp_path / "out", str(folder)))
+    code, out, _ = run_cli(*lift_args(data_dir, prior_file, tmp_path / "out", str(folder)))
     assert code == 1 and "0 ok, 2 failed" in out
     errors = {e["name"]: e["error"] for e in json.loads((tmp_path / "out" / "summary.json").read_text())["inputs"]}
     assert "calibration mismatch: calibration says 1088x1920 px for camera cam_01" in errors["cam01"]
