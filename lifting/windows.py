@@ -65,10 +65,21 @@ def blend_weights(plan: WindowPlan) -> np.ndarray:
     """Per-window frame weights ``(W, F)`` that sum to 1 over windows at every frame (linear ramps in overlaps)."""
     weights = np.ones((plan.count, plan.length))
     if plan.count > 1:
-        ramp = (np.arange(plan.overlap) + 0.5) / plan.overlap
+        held = anchored_frames(plan)
+        ramp = np.zeros(plan.overlap)  # the anchored frames copy the window before: keep it there
+        ramp[held:] = (np.arange(plan.overlap - held) + 0.5) / (plan.overlap - held)
         weights[1:, : plan.overlap] = ramp
         weights[:-1, plan.length - plan.overlap :] = 1 - ramp
     return weights
+
+
+def anchored_frames(plan: WindowPlan) -> int:
+    """How many of a window's first frames are anchored to the window before: the first half of the overlap.
+
+    The second half is the window's own and is blended in, so where the prior departs from
+    the anchored frames the change is spread over those frames instead of showing as a jump.
+    """
+    return plan.overlap // 2
 
 
 def stitch(windows: np.ndarray, plan: WindowPlan) -> np.ndarray:
@@ -84,11 +95,12 @@ def stitch(windows: np.ndarray, plan: WindowPlan) -> np.ndarray:
 def continuation_anchor(previous: np.ndarray, plan: WindowPlan) -> tuple[np.ndarray, np.ndarray]:
     """Anchor joints ``(..., F, 17, 3)`` and mask ``(F,)`` continuing the previous window ``(..., F, 17, 3)``.
 
-    The previous window's last O frames become the new window's first O frames.
+    The previous window's last O frames become the new window's first O frames; the
+    mask holds the first :func:`anchored_frames` of them.
     """
     O, F = plan.overlap, plan.length
     anchor = np.zeros_like(previous)
     anchor[..., :O, :, :] = previous[..., F - O :, :, :]
     mask = np.zeros(F)
-    mask[:O] = 1.0
+    mask[: anchored_frames(plan)] = 1.0
     return anchor, mask
