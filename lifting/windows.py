@@ -1,12 +1,12 @@
 """Cutting a long track into overlapping windows and stitching hypotheses back into one motion each.
 
 Windows of F frames start every ``F - O`` frames (O = overlap <= F / 2), the
-last one padded past the end. Windows are sampled in order, each one's first O
-frames anchored to (in-painted from) the last O frames of hypothesis k of the
-window before, so hypothesis k is one continuous motion. (Sampling windows
-independently and bridging them does not work with one camera: independent
-windows put hypothesis k at different depths, and a bridge has to jump.)
-Overlaps are blended with a linear ramp.
+last one padded past the end. Windows are sampled in order; the first half of
+each overlap is anchored to (in-painted from) hypothesis k of the window before
+and the second half is blended in with a linear ramp, so hypothesis k is one
+continuous motion. (Sampling windows independently and bridging them does not
+work with one camera: independent windows put hypothesis k at different depths,
+and a bridge has to jump.)
 """
 
 from __future__ import annotations
