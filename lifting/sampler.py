@@ -24,6 +24,7 @@ from lifting.energy import (
     ROBUST_LOSSES,
     Observations,
     bone_constancy_energy,
+    bone_lengths_torch,
     reprojection_energy,
     reprojection_terms,
     symmetry_energy,
@@ -31,7 +32,7 @@ from lifting.energy import (
 from lifting.prior import PriorBundle
 from lifting.representation import features_to_joints, joints_to_features
 from lifting.schedule import DiffusionSchedule, sampling_steps
-from lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_vectors
+from lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
 from lifting.translation import RayConstraints, ray_constraints, solve_translation
 
 STEP_RULES = ("backtrack", "paper")
@@ -143,7 +144,7 @@ def typical_size(joints: torch.Tensor, limits: tuple[float, float] = (0.5, 2.0))
     Size is the sum of limb and trunk lengths; one factor per window (median over its
     hypotheses and frames, clamped to ``limits``) keeps the hypotheses' relative sizes.
     """
-    lengths = bone_vectors(joints).norm(dim=-1)[..., list(SIZE_BONES)].sum(-1)  # (B, N, F)
+    lengths = bone_lengths_torch(joints)[..., list(SIZE_BONES)].sum(-1)  # (B, N, F)
     typical = sum(TYPICAL_BONE_LENGTHS[b] for b in SIZE_BONES)
     size = lengths.flatten(1).median(dim=-1).values.clamp(min=1e-3)  # (B,)
     scale = (typical / size).clamp(*limits)
