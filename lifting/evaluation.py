@@ -71,7 +71,7 @@ def place_window(window: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 
 def score(hypotheses: np.ndarray, truth: np.ndarray) -> dict:
-    """All metrics of hypotheses ``(N, T, 17, 3)`` against the truth ``(T, 17, 3)``, mm (ECE unitless)."""
+    """Position metrics of hypotheses ``(N, T, 17, 3)`` against the truth ``(T, 17, 3)``, mm (ECE: see :func:`score_windows`)."""
     return {
         "minMPJPE": 1000 * metrics.min_mpjpe(hypotheses, truth),
         "minMPSPE": 1000 * metrics.min_mpspe(hypotheses, truth),
@@ -79,8 +79,17 @@ def score(hypotheses: np.ndarray, truth: np.ndarray) -> dict:
         "PA-MPSPE": 1000 * metrics.pa_mpspe(hypotheses, truth),
         "MPJVE": 1000 * metrics.mpjve(hypotheses, truth),
         "root": 1000 * metrics.root_error(hypotheses, truth),
-        "ECE": metrics.ece(hypotheses, truth),
     }
+
+
+def score_windows(hypotheses: np.ndarray, truth: np.ndarray) -> dict:
+    """Metrics of windows ``(B, N, F, 17, 3)`` against ``(B, F, 17, 3)``: position metrics averaged over windows,
+    ECE from calibration frequencies pooled over all windows (as the paper computes it)."""
+    per_window = [score(h, t) for h, t in zip(hypotheses, truth)]
+    values = {k: float(np.mean([s[k] for s in per_window])) for k in per_window[0]}
+    frequencies = np.mean([metrics.calibration_frequencies(h, t) for h, t in zip(hypotheses, truth)], axis=0)
+    values["ECE"] = metrics.ece_from_frequencies(frequencies)
+    return values
 
 
 def lift_windows(
@@ -136,8 +145,7 @@ def evaluate(
             for method, per_frame in methods:
                 began = time.time()
                 hyps = lift_windows(prior, cameras, truth, replace(config, samples=samples), noise_px, per_frame)
-                per_window = [score(h, t) for h, t in zip(hyps, truth)]
-                values = {k: float(np.mean([s[k] for s in per_window])) for k in METRIC_NAMES}
+                values = score_windows(hyps, truth)
                 row = EvalRow(method, len(cameras), frames, samples, len(windows), values, time.time() - began)
                 rows.append(row)
                 if progress:

@@ -85,18 +85,36 @@ def root_error(hypotheses: np.ndarray, truth: np.ndarray) -> float:
     return float(np.linalg.norm(best[:, 0] - truth[:, 0], axis=-1).mean())
 
 
-def ece(hypotheses: np.ndarray, truth: np.ndarray, quantiles: np.ndarray = ECE_QUANTILES) -> float:
-    """Expected calibration error of the hypotheses' spread around their per-coordinate median.
+def calibration_frequencies(
+    hypotheses: np.ndarray, truth: np.ndarray, quantiles: np.ndarray = ECE_QUANTILES
+) -> np.ndarray:
+    """Per quantile and joint, the share of frames ``(Q, J - 1)`` where the truth lies within the hypotheses' q-quantile.
 
-    For every frame and joint, the truth's distance to the median is ranked among the
-    hypotheses' distances; ``freq(q)`` is the share of (frame, joint) whose rank is
-    within quantile q; ECE = mean over q of ``|freq(q) - q|``.
+    Distances are to the hypotheses' per-coordinate median (pelvis-relative; the pelvis
+    itself is left out, it is 0 by construction): the truth is inside quantile q when its
+    distance is below the q-quantile of the hypotheses' distances (Pierzchlewicz et al.
+    2022, as the paper's evaluation computes it).
     """
-    rel_h = root_relative(hypotheses)[..., 1:, :]  # the pelvis is 0 by construction: leave it out
+    rel_h = root_relative(hypotheses)[..., 1:, :]
     rel_t = root_relative(truth)[..., 1:, :]
     median = np.median(rel_h, axis=0)
     spread = np.linalg.norm(rel_h - median[None], axis=-1)  # (N, T, J)
     gap = np.linalg.norm(rel_t - median, axis=-1)  # (T, J)
-    rank = (spread < gap[None]).mean(0)  # share of hypotheses closer to the median than the truth
-    freq = np.array([(rank <= q).mean() for q in quantiles])
-    return float(np.abs(freq - quantiles).mean())
+    limits = np.quantile(spread, quantiles, axis=0)  # (Q, T, J)
+    return (limits > gap[None]).mean(axis=1)
+
+
+def ece_from_frequencies(frequencies: np.ndarray, quantiles: np.ndarray = ECE_QUANTILES) -> float:
+    """ECE from frequencies ``(Q, J)`` pooled over a whole evaluation set: mean over q of ``|median over joints - q|``."""
+    return float(np.abs(np.median(frequencies, axis=1) - quantiles).mean())
+
+
+def ece(hypotheses: np.ndarray, truth: np.ndarray, quantiles: np.ndarray = ECE_QUANTILES) -> float:
+    """Expected calibration error of one sequence's hypotheses (see :func:`calibration_frequencies`).
+
+    Calibration is a property of a whole evaluation set: to score many windows, average
+    their :func:`calibration_frequencies` and call :func:`ece_from_frequencies` once (the
+    mean of per-window ECEs is biased upwards, as frames and joints of one window share
+    their errors).
+    """
+    return ece_from_frequencies(calibration_frequencies(hypotheses, truth, quantiles), quantiles)

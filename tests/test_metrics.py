@@ -72,5 +72,26 @@ def test_ece_by_hand_on_two_hypotheses():
     truth[0, 1] = [0.0, 0.0, 1.0]
     hyps = np.zeros((3, 1, 2, 3))
     hyps[:, 0, 1] = [[0, 0, 0.9], [0, 0, 1.2], [0, 0, 1.0]]  # median 1.0: spreads 0.1, 0.2, 0; truth gap 0
-    # share of hypotheses closer than the truth = 0 -> freq(q) = 1 for all q: ECE = mean(1 - q) = 0.5
-    assert metrics.ece(hyps, truth) == pytest.approx(0.5)
+    # the q-quantile of the spreads (0, 0.1, 0.2) exceeds the gap 0 for every q > 0: freq = 0 at q = 0, else 1;
+    # ECE = mean over the 21 quantiles of |freq - q| = sum_{k=1..20} (1 - k/20) / 21 = 9.5 / 21
+    assert metrics.ece(hyps, truth) == pytest.approx(9.5 / 21)
+
+
+def test_ece_pools_windows_whose_frames_share_one_error():
+    """One-view ambiguity moves a whole window: hypotheses and truth are draws of one depth offset per window.
+
+    Such a sampler is calibrated; each single window is not (all its frames rank the truth alike), so
+    per-window ECEs are large while the frequencies pooled over windows give a small ECE.
+    """
+    rng = np.random.default_rng(3)
+    base = _truth(8)
+    direction = rng.normal(size=(1, 17, 3)) * 0.1
+    direction[:, 0] = 0
+    pooled, per_window = [], []
+    for _ in range(300):
+        hyps = base[None] + rng.normal(size=(100, 1, 1, 1)) * direction[None]
+        truth = base + rng.normal() * direction
+        pooled.append(metrics.calibration_frequencies(hyps, truth))
+        per_window.append(metrics.ece(hyps, truth))
+    assert metrics.ece_from_frequencies(np.mean(pooled, axis=0)) < 0.05
+    assert np.mean(per_window) > 0.2
