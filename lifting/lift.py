@@ -8,7 +8,7 @@ persons and hypotheses go through the network as one batch.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,8 +17,8 @@ import torch
 from lifting.camera import Camera
 from lifting.prior import PriorBundle
 from lifting.sampler import Anchor, SamplerConfig, cameras_and_rays, sample
-from lifting.timebase import interpolate
-from lifting.windows import WindowPlan, continuation_anchor, cut, plan_windows, stitch
+from lifting.timebase import blend_samples, interpolate, interpolation_weights
+from lifting.windows import WindowPlan, blend_weights, continuation_anchor, cut, plan_windows
 
 
 @dataclass(frozen=True)
@@ -34,6 +34,15 @@ class WindowSettings:
 class LiftOutput:
     """``hypotheses`` (P, N, T, 17, 3) world metres and per-frame reprojection ``energy`` (P, N, T)."""
 
+    hypotheses: np.ndarray
+    energy: np.ndarray
+
+
+@dataclass(frozen=True)
+class LiftChunk:
+    """Final frames ``start .. start + t`` of every person: ``hypotheses`` (P, N, t, 17, 3), ``energy`` (P, N, t)."""
+
+    start: int
     hypotheses: np.ndarray
     energy: np.ndarray
 
@@ -58,7 +67,7 @@ def resample_keypoints(keypoints: np.ndarray, times: np.ndarray, new_times: np.n
     return values
 
 
-def lift_tracks(
+def lift_stream(
     prior: PriorBundle,
     cameras: Sequence[Camera],
     keypoints: np.ndarray,
@@ -67,13 +76,13 @@ def lift_tracks(
     settings: WindowSettings = WindowSettings(),
     root_trajectory: np.ndarray | None = None,
     progress: Callable[[int, int], None] | None = None,
-) -> LiftOutput:
-    """Lift P persons' keypoints ``(C, T, P, 17, 3)`` seen by ``cameras`` at ``frame_times`` ``(T,)``.
+) -> Iterator[LiftChunk]:
+    """Lift P persons' keypoints ``(C, T, P, 17, 3)`` seen by ``cameras`` at ``frame_times`` ``(T,)``, in chunks.
 
-    ``root_trajectory`` (P, T, 3), if known, fixes each person's pelvis path.
-    ``progress(done, total)`` counts windows.
+    Chunks come in frame order as soon as no later window can change their frames, so
+    memory holds a few windows whatever the length. ``root_trajectory`` (P, T, 3), if
+    known, fixes each person's pelvis path. ``progress(done, total)`` counts windows.
     """
-    C, T, P = keypoints.shape[:3]
     clock = prior_clock(frame_times, prior.fps)
     resampled = np.moveaxis(resample_keypoints(np.moveaxis(keypoints, 1, 0), frame_times, clock), 0, 1)  # (C, T', P, 17, 3)
     length = min(settings.window, prior.config.max_frames)
@@ -84,19 +93,90 @@ def lift_tracks(
         roots = cut(interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock), plan, axis=0)  # (W, F, P, 3)
         roots = np.moveaxis(roots, 2, 1)  # (W, P, F, 3)
     runner = _WindowRunner(prior, list(cameras), per_window, roots, config, settings, plan, progress)
-    joints = np.zeros((plan.count, P, config.samples, plan.length, 17, 3), dtype=np.float32)
-    energy = np.zeros((plan.count, P, config.samples, plan.length), dtype=np.float32)
+    stitcher = StreamingStitch(plan, clock, np.asarray(frame_times, dtype=np.float64))
+    previous = None
     for w in range(plan.count):
-        anchor = continuation_anchor(joints[w - 1], plan) if w > 0 else None
-        joints[w], energy[w] = runner.run(w, anchor)
-    stitched = stitch(np.moveaxis(joints, 3, 1), plan)  # (T', P, N, 17, 3)
-    stitched_energy = stitch(np.moveaxis(energy, 3, 1), plan)  # (T', P, N)
-    hypotheses = interpolate(stitched, clock, frame_times)  # (T, P, N, 17, 3)
-    frame_energy = interpolate(stitched_energy, clock, frame_times)
+        anchor = continuation_anchor(previous, plan) if previous is not None else None
+        joints, energy = runner.run(w, anchor)
+        previous = np.asarray(joints, dtype=np.float32)  # (P, N, F, 17, 3)
+        window = (np.moveaxis(previous, 2, 0), np.moveaxis(np.asarray(energy, dtype=np.float32), 2, 0))
+        for start, (hypotheses, frame_energy) in stitcher.add(w, window):
+            yield LiftChunk(start, np.moveaxis(hypotheses, 0, 2), np.moveaxis(frame_energy, 0, 2))
+
+
+def lift_tracks(
+    prior: PriorBundle,
+    cameras: Sequence[Camera],
+    keypoints: np.ndarray,
+    frame_times: np.ndarray,
+    config: SamplerConfig,
+    settings: WindowSettings = WindowSettings(),
+    root_trajectory: np.ndarray | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> LiftOutput:
+    """:func:`lift_stream` gathered into whole arrays (for short inputs and tests)."""
+    chunks = list(lift_stream(prior, cameras, keypoints, frame_times, config, settings, root_trajectory, progress))
     return LiftOutput(
-        hypotheses=np.moveaxis(hypotheses, 0, 2).astype(np.float32),
-        energy=np.moveaxis(frame_energy, 0, 2).astype(np.float32),
+        hypotheses=np.concatenate([c.hypotheses for c in chunks], axis=2),
+        energy=np.concatenate([c.energy for c in chunks], axis=2),
     )
+
+
+class StreamingStitch:
+    """:func:`lifting.windows.stitch` then :func:`lifting.timebase.interpolate` onto the input's frame times, streamed.
+
+    Windows are added in order, each a tuple of arrays ``(F, ...)`` (frames first). After
+    window w, every prior frame before window w+1 starts is final: those frames are
+    resampled to the frame times they cover and handed out. The numbers are those of
+    the whole-array path (same float64 sums in the same order, same interpolation).
+    """
+
+    def __init__(self, plan: WindowPlan, clock: np.ndarray, frame_times: np.ndarray) -> None:
+        self.plan, self.clock, self.frame_times = plan, clock, frame_times
+        self.weights = blend_weights(plan)
+        self.single = len(clock) == 1
+        self.idx, self.w = (None, None) if self.single else interpolation_weights(clock, frame_times)
+        self.base = 0  # prior frame of self.sums[0]
+        self.sums: list[np.ndarray] | None = None  # per field: float64 (frames, ...) from self.base on
+        self.emitted = 0  # input frames handed out so far
+
+    def add(self, w: int, window: tuple[np.ndarray, ...]) -> Iterator[tuple[int, tuple[np.ndarray, ...]]]:
+        """Add window ``w`` (fields ``(F, ...)``); yield ``(first input frame, fields (t, ...) float32)`` now final."""
+        start, F = int(self.plan.starts[w]), self.plan.length
+        weight = self.weights[w]
+        if self.sums is None:
+            self.sums = [np.zeros((0, *v.shape[1:]), dtype=np.float64) for v in window]
+        grow = start + F - (self.base + len(self.sums[0]))
+        if grow > 0:
+            self.sums = [np.concatenate([s, np.zeros((grow, *s.shape[1:]))]) for s in self.sums]
+        for s, value in zip(self.sums, window):
+            s[start - self.base : start - self.base + F] += weight.reshape((F,) + (1,) * (value.ndim - 1)) * value
+        last = w == self.plan.count - 1
+        final = self.plan.total if last else int(self.plan.starts[w + 1])  # prior frames < final are done
+        chunk = self._resample(final, last)
+        if chunk is not None:
+            yield chunk
+
+    def _resample(self, final: int, last: bool) -> tuple[int, tuple[np.ndarray, ...]] | None:
+        """Input frames whose two neighbouring prior frames are below ``final`` (all that are left if ``last``)."""
+        first, T = self.emitted, len(self.frame_times)
+        if self.single:
+            stop = T if last else first
+        else:
+            stop = T if last else first + int(np.searchsorted(self.idx[first:] + 1, final, side="left"))
+        if stop <= first:
+            return None
+        if self.single:
+            fields = tuple(np.repeat(s[:1], stop - first, axis=0) for s in self.sums)
+        else:
+            idx = self.idx[first:stop] - self.base
+            fields = tuple(blend_samples(s, idx, self.w[first:stop]) for s in self.sums)
+        self.emitted = stop
+        if stop < T and not self.single:
+            drop = int(self.idx[stop]) - self.base  # prior frames no later input frame needs
+            self.sums = [s[drop:] for s in self.sums]
+            self.base += drop
+        return first, tuple(f.astype(np.float32) for f in fields)
 
 
 class _WindowRunner:

@@ -17,12 +17,26 @@ def interpolate(values: np.ndarray, times: np.ndarray, new_times: np.ndarray) ->
 
     Times outside the sampled range take the nearest end value.
     """
-    times = np.asarray(times, dtype=np.float64)
     if len(times) == 1:
         return np.repeat(values[:1], len(new_times), axis=0)
+    idx, w = interpolation_weights(times, new_times)
+    return blend_samples(values, idx, w)
+
+
+def interpolation_weights(times: np.ndarray, new_times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per new time (T',): the sample before it in ``times`` (T >= 2,), ``idx``, and the weight ``w`` of ``idx + 1``.
+
+    Times outside the sampled range take the nearest end value (``w`` clipped to 0..1).
+    """
+    times = np.asarray(times, dtype=np.float64)
     idx = np.clip(np.searchsorted(times, new_times, side="right") - 1, 0, len(times) - 2)
     span = times[idx + 1] - times[idx]
     w = np.clip((new_times - times[idx]) / np.where(span > 0, span, 1.0), 0.0, 1.0)
+    return idx, w
+
+
+def blend_samples(values: np.ndarray, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``(1 - w) * values[idx] + w * values[idx + 1]`` along the first axis, ``(len(idx), ...)``."""
     w = w.reshape(-1, *([1] * (values.ndim - 1)))
     return (1 - w) * values[idx] + w * values[idx + 1]
 

@@ -1,0 +1,70 @@
+"""Streaming results: frames leave ``lift_stream`` as soon as they are final, with the whole-array numbers."""
+
+import numpy as np
+import pytest
+
+from lifting import lift as lift_module
+from lifting.lift import WindowSettings, lift_stream, lift_tracks, prior_clock
+from lifting.sampler import SamplerConfig
+from lifting.timebase import interpolate
+from lifting.windows import plan_windows, stitch
+
+TAKE = "video/pose2sim-balancing"
+
+
+@pytest.fixture(scope="module")
+def real_track(data_dir):
+    """The athlete's OpenPose keypoints seen by cam01 (C=1, T, P=1, 17, 3) at 60 fps, and the camera."""
+    from detectors.sources import read_keypoints
+    from detectors.tracking import persons_to_keep
+    from lifting.calibration import load_calibration
+
+    camera = load_calibration(data_dir / TAKE / "calib_pose2sim.toml").cameras[0]
+    view = read_keypoints(data_dir / TAKE / "openpose-body25b/cam01_json", fps=60.0, image_size=(1080, 1920))
+    athlete = int(persons_to_keep([view], "largest")[0])
+    return view.keypoints[None, :, [athlete]], view.frame_times, camera
+
+
+def test_streamed_frames_equal_stitching_the_whole_track(tiny_prior, real_track, monkeypatch):
+    """Every sampled window is recorded; stitching and resampling them whole gives the streamed numbers bit for bit."""
+    keypoints, times, camera = real_track
+    windows: list[tuple[np.ndarray, np.ndarray]] = []
+    run = lift_module._WindowRunner.run
+
+    def recording_run(self, w, anchor):
+        joints, energy = run(self, w, anchor)
+        windows.append((np.asarray(joints, np.float32), np.asarray(energy, np.float32)))
+        return joints, energy
+
+    monkeypatch.setattr(lift_module._WindowRunner, "run", recording_run)
+    settings = WindowSettings(window=16, overlap=4)
+    chunks = list(lift_stream(tiny_prior, [camera], keypoints, times, SamplerConfig(samples=3), settings))
+    clock = prior_clock(times, tiny_prior.fps)
+    plan = plan_windows(len(clock), 16, 4)
+    assert len(windows) == plan.count > 3
+    sizes = [c.hypotheses.shape[2] for c in chunks]
+    assert len(chunks) > 3 and [c.start for c in chunks] == np.cumsum([0] + sizes[:-1]).tolist()
+    joints = np.stack([j for j, _ in windows])  # (W, P, N, F, 17, 3)
+    energy = np.stack([e for _, e in windows])
+    whole = interpolate(stitch(np.moveaxis(joints, 3, 1), plan), clock, times)  # (T, P, N, 17, 3)
+    whole_energy = interpolate(stitch(np.moveaxis(energy, 3, 1), plan), clock, times)
+    streamed = np.concatenate([c.hypotheses for c in chunks], axis=2)
+    assert streamed.shape == (1, 3, len(times), 17, 3) and np.isfinite(streamed).all()
+    assert np.array_equal(streamed, np.moveaxis(whole, 0, 2).astype(np.float32))
+    streamed_energy = np.concatenate([c.energy for c in chunks], axis=2)
+    assert np.array_equal(streamed_energy, np.moveaxis(whole_energy, 0, 2).astype(np.float32))
+
+
+def test_lift_tracks_gathers_the_stream(tiny_prior, real_track):
+    keypoints, times, camera = real_track
+    settings = WindowSettings(window=16, overlap=4)
+    out = lift_tracks(tiny_prior, [camera], keypoints[:, :40], times[:40], SamplerConfig(samples=2), settings)
+    chunks = list(lift_stream(tiny_prior, [camera], keypoints[:, :40], times[:40], SamplerConfig(samples=2), settings))
+    assert np.array_equal(out.hypotheses, np.concatenate([c.hypotheses for c in chunks], axis=2))
+    assert out.hypotheses.shape == (1, 2, 40, 17, 3) and out.energy.shape == (1, 2, 40)
+
+
+def test_a_single_frame_is_one_chunk(tiny_prior, real_track):
+    keypoints, times, camera = real_track
+    chunks = list(lift_stream(tiny_prior, [camera], keypoints[:, :1], times[:1], SamplerConfig(samples=2)))
+    assert len(chunks) == 1 and chunks[0].start == 0 and chunks[0].hypotheses.shape == (1, 2, 1, 17, 3)
