@@ -87,42 +87,71 @@ def reprojection_energy(
 
 
 def robust_slope(squared: torch.Tensor, loss: str, scale: float) -> torch.Tensor:
-    """Derivative of :func:`robust_penalty` with respect to the squared residual."""
+    """Derivative of :func:`robust_penalty` with respect to the squared residual (a 0-d one for ``l2``)."""
     if loss == "l2":
-        return torch.ones_like(squared)
+        return squared.new_ones(())  # a scalar: broadcasts without a full-size array of ones
     c2 = scale * scale
     return (c2 / (squared + c2)) ** 2
+
+
+SYMMETRIC_PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # packed 3x3: xx, xy, xz, yy, yz, zz
 
 
 def reprojection_terms(
     joints: torch.Tensor, obs: Observations, loss: str = "l2", scale: float = 0.05
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Energy ``(B, N, F)``, gradient ``(B, N, F, 17, 3)`` and Gauss-Newton curvature ``(B, N, F, 17, 3, 3)``.
+    """Energy ``(B, N, F)``, gradient ``(3, B, N, F, 17)`` and packed Gauss-Newton curvature ``(6, B, N, F, 17)``.
 
     Analytic and fused, for guidance: residuals are measured between undistorted
     normalised coordinates and scaled by the focal length into pixels (then into
     normalised image units), which equals :func:`reprojection_energy` up to the
-    lens distortion's local stretch.
+    lens distortion's local stretch. Gradient and curvature are component-first
+    (x, y, z; the curvature's six entries in ``SYMMETRIC_PAIRS`` order) so that
+    every operation runs on contiguous per-component arrays.
     """
     cams = obs.cameras
     C = len(cams)
-    cam = cams.to_camera_frame(joints)  # (C, B, N, F, 17, 3)
-    shape = (C, *([1] * (cam.dim() - 2)))
-    z = cam[..., 2:3].clamp(min=1e-3)
-    ratio = cam[..., :2] / z
-    gain = torch.stack([cams.K[:, 0, 0], cams.K[:, 1, 1]], -1) * obs.pixel_scale[:, None]  # (C, 2) units per unit
-    gain = gain.reshape(*shape, 2)
-    residual = (ratio - obs.normalized.unsqueeze(2)) * gain  # (C, B, N, F, 17, 2)
-    squared = (residual**2).sum(-1)
-    conf = obs.confidence.unsqueeze(2)
-    energy = (conf * robust_penalty(squared, loss, scale)).sum(dim=(0, -1))
-    weight = 2 * conf * robust_slope(squared, loss, scale)  # (C, B, N, F, 17)
-    R = cams.R.reshape(*shape, 3, 3)
-    jac = (gain / z)[..., None] * (R[..., :2, :] - ratio[..., None] * R[..., 2:3, :])  # (C, ..., 2, 3)
-    weighted_jac = weight[..., None, None] * jac
-    grad = (weighted_jac.transpose(-1, -2) @ residual.unsqueeze(-1)).squeeze(-1).sum(0)
-    curvature = (weighted_jac.transpose(-1, -2) @ jac).sum(0)
-    return energy, grad, curvature
+    shape = joints.shape[:-1]  # (B, N, F, 17)
+    camera_frame = torch.addmm(cams.t.reshape(3 * C, 1), cams.R.reshape(3 * C, 3), joints.reshape(-1, 3).T)
+    camera_frame = camera_frame.reshape(C, 3, *shape)
+    gains = (torch.stack([cams.K[:, 0, 0], cams.K[:, 1, 1]], -1) * obs.pixel_scale[:, None]).tolist()
+    rotations = cams.R.tolist()
+    energy = joints.new_zeros(shape[:-1])
+    grad = [joints.new_zeros(shape) for _ in range(3)]
+    curvature = [joints.new_zeros(shape) for _ in SYMMETRIC_PAIRS]
+    for c in range(C):
+        x, y, depth = camera_frame[c]
+        inverse_depth = depth.clamp(min=1e-3).reciprocal_()
+        u, v = x * inverse_depth, y * inverse_depth
+        target = obs.normalized[c].unsqueeze(1)  # (B, 1, F, 17, 2)
+        (gain_u, gain_v), R = gains[c], rotations[c]
+        residual_u = (u - target[..., 0]).mul_(gain_u)
+        residual_v = (v - target[..., 1]).mul_(gain_v)
+        squared = residual_u * residual_u + residual_v * residual_v
+        conf = obs.confidence[c].unsqueeze(1)  # (B, 1, F, 17)
+        energy += (conf * robust_penalty(squared, loss, scale)).sum(-1)
+        weight = 2 * conf * robust_slope(squared, loss, scale)
+        # Jacobian rows: gain / z * (R_row - ratio * R_z), for u (row 0) and v (row 1)
+        rows_u = [(u * -R[2][k]).add_(R[0][k]) for k in range(3)]
+        rows_v = [(v * -R[2][k]).add_(R[1][k]) for k in range(3)]
+        curv_u = inverse_depth * inverse_depth * weight
+        curv_v = curv_u * (gain_v * gain_v)
+        curv_u.mul_(gain_u * gain_u)
+        slope_u = (inverse_depth * weight).mul_(residual_u).mul_(gain_u)
+        slope_v = (inverse_depth * weight).mul_(residual_v).mul_(gain_v)
+        for k in range(3):
+            grad[k] += slope_u * rows_u[k] + slope_v * rows_v[k]
+        weighted_u = [curv_u * r for r in rows_u]
+        weighted_v = [curv_v * r for r in rows_v]
+        for entry, (k, m) in zip(curvature, SYMMETRIC_PAIRS):
+            entry += weighted_u[k] * rows_u[m] + weighted_v[k] * rows_v[m]
+    return energy, torch.stack(grad), torch.stack(curvature)
+
+
+def packed_identity(scale: torch.Tensor) -> torch.Tensor:
+    """Packed 3x3 matrices ``scale * I`` in ``SYMMETRIC_PAIRS`` order, ``(...) -> (6, ...)``."""
+    ones = torch.tensor([float(k == m) for k, m in SYMMETRIC_PAIRS], dtype=scale.dtype, device=scale.device)
+    return ones.reshape(6, *([1] * scale.dim())) * scale
 
 
 def bone_lengths_torch(joints: torch.Tensor) -> torch.Tensor:

@@ -25,6 +25,7 @@ from lifting.energy import (
     Observations,
     bone_constancy_energy,
     bone_lengths_torch,
+    packed_identity,
     reprojection_energy,
     reprojection_terms,
     symmetry_energy,
@@ -153,15 +154,18 @@ def typical_size(joints: torch.Tensor, limits: tuple[float, float] = (0.5, 2.0))
 
 
 def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
-    """Solve many symmetric positive definite 3x3 systems ``(..., 3, 3) x = (..., 3)`` by the adjugate (fast on CPU)."""
-    m = matrix.reshape(-1, 9).T.contiguous()
-    a, b, c, d, e, f = m[0], m[1], m[2], m[4], m[5], m[8]
-    x, y, z = rhs.reshape(-1, 3).T.contiguous()
+    """Solve many symmetric positive definite 3x3 systems by the adjugate (fast on CPU), component-first.
+
+    ``matrix`` ``(6, ...)`` packed in ``SYMMETRIC_PAIRS`` order (xx, xy, xz, yy, yz, zz), ``rhs`` ``(3, ...)``;
+    returns the solutions ``(3, ...)``.
+    """
+    a, b, c, d, e, f = matrix
+    x, y, z = rhs
     A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
     D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
-    inv_det = 1.0 / (a * A + b * B + c * C)
-    solution = torch.stack([A * x + B * y + C * z, B * x + D * y + E * z, C * x + E * y + F * z], -1)
-    return (solution * inv_det[:, None]).reshape(rhs.shape)
+    inv_det = (a * A + b * B + c * C).reciprocal_()
+    solution = torch.stack([A * x + B * y + C * z, B * x + D * y + E * z, C * x + E * y + F * z])
+    return solution.mul_(inv_det)
 
 
 class GuidedProblem:
@@ -244,31 +248,34 @@ class GuidedProblem:
         if c.direction == "gradient":
             with torch.enable_grad():
                 x = x0.detach().requires_grad_(True)
-                (grad_x,) = torch.autograd.grad(self.world_joints(x, offset), x, grad_outputs=grad)
+                (grad_x,) = torch.autograd.grad(self.world_joints(x, offset), x, grad_outputs=grad.movedim(0, -1))
             return total, -grad_x, torch.zeros_like(offset[:, :, :1])
-        damping = c.damping * curvature.diagonal(dim1=-2, dim2=-1).mean(dim=(-1, -2, -3))  # (B, N)
-        eye = torch.eye(3, dtype=x0.dtype, device=x0.device)
-        system = curvature + (damping[..., None, None, None, None] + 1e-9) * eye
-        step = -solve_symmetric3(system, grad)  # (B, N, F, 17, 3)
+        trace = curvature[0] + curvature[3] + curvature[5]  # (B, N, F, 17)
+        damping = c.damping / 3 * trace.mean(dim=(-1, -2))  # mean curvature diagonal per hypothesis, (B, N)
+        system = curvature + packed_identity(damping[..., None, None] + 1e-9)
+        step = solve_symmetric3(system, grad).neg_().movedim(0, -1)  # (B, N, F, 17, 3)
         direction = joints_to_features(step).reshape(x0.shape) / self.std
         return total, direction, step[:, :, :1, 0, :]  # the shift the features cannot hold: frame 0's root
 
     def add_extra_terms(self, joints, energy, grad, curvature):
-        """Add the structural energies (autograd, small) and the anchor (analytic) to the reprojection terms."""
+        """Add the structural energies (autograd, small) and the anchor (analytic) to the reprojection terms.
+
+        ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
+        :func:`lifting.energy.reprojection_terms` returns them.
+        """
         c = self.config
         if c.bone_weight > 0 or c.symmetry_weight > 0:
             with torch.enable_grad():
                 j = joints.detach().requires_grad_(True)
                 extra = c.bone_weight * bone_constancy_energy(j) + c.symmetry_weight * symmetry_energy(j)
                 (extra_grad,) = torch.autograd.grad(extra.sum(), j)
-            energy, grad = energy + extra.detach(), grad + extra_grad
+            energy, grad = energy + extra.detach(), grad + extra_grad.movedim(-1, 0)
         if self.anchor is not None:
             mask = self.anchor.mask[:, None, :]
             gap = joints - self.anchor.joints
             energy = energy + self.anchor.weight * mask * (gap**2).sum(dim=(-1, -2))
-            grad = grad + 2 * self.anchor.weight * mask[..., None, None] * gap
-            eye = torch.eye(3, dtype=joints.dtype, device=joints.device)
-            curvature = curvature + 2 * self.anchor.weight * mask[..., None, None, None] * eye
+            grad = grad + (2 * self.anchor.weight * mask[..., None, None] * gap).movedim(-1, 0)
+            curvature = curvature + packed_identity(2 * self.anchor.weight * mask[..., None])
         return energy, grad, curvature
 
     def guide(self, x0: torch.Tensor, iterations: int) -> tuple[torch.Tensor, torch.Tensor]:

@@ -53,6 +53,9 @@ def ray_constraints(obs: Observations) -> RayConstraints:
     )  # fmt: skip
 
 
+BLOCK_FRAMES = 8  # frames per block of the block-tridiagonal solve (at least 2: accelerations span 3 frames)
+
+
 def solve_translation(
     joints: torch.Tensor, rays: RayConstraints, cameras: CameraBatch, smoothness: float
 ) -> torch.Tensor:
@@ -62,31 +65,82 @@ def solve_translation(
     Frames or hypotheses without any evidence get a zero offset.
     """
     joints = joints.detach()
-    B, N, F = joints.shape[:3]
-    depth = cameras.to_camera_frame(joints)[..., 2].clamp(min=0.1)  # (C, B, N, F, 17)
-    weight = rays.confidence.unsqueeze(2) * (rays.focal_scale.reshape(-1, 1, 1, 1, 1) / depth) ** 2
-    A = rays.A.unsqueeze(2)  # (C, B, 1, F, 17, 2, 3)
-    residual = (A @ joints.unsqueeze(0).unsqueeze(-1)).squeeze(-1) + rays.b.unsqueeze(2)  # (C, B, N, F, 17, 2)
-    normal = torch.einsum("cbnfj,cbfjri,cbfjrk->bnfik", weight, rays.A, rays.A)  # (B, N, F, 3, 3)
-    rhs = -torch.einsum("cbnfj,cbfjri,cbnfjr->bnfi", weight, rays.A, residual)  # (B, N, F, 3)
+    F = joints.shape[2]
+    C = len(cameras)
+    # depth of every joint in every camera: the camera's third row only, one matrix-vector product per camera
+    depth = torch.stack([joints @ cameras.R[c, 2] + cameras.t[c, 2] for c in range(C)]).clamp(min=0.1)
+    weight = rays.confidence.unsqueeze(2) * (rays.focal_scale.reshape(-1, 1, 1, 1, 1) / depth) ** 2  # (C,B,N,F,17)
+    ata = torch.einsum("cbfjri,cbfjrk->cbfjik", rays.A, rays.A)  # (C, B, F, 17, 3, 3): no hypothesis axis yet
+    atb = torch.einsum("cbfjri,cbfjr->cbfji", rays.A, rays.b)
+    normal = torch.einsum("cbnfj,cbfjik->bnfik", weight, ata)  # (B, N, F, 3, 3)
+    weighted_joints = weight.unsqueeze(-1) * joints.unsqueeze(0)  # (C, B, N, F, 17, 3)
+    rhs = -torch.einsum("cbnfjk,cbfjik->bnfi", weighted_joints, ata) - torch.einsum("cbnfj,cbfji->bnfi", weight, atb)
     eye = torch.eye(3, dtype=joints.dtype, device=joints.device)
     data_scale = normal.diagonal(dim1=-2, dim2=-1).mean(dim=(-1, -2)).clamp(min=1e-9)  # (B, N)
-    regulariser = 1e-6 * data_scale[..., None, None, None] * eye
+    normal = normal + 1e-6 * data_scale[..., None, None, None] * eye
     if smoothness <= 0 or F < 3:
-        return torch.linalg.solve(normal + regulariser, rhs.unsqueeze(-1)).squeeze(-1)
-    mu = smoothness * data_scale  # (B, N)
-    second_difference = torch.zeros(F - 2, F, dtype=joints.dtype, device=joints.device)
-    rows = torch.arange(F - 2)
+        return torch.linalg.solve(normal, rhs.unsqueeze(-1)).squeeze(-1)
+    return _smooth_solve(normal, rhs, smoothness * data_scale)
+
+
+def acceleration_penalty(frames: int, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
+    """``D^T D`` ``(F, F)`` for the second-difference operator ``D``: the sum of squared accelerations."""
+    second_difference = torch.zeros(frames - 2, frames, dtype=dtype, device=device)
+    rows = torch.arange(frames - 2, device=device)
     second_difference[rows, rows] = 1.0
     second_difference[rows, rows + 1] = -2.0
     second_difference[rows, rows + 2] = 1.0
-    penalty = second_difference.T @ second_difference  # (F, F): squared accelerations
-    system = torch.zeros(B, N, F, 3, F, 3, dtype=joints.dtype, device=joints.device)
-    frames = torch.arange(F)
-    system[:, :, frames, :, frames, :] = (normal + regulariser).permute(2, 0, 1, 3, 4)
-    system = system + mu[..., None, None, None, None] * torch.einsum("fg,ik->figk", penalty, eye)
-    # Cholesky (the system is symmetric positive definite): torch's batched LU solve on CPU returns wrong
-    # results with several threads for matrices of 160 x 160 and more (pytorch issue 142815).
-    factor = torch.linalg.cholesky(system.reshape(B, N, 3 * F, 3 * F))
-    solution = torch.cholesky_solve(rhs.reshape(B, N, 3 * F, 1), factor)
-    return solution.reshape(B, N, F, 3)
+    return second_difference.T @ second_difference
+
+
+def _smooth_solve(normal: torch.Tensor, rhs: torch.Tensor, mu: torch.Tensor) -> torch.Tensor:
+    """Solve ``(blockdiag(normal) + mu D^T D (x) I3) d = rhs`` for ``normal`` ``(B, N, F, 3, 3)``, ``rhs`` ``(B, N, F, 3)``.
+
+    The system is banded (accelerations couple frames two apart): it is cut into blocks
+    of ``BLOCK_FRAMES`` frames, which makes it block-tridiagonal, and solved by block
+    Cholesky. Frames padded at the end (identity, no coupling) are dropped.
+    """
+    B, N, F = normal.shape[:3]
+    size = BLOCK_FRAMES
+    blocks = -(-F // size)
+    padded = blocks * size
+    eye = torch.eye(3, dtype=normal.dtype, device=normal.device)
+    normal = torch.cat([normal, eye.expand(B, N, padded - F, 3, 3)], dim=2)
+    rhs = torch.cat([rhs, rhs.new_zeros(B, N, padded - F, 3)], dim=2)
+    penalty = torch.zeros(padded, padded, dtype=normal.dtype, device=normal.device)
+    penalty[:F, :F] = acceleration_penalty(F, normal.dtype, normal.device)
+    penalty = penalty.reshape(blocks, size, blocks, size)
+    ks = torch.arange(blocks, device=normal.device)
+    frames_eye = torch.eye(size, dtype=normal.dtype, device=normal.device)
+    smooth_diag = torch.einsum("bn,kfg,ij->bnkfigj", mu, penalty[ks, :, ks, :], eye)
+    data_diag = torch.einsum("bnkfij,fg->bnkfigj", normal.reshape(B, N, blocks, size, 3, 3), frames_eye)
+    diag = (smooth_diag + data_diag).reshape(B * N, blocks, 3 * size, 3 * size)
+    lower = torch.einsum("bn,kfg,ij->bnkfigj", mu, penalty[ks[1:], :, ks[:-1], :], eye)
+    solution = solve_block_tridiagonal(
+        diag, lower.reshape(B * N, blocks - 1, 3 * size, 3 * size), rhs.reshape(B * N, blocks, 3 * size)
+    )
+    return solution.reshape(B, N, padded, 3)[:, :, :F]
+
+
+def solve_block_tridiagonal(diag: torch.Tensor, lower: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
+    """Solve symmetric positive definite block-tridiagonal systems by block Cholesky.
+
+    ``diag`` ``(M, K, n, n)`` diagonal blocks, ``lower`` ``(M, K-1, n, n)`` the blocks below
+    them (row k+1, column k), ``rhs`` ``(M, K, n)``; returns ``(M, K, n)``. One pass over the K
+    blocks, every operation batched over the M systems.
+    """
+    factors, couplings, forward = [], [None], []
+    for k in range(diag.shape[1]):
+        block, right = diag[:, k], rhs[:, k, :, None]
+        if k > 0:  # coupling^T = L_{k-1}^-1 lower^T, so that lower = coupling L_{k-1}^T
+            coupling_t = torch.linalg.solve_triangular(factors[-1], lower[:, k - 1].mT, upper=False)
+            block = block - coupling_t.mT @ coupling_t
+            right = right - coupling_t.mT @ forward[-1]
+            couplings.append(coupling_t)
+        factors.append(torch.linalg.cholesky(block))
+        forward.append(torch.linalg.solve_triangular(factors[-1], right, upper=False))
+    solution = [None] * len(factors)
+    for k in reversed(range(len(factors))):
+        right = forward[k] if k + 1 == len(factors) else forward[k] - couplings[k + 1] @ solution[k + 1]
+        solution[k] = torch.linalg.solve_triangular(factors[k].mT, right, upper=True)
+    return torch.cat(solution, dim=-1).mT.reshape(rhs.shape)
