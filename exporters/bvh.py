@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from exporters.frames import Lead, frame_chunks
 from exporters.ik import CHILDREN, fit_rotations, forward_kinematics, local_euler
 from lifting.atomic import atomic_open
 from lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
@@ -68,12 +69,12 @@ def from_bvh_axes(points: np.ndarray) -> np.ndarray:
     return np.stack([x, -z, y], axis=-1) / CM_PER_M
 
 
-def rest_offsets(joints: np.ndarray) -> np.ndarray:
-    """Rest offsets (17, 3) in BVH centimetres from median bone lengths of ``joints`` (T, 17, 3) metres."""
-    lengths = np.nanmedian(bone_lengths(joints), axis=0) * CM_PER_M
+def rest_offsets(lengths: np.ndarray) -> np.ndarray:
+    """Rest offsets (17, 3) in BVH centimetres from the median of per-frame bone lengths (T, 16) metres."""
+    median = np.nanmedian(lengths, axis=0) * CM_PER_M
     offsets = np.zeros((NUM_JOINTS, 3))
     for b, (child, _) in enumerate(BONES):
-        offsets[child] = REST_DIRECTIONS[child] * lengths[b]
+        offsets[child] = REST_DIRECTIONS[child] * median[b]
     return offsets
 
 
@@ -85,17 +86,13 @@ def end_site_offsets(offsets: np.ndarray) -> dict[int, np.ndarray]:
     }
 
 
-def fill_absent(joints: np.ndarray) -> np.ndarray:
-    """Replace NaN frames of ``joints`` (T, 17, 3) by the nearest present frame (earlier one on ties)."""
-    present = np.isfinite(joints).all(axis=(1, 2))
-    if present.all():
-        return joints
+def nearest_present(present: np.ndarray) -> np.ndarray:
+    """For each frame of ``present`` (T,) bool, the nearest present frame (the earlier one on ties), (T,)."""
     idx = np.flatnonzero(present)
-    frames = np.arange(len(joints))
+    frames = np.arange(len(present))
     after = np.clip(np.searchsorted(idx, frames), 0, len(idx) - 1)
     before = np.clip(after - 1, 0, len(idx) - 1)
-    pick = np.where(np.abs(idx[before] - frames) <= np.abs(idx[after] - frames), idx[before], idx[after])
-    return joints[pick]
+    return np.where(np.abs(idx[before] - frames) <= np.abs(idx[after] - frames), idx[before], idx[after])
 
 
 def _hierarchy(offsets: np.ndarray) -> list[str]:
@@ -122,14 +119,12 @@ def _hierarchy(offsets: np.ndarray) -> list[str]:
     return lines
 
 
-def motion_channels(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rest offsets (17, 3) and channel values (T, 54) for world joints (T, 17, 3) metres, rounded as written."""
-    joints = fill_absent(np.asarray(joints, dtype=np.float64))
-    offsets = np.round(rest_offsets(joints), DECIMALS)
+def motion_channels(joints: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Channel values (T, 54), rounded as written, for world joints (T, 17, 3) metres and rest ``offsets`` (17, 3)."""
     positions = to_bvh_axes(joints)
     euler = local_euler(fit_rotations(positions, offsets))
     values = np.concatenate([positions[:, 0], euler.reshape(len(joints), -1)], axis=1)
-    return offsets, np.round(values, DECIMALS)
+    return np.round(values, DECIMALS)
 
 
 def channels_to_positions(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -138,19 +133,28 @@ def channels_to_positions(values: np.ndarray, offsets: np.ndarray) -> np.ndarray
     return from_bvh_axes(forward_kinematics(euler, values[:, :3], offsets))
 
 
-def write_bvh(joints: np.ndarray, fps: float, path: Path | str) -> BvhFit:
+def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit:
     """Fit and write world joints (T, 17, 3) metres at ``fps`` to ``path`` atomically; return the fit error.
 
     Absent (NaN) frames hold the nearest present pose; the fit error is measured on present frames.
+    ``joints`` is read a chunk of frames at a time (it may be a view of a file, see :mod:`exporters.frames`).
     """
-    joints = np.asarray(joints, dtype=np.float64)
-    present = np.isfinite(joints).all(axis=(1, 2))
+    T = len(joints)
+    present = np.concatenate([np.isfinite(joints[t]).all(axis=(1, 2)) for t in frame_chunks(T)])
     if not present.any():
         raise ValueError(f"{path}: no frame to write, the person is absent throughout")
-    offsets, values = motion_channels(joints)
-    error = np.linalg.norm(channels_to_positions(values, offsets)[present] - joints[present], axis=-1)
-    header = _hierarchy(offsets) + ["MOTION", f"Frames: {len(values)}", f"Frame Time: {1.0 / fps:.8f}"]
+    pick = nearest_present(present)  # absent frames hold the nearest present pose
+    lengths = np.concatenate([bone_lengths(np.asarray(joints[t], np.float64))[present[t]] for t in frame_chunks(T)])
+    offsets = np.round(rest_offsets(lengths[(np.cumsum(present) - 1)[pick]]), DECIMALS)
+    header = _hierarchy(offsets) + ["MOTION", f"Frames: {T}", f"Frame Time: {1.0 / fps:.8f}"]
+    total, count, largest = 0.0, 0, 0.0
     with atomic_open(path, "w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(header) + "\n")
-        np.savetxt(f, values, fmt=f"%.{DECIMALS}f", delimiter=" ")
-    return BvhFit(mean_m=float(error.mean()), max_m=float(error.max()))
+        for t in frame_chunks(T):
+            filled = np.asarray(joints[pick[t]], dtype=np.float64)
+            values = motion_channels(filled, offsets)
+            np.savetxt(f, values, fmt=f"%.{DECIMALS}f", delimiter=" ")
+            on = present[t]
+            error = np.linalg.norm(channels_to_positions(values, offsets)[on] - filled[on], axis=-1)
+            total, count, largest = total + error.sum(), count + error.size, max(largest, error.max(initial=0.0))
+    return BvhFit(mean_m=float(total / count), max_m=float(largest))

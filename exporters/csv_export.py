@@ -7,12 +7,14 @@ Frames where a person is absent are left out.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
+from exporters.frames import frame_chunks
 from exporters.result import LiftResult
 from lifting.atomic import atomic_open
 from lifting.skeleton import JOINT_NAMES, NUM_JOINTS
@@ -24,11 +26,12 @@ SUMMARY_COLUMNS = ("person", "frame", "time_s", "joint") + tuple(
 )
 
 
-def _write_table(table: pa.Table, path: Path) -> Path:
-    """Write ``table`` as CSV with a plain header row, atomically."""
+def _write_tables(tables: Iterable[pa.Table], columns: Sequence[str], path: Path) -> Path:
+    """Write ``tables`` one after the other as one CSV with a plain header row, atomically."""
     with atomic_open(path) as f:
-        f.write((",".join(table.column_names) + "\n").encode())
-        pacsv.write_csv(table, f, pacsv.WriteOptions(include_header=False, quoting_style="none"))
+        f.write((",".join(columns) + "\n").encode())
+        for table in tables:
+            pacsv.write_csv(table, f, pacsv.WriteOptions(include_header=False, quoting_style="none"))
     return path
 
 
@@ -38,55 +41,67 @@ def _joint_column(count: int) -> pa.DictionaryArray:
     return pa.DictionaryArray.from_arrays(indices, pa.array(JOINT_NAMES))
 
 
-def long_table(result: LiftResult) -> pa.Table:
-    """Rows ``person, hypothesis, frame, time_s, joint, x_m, y_m, z_m`` over present frames."""
-    P, N, T = result.hypotheses.shape[:3]
+def long_tables(result: LiftResult) -> Iterator[pa.Table]:
+    """Rows ``person, hypothesis, frame, time_s, joint, x_m, y_m, z_m`` over present frames, a chunk at a time.
+
+    Rows are ordered by person, hypothesis, frame and joint.
+    """
     present = result.present()
-    p_idx, n_idx, t_idx = np.nonzero(np.broadcast_to(present[:, None, :], (P, N, T)))
-    xyz = result.hypotheses[p_idx, n_idx, t_idx].reshape(-1, 3)
-    rep = NUM_JOINTS
-    return pa.table(
-        {
-            "person": np.repeat(result.track_ids[p_idx], rep),
-            "hypothesis": np.repeat(n_idx, rep),
-            "frame": np.repeat(t_idx, rep),
-            "time_s": np.repeat(result.frame_times[t_idx], rep),
-            "joint": _joint_column(len(p_idx)),
-            "x_m": xyz[:, 0],
-            "y_m": xyz[:, 1],
-            "z_m": xyz[:, 2],
-        }
-    )
+    for p, track in enumerate(result.track_ids):
+        for n in range(result.num_hypotheses):
+            for t in frame_chunks(result.num_frames):
+                t_idx = t.start + np.flatnonzero(present[p, t])
+                if len(t_idx) == 0:
+                    continue
+                xyz = result.hypotheses[p, n, t][t_idx - t.start].reshape(-1, 3)
+                yield pa.table(
+                    {
+                        "person": np.full(len(xyz), track),
+                        "hypothesis": np.full(len(xyz), n),
+                        "frame": np.repeat(t_idx, NUM_JOINTS),
+                        "time_s": np.repeat(result.frame_times[t_idx], NUM_JOINTS),
+                        "joint": _joint_column(len(t_idx)),
+                        "x_m": xyz[:, 0],
+                        "y_m": xyz[:, 1],
+                        "z_m": xyz[:, 2],
+                    }
+                )
 
 
-def summary_arrays(result: LiftResult) -> dict[str, np.ndarray]:
-    """Per person, frame and joint: the npz median and 5/95% quantiles over hypotheses, each (P, T, 17, 3)."""
-    q05, q95 = np.quantile(result.hypotheses, [0.05, 0.95], axis=1).astype(np.float32)
-    return {"median": result.median, "q05": q05, "q95": q95}
+def summary_arrays(hypotheses: np.ndarray, median: np.ndarray) -> dict[str, np.ndarray]:
+    """The median (..., 17, 3) and the 5/95% quantiles of ``hypotheses`` (N, ..., 17, 3) over hypotheses."""
+    q05, q95 = np.quantile(hypotheses, [0.05, 0.95], axis=0).astype(np.float32)
+    return {"median": median, "q05": q05, "q95": q95}
 
 
-def summary_table(result: LiftResult) -> pa.Table:
-    """Rows ``person, frame, time_s, joint, median_{x,y,z}_m, q05_..., q95_...`` over present frames."""
-    p_idx, t_idx = np.nonzero(result.present())
-    stats = summary_arrays(result)
-    columns: dict[str, object] = {
-        "person": np.repeat(result.track_ids[p_idx], NUM_JOINTS),
-        "frame": np.repeat(t_idx, NUM_JOINTS),
-        "time_s": np.repeat(result.frame_times[t_idx], NUM_JOINTS),
-        "joint": _joint_column(len(p_idx)),
-    }
-    for label in STATISTICS:
-        values = stats[label][p_idx, t_idx].reshape(-1, 3)
-        for axis, name in enumerate("xyz"):
-            columns[f"{label}_{name}_m"] = values[:, axis]
-    return pa.table(columns)
+def summary_tables(result: LiftResult) -> Iterator[pa.Table]:
+    """Rows ``person, frame, time_s, joint, median_{x,y,z}_m, q05_..., q95_...`` over present frames, in chunks."""
+    present = result.present()
+    for p, track in enumerate(result.track_ids):
+        for t in frame_chunks(result.num_frames):
+            on = np.flatnonzero(present[p, t])
+            if len(on) == 0:
+                continue
+            t_idx = t.start + on
+            stats = summary_arrays(result.hypotheses[p, :, t][:, on], result.median[p, t][on])
+            columns: dict[str, object] = {
+                "person": np.full(len(on) * NUM_JOINTS, track),
+                "frame": np.repeat(t_idx, NUM_JOINTS),
+                "time_s": np.repeat(result.frame_times[t_idx], NUM_JOINTS),
+                "joint": _joint_column(len(on)),
+            }
+            for label in STATISTICS:
+                values = stats[label].reshape(-1, 3)
+                for axis, name in enumerate("xyz"):
+                    columns[f"{label}_{name}_m"] = values[:, axis]
+            yield pa.table(columns)
 
 
 def write_long_csv(result: LiftResult, path: Path | str) -> Path:
-    """Write the long CSV to ``path`` atomically."""
-    return _write_table(long_table(result), Path(path))
+    """Write the long CSV to ``path`` atomically, a chunk of frames at a time."""
+    return _write_tables(long_tables(result), LONG_COLUMNS, Path(path))
 
 
 def write_summary_csv(result: LiftResult, path: Path | str) -> Path:
-    """Write the summary CSV to ``path`` atomically."""
-    return _write_table(summary_table(result), Path(path))
+    """Write the summary CSV to ``path`` atomically, a chunk of frames at a time."""
+    return _write_tables(summary_tables(result), SUMMARY_COLUMNS, Path(path))

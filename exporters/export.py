@@ -9,6 +9,7 @@ import numpy as np
 
 from exporters.bvh import write_bvh
 from exporters.csv_export import write_long_csv, write_summary_csv
+from exporters.frames import Lead
 from exporters.npz import write_npz
 from exporters.result import LiftResult
 from lifting.errors import InputError
@@ -36,13 +37,13 @@ def _write_bvhs(result: LiftResult, out_dir: Path, name: str, mode: str) -> tupl
         if not present[p].any():
             continue
         path = out_dir / f"{name}_p{track}.bvh"
-        errors[f"p{track}"] = {"median": write_bvh(result.median[p], result.fps, path).as_dict()}
+        errors[f"p{track}"] = {"median": write_bvh(Lead(result.median, p), result.fps, path).as_dict()}
         paths.append(path)
         if mode == "all":
             fits = []
             for n in range(result.num_hypotheses):
                 hyp_path = out_dir / f"{name}_p{track}_h{n:03d}.bvh"
-                fits.append(write_bvh(result.hypotheses[p, n], result.fps, hyp_path))
+                fits.append(write_bvh(Lead(result.hypotheses, p, n), result.fps, hyp_path))
                 paths.append(hyp_path)
             errors[f"p{track}"]["hypotheses"] = {
                 "mean_m": float(np.mean([f.mean_m for f in fits])),

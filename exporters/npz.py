@@ -5,9 +5,11 @@ from __future__ import annotations
 import json
 import zipfile
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 
+from exporters.frames import FrameArray, frame_chunks
 from exporters.result import LiftResult
 from lifting.atomic import atomic_open
 from lifting.calibration.model import Calibration, new_meta
@@ -22,14 +24,17 @@ REQUIRED = (
 )  # fmt: skip
 
 
+FRAME_AXES = {"hypotheses": 2, "median": 1, "keypoints2d": 2, "energy": 2}  # fields written a chunk of frames at a time
+
+
 def cameras_json(cameras: tuple[Camera, ...]) -> str:
     """The cameras as native calibration JSON text (``platypose-calib`` version 1)."""
     calibration = Calibration(cameras=cameras, meta=new_meta(FORMAT, "platypose result", "z", "m"))
     return json.dumps(calibration_to_dict(calibration))
 
 
-def result_arrays(result: LiftResult) -> dict[str, np.ndarray]:
-    """The npz fields of ``result`` as plain arrays (no pickled objects)."""
+def result_arrays(result: LiftResult) -> dict[str, np.ndarray | FrameArray]:
+    """The npz fields of ``result`` as plain arrays (no pickled objects; long ones may stay on disk)."""
     arrays = {
         "hypotheses": result.hypotheses,
         "median": result.median,
@@ -50,15 +55,32 @@ def result_arrays(result: LiftResult) -> dict[str, np.ndarray]:
 
 
 def write_npz(result: LiftResult, path: Path | str) -> Path:
-    """Write ``result`` to ``path`` (npz) atomically; meta must be JSON-serialisable."""
+    """Write ``result`` to ``path`` (npz, as ``np.savez`` would) atomically; meta must be JSON-serialisable.
+
+    Long arrays are copied a chunk of frames at a time.
+    """
     path = Path(path)
     try:
         arrays = result_arrays(result)
     except TypeError as err:
         raise InputError(f"{path}: meta is not JSON-serialisable ({err})") from None
-    with atomic_open(path) as f:
-        np.savez(f, **arrays)
+    with atomic_open(path) as f, zipfile.ZipFile(f, mode="w", compression=zipfile.ZIP_STORED, allowZip64=True) as z:
+        for key, value in arrays.items():
+            with z.open(f"{key}.npy", "w", force_zip64=True) as member:  # as np.savez writes them
+                _write_npy(member, value, FRAME_AXES.get(key))
     return path
+
+
+def _write_npy(stream: IO[bytes], values: np.ndarray | FrameArray, frame_axis: int | None) -> None:
+    """``np.save`` of ``values`` into ``stream``; with a ``frame_axis``, read and written a chunk of frames at a time."""
+    if frame_axis is None:
+        np.lib.format.write_array(stream, values, allow_pickle=False)
+        return
+    header = {"descr": np.lib.format.dtype_to_descr(values.dtype), "fortran_order": False, "shape": values.shape}
+    np.lib.format.write_array_header_1_0(stream, header)
+    for lead in np.ndindex(*values.shape[:frame_axis]):
+        for t in frame_chunks(values.shape[frame_axis]):
+            stream.write(np.ascontiguousarray(values[lead + (t,)]).tobytes())
 
 
 def _text(data: np.lib.npyio.NpzFile, key: str) -> str:

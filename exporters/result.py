@@ -3,6 +3,9 @@
 A person absent from a frame has NaN in every joint of every hypothesis and of
 the median at that frame; present frames are finite. Missing 2D keypoints
 have confidence 0 (their coordinates may be NaN).
+
+``hypotheses``, ``median`` and ``energy`` may be :class:`exporters.frames.FrameArray`
+files (long inputs): everything here and in the exporters reads them in chunks of frames.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from exporters.frames import FrameArray, frame_chunks
 from lifting.camera import Camera
 from lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
 
@@ -26,14 +30,14 @@ class LiftResult:
     ``frame_times`` (T,) seconds, ``track_ids`` (P,), ``energy`` (P, N, T) or None.
     """
 
-    hypotheses: np.ndarray
-    median: np.ndarray
+    hypotheses: np.ndarray | FrameArray
+    median: np.ndarray | FrameArray
     keypoints2d: np.ndarray
     frame_times: np.ndarray
     fps: float
     track_ids: np.ndarray
     cameras: tuple[Camera, ...]
-    energy: np.ndarray | None = None
+    energy: np.ndarray | FrameArray | None = None
     meta: dict = field(default_factory=dict)
 
     joint_names: ClassVar[tuple[str, ...]] = JOINT_NAMES
@@ -43,8 +47,8 @@ class LiftResult:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "hypotheses", np.asarray(self.hypotheses, dtype=np.float32))
-        set_(self, "median", np.asarray(self.median, dtype=np.float32))
+        set_(self, "hypotheses", _float32(self.hypotheses))
+        set_(self, "median", _float32(self.median))
         set_(self, "keypoints2d", np.asarray(self.keypoints2d, dtype=np.float32))
         set_(self, "frame_times", np.asarray(self.frame_times, dtype=np.float64))
         set_(self, "track_ids", np.asarray(self.track_ids, dtype=np.int64))
@@ -52,7 +56,7 @@ class LiftResult:
         set_(self, "cameras", tuple(self.cameras))
         set_(self, "meta", dict(self.meta))
         if self.energy is not None:
-            set_(self, "energy", np.asarray(self.energy, dtype=np.float32))
+            set_(self, "energy", _float32(self.energy))
         problem = _shape_problem(self)
         if problem:
             raise ValueError(problem)
@@ -74,11 +78,36 @@ class LiftResult:
 
     def present(self) -> np.ndarray:
         """Frames where each person is present, (P, T) bool."""
-        return np.isfinite(self.median).all(axis=(-1, -2))
+        return np.concatenate(
+            [np.isfinite(self.median[:, t]).all(axis=(-1, -2)) for t in frame_chunks(self.num_frames)], axis=1
+        )
 
     def with_meta(self, **updates: object) -> LiftResult:
         """A copy with ``meta`` updated by ``updates``."""
         return dataclasses.replace(self, meta={**self.meta, **updates})
+
+
+def _float32(values: np.ndarray | FrameArray) -> np.ndarray | FrameArray:
+    """An array as float32; a FrameArray is kept (it must already be float32)."""
+    if isinstance(values, FrameArray):
+        if values.dtype != np.float32:
+            raise ValueError(f"{values.path}: must hold float32, got {values.dtype}")
+        return values
+    return np.asarray(values, dtype=np.float32)
+
+
+def _presence_problem(r: LiftResult) -> str:
+    """Whether median and hypotheses are finite or NaN together, chunk by chunk of frames; empty when they are."""
+    for t in frame_chunks(r.num_frames):
+        median, h = r.median[:, t], r.hypotheses[:, :, t]
+        present = np.isfinite(median).all(axis=(-1, -2))
+        if (np.isfinite(median).any(axis=(-1, -2)) & ~present).any():
+            return "median has frames that are partly NaN (a person is either present with all joints or absent)"
+        hyp_present = np.isfinite(h).all(axis=(1, -1, -2))
+        hyp_absent = (~np.isfinite(h)).all(axis=(1, -1, -2))
+        if not (hyp_present == present).all() or not (hyp_present | hyp_absent).all():
+            return "hypotheses must be finite exactly on the frames where the median is finite"
+    return ""
 
 
 def _shape_problem(r: LiftResult) -> str:
@@ -111,13 +140,6 @@ def _shape_problem(r: LiftResult) -> str:
         return "frame_times must be finite and strictly increasing"
     if len(set(r.track_ids.tolist())) != P:
         return f"track_ids must be distinct, got {r.track_ids.tolist()}"
-    present = np.isfinite(r.median).all(axis=(-1, -2))
-    if (np.isfinite(r.median).any(axis=(-1, -2)) & ~present).any():
-        return "median has frames that are partly NaN (a person is either present with all joints or absent)"
-    hyp_present = np.isfinite(h).all(axis=(1, -1, -2))
-    hyp_absent = (~np.isfinite(h)).all(axis=(1, -1, -2))
-    if not (hyp_present == present).all() or not (hyp_present | hyp_absent).all():
-        return "hypotheses must be finite exactly on the frames where the median is finite"
     if np.isinf(r.keypoints2d).any():
         return "keypoints2d has infinite values"
-    return ""
+    return _presence_problem(r)

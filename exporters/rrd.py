@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from exporters import rerun_adapter as rra
+from exporters.frames import frame_chunks
 from exporters.result import LiftResult
 from exporters.video import jpeg_frames, needs_reencode, reencode_h264
 from lifting.atomic import atomic_path
@@ -65,18 +66,27 @@ def bone_segments(joints: np.ndarray) -> np.ndarray:
 
 
 def _log_person(rec, result: LiftResult, p: int) -> None:
-    """Skeletons, median, spread and plots of person ``p`` on the frames where it is present."""
-    track, on = result.track_ids[p], result.present()[p]
+    """Skeletons, median, spread and plots of person ``p`` on the frames where it is present, a chunk at a time."""
+    present = result.present()[p]
+    for t in frame_chunks(result.num_frames):
+        on = np.flatnonzero(present[t])
+        if len(on):
+            _log_person_frames(rec, result, p, t.start + on, result.hypotheses[p, :, t][:, on])
+
+
+def _log_person_frames(rec, result: LiftResult, p: int, idx: np.ndarray, hypotheses: np.ndarray) -> None:
+    """Person ``p`` at frames ``idx`` (T_on,) where it is present, with its ``hypotheses`` (N, T_on, 17, 3) there."""
+    track = result.track_ids[p]
     base = f"world/people/p{track}"
-    N, T_on = result.num_hypotheses, int(on.sum())
-    times, idx = result.frame_times[on], np.flatnonzero(on)
+    N, T_on = result.num_hypotheses, len(idx)
+    times = result.frame_times[idx]
     joint_ids = np.arange(NUM_JOINTS, dtype=np.uint16)
-    hyp = np.moveaxis(result.hypotheses[p][:, on], 0, 1)  # (T_on, N, 17, 3)
+    hyp = np.moveaxis(hypotheses, 0, 1)  # (T_on, N, 17, 3)
     rra.send_skeletons_3d(
         rec, f"{base}/hypotheses", times, idx, hyp.reshape(-1, 3), np.full(T_on, N * NUM_JOINTS),
         np.repeat(np.arange(N, dtype=np.uint16), NUM_JOINTS), np.tile(joint_ids, N), radius=0.008,
     )  # fmt: skip
-    median = result.median[p][on]
+    median = result.median[p, idx[0] : idx[-1] + 1][idx - idx[0]]
     rra.send_skeletons_3d(
         rec, f"{base}/median", times, idx, median.reshape(-1, 3), np.full(T_on, NUM_JOINTS),
         np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16), joint_ids, radius=0.02,
@@ -85,7 +95,7 @@ def _log_person(rec, result: LiftResult, p: int) -> None:
         rec, f"{base}/median/bones", times, idx, bone_segments(median).reshape(-1, 2, 3),
         np.full(T_on, len(BONES)), radius=0.018, rgba=MEDIAN_RGBA,
     )  # fmt: skip
-    spread = per_joint_spread(result.hypotheses[p][:, on], median)
+    spread = per_joint_spread(hypotheses, median)
     rra.send_spheres_3d(
         rec, f"{base}/spread", times, idx, median.reshape(-1, 3), spread.reshape(-1), np.full(T_on, NUM_JOINTS),
         SPREAD_RGBA,
@@ -95,23 +105,25 @@ def _log_person(rec, result: LiftResult, p: int) -> None:
         [f"p{track} mean joint spread"], [MEDIAN_RGBA],
     )  # fmt: skip
     if result.energy is not None:
-        energy = np.quantile(result.energy[p][:, on], [0.05, 0.5, 0.95], axis=0).T
+        energy = result.energy[p, :, idx[0] : idx[-1] + 1][:, idx - idx[0]]
+        energy = np.quantile(energy, [0.05, 0.5, 0.95], axis=0).T
         names = [f"p{track} energy {q}" for q in ("5%", "median", "95%")]
         rra.send_series(rec, f"plots/energy/p{track}", times, idx, energy, names, ENERGY_RGBA)
 
 
 def _log_keypoints(rec, result: LiftResult, c: int) -> None:
-    """2D keypoints of every person on camera ``c`` (only confident, finite points)."""
+    """2D keypoints of every person on camera ``c`` (only confident, finite points), a chunk of frames at a time."""
     camera = result.cameras[c]
-    frames = np.arange(result.num_frames)
     for p, track in enumerate(result.track_ids):
-        kp = result.keypoints2d[c, p]
-        valid = (kp[..., 2] > 0) & np.isfinite(kp[..., :2]).all(axis=-1)  # (T, 17)
-        t_idx, j_idx = np.nonzero(valid)
-        rra.send_keypoints_2d(
-            rec, f"world/cameras/{camera.name}/keypoints/p{track}", result.frame_times, frames,
-            kp[t_idx, j_idx, :2], j_idx, valid.sum(axis=1), KEYPOINTS_CLASS, radius=4.0,
-        )  # fmt: skip
+        for t in frame_chunks(result.num_frames):
+            kp = result.keypoints2d[c, p, t]
+            valid = (kp[..., 2] > 0) & np.isfinite(kp[..., :2]).all(axis=-1)  # (t, 17)
+            t_idx, j_idx = np.nonzero(valid)
+            rra.send_keypoints_2d(
+                rec, f"world/cameras/{camera.name}/keypoints/p{track}", result.frame_times[t],
+                np.arange(t.start, t.stop), kp[t_idx, j_idx, :2], j_idx, valid.sum(axis=1), KEYPOINTS_CLASS,
+                radius=4.0,
+            )  # fmt: skip
 
 
 def _log_video(rec, entity: str, video: Path, mode: str, offset_s: float, say: Callable[[str], None]) -> None:
