@@ -66,8 +66,7 @@ class FrameArray:
     def __setitem__(self, key: Any, value: np.ndarray) -> None:
         mapped = self._map("r+")
         try:
-            mapped[key] = value
-            mapped.flush()
+            mapped[key] = value  # no flush: unmapping leaves the pages to the page cache, reads see them
         finally:
             del mapped
 

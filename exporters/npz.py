@@ -24,7 +24,7 @@ REQUIRED = (
 )  # fmt: skip
 
 
-FRAME_AXES = {"hypotheses": 2, "median": 1, "keypoints2d": 2, "energy": 2}  # fields written a chunk of frames at a time
+FRAME_AXES = {"hypotheses": 2, "median": 1, "keypoints2d": 2, "energy": 2}  # written a chunk of frames at a time
 
 
 def cameras_json(cameras: tuple[Camera, ...]) -> str:
@@ -72,7 +72,7 @@ def write_npz(result: LiftResult, path: Path | str) -> Path:
 
 
 def _write_npy(stream: IO[bytes], values: np.ndarray | FrameArray, frame_axis: int | None) -> None:
-    """``np.save`` of ``values`` into ``stream``; with a ``frame_axis``, read and written a chunk of frames at a time."""
+    """``np.save`` of ``values`` into ``stream``; with a ``frame_axis``, copied a chunk of frames at a time."""
     if frame_axis is None:
         np.lib.format.write_array(stream, values, allow_pickle=False)
         return

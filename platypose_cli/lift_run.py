@@ -1,9 +1,11 @@
 """One job of ``platypose lift``: views -> 2D tracks -> cameras -> root paths -> hypotheses -> files in OUT/<name>/.
 
-Files are exported into a staging folder and moved into ``OUT/<name>/`` only
-when all of them are written, then ``lift.json`` (the list of outputs) is
-written last: a job that fails or is interrupted leaves earlier outputs as they
-were, and ``--resume`` trusts only folders with a ``lift.json`` whose outputs exist.
+Hypotheses are written into a staging folder as lifting hands frames out, files
+are exported from there a chunk of frames at a time (memory does not grow with
+the input's length) and moved into ``OUT/<name>/`` only when all of them are
+written, then ``lift.json`` (the list of outputs) is written last: a job that
+fails or is interrupted leaves earlier outputs as they were and no staging
+folder, and ``--resume`` trusts only folders with a ``lift.json`` whose outputs exist.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ import sys
 import tempfile
 import time
 import traceback
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -171,27 +175,39 @@ def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) ->
     return paths
 
 
-def lift_keypoints(prior, keypoints, times, cameras, roots, settings: RunSettings, quiet: bool):
-    """Hypotheses (P, N, T, 17, 3) and energy (P, N, T): persons with a known root and the others lifted apart."""
-    from lifting.lift import WindowSettings, lift_tracks
+def lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings: RunSettings, folder: Path):
+    """Hypotheses (P, N, T, 17, 3), their median (P, T, 17, 3) and energy (P, N, T) as FrameArrays in ``folder``.
+
+    Persons with a known root and the others are lifted apart; frames are written as
+    lifting hands them out, with NaN where ``absent`` (P, T), so memory stays bounded.
+    """
+    from exporters.frames import FrameArray
+    from lifting.lift import WindowSettings, lift_stream
     from platypose_cli.options import sampler_config
 
     config = sampler_config(**settings.sampler)
     windows = WindowSettings(window=settings.window, overlap=settings.overlap)
-    P = keypoints.shape[2]
-    hypotheses = np.zeros((P, config.samples, len(times), 17, 3), np.float32)
-    energy = np.zeros((P, config.samples, len(times)), np.float32)
+    (P, T), N = absent.shape, config.samples
+    hypotheses = FrameArray.create(folder / ".hypotheses.npy", (P, N, T, 17, 3), np.float32)
+    median = FrameArray.create(folder / ".median.npy", (P, T, 17, 3), np.float32)
+    energy = FrameArray.create(folder / ".energy.npy", (P, N, T), np.float32)
     known = [p for p in range(P) if roots[p] is not None]
     groups = [(g, root) for g, root in ((known, True), ([p for p in range(P) if roots[p] is None], False)) if g]
     for group, has_root in groups:
         root = np.stack([roots[p] for p in group]) if has_root else None
-        bar = _LazyBar(f"lifting {len(group)} person(s)", quiet)
+        bar = _LazyBar(f"lifting {len(group)} person(s)", settings.quiet)
         try:
-            out = lift_tracks(prior, cameras, keypoints[:, :, group], times, config, windows, root, bar.update)
+            for chunk in lift_stream(prior, cameras, keypoints[:, :, group], times, config, windows, root, bar.update):
+                t = slice(chunk.start, chunk.start + chunk.hypotheses.shape[2])
+                gone = absent[group, t][:, None]  # (G, 1, t)
+                chunk.hypotheses[np.broadcast_to(gone, chunk.hypotheses.shape[:3])] = np.nan
+                chunk.energy[np.broadcast_to(gone, chunk.energy.shape)] = np.nan
+                hypotheses[group, :, t] = chunk.hypotheses
+                energy[group, :, t] = chunk.energy
+                median[group, t] = np.median(chunk.hypotheses, axis=1)
         finally:
             bar.close()
-        hypotheses[group], energy[group] = out.hypotheses, out.energy
-    return hypotheses, energy
+    return hypotheses, median, energy
 
 
 class _LazyBar:
@@ -213,8 +229,8 @@ class _LazyBar:
             self.bar.__exit__(None, None, None)
 
 
-def lift_job(job: Job, settings: RunSettings, log: JobLog):
-    """The LiftResult of one job and the videos of its cameras (for the rerun recording)."""
+def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
+    """The LiftResult of one job, its long arrays in files under ``staging``, and the videos of its cameras."""
     from exporters.result import LiftResult
     from lifting.root import presence
     from platypose_cli import __version__
@@ -237,12 +253,10 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog):
     roots = root_paths(keypoints, times, cameras, settings, log)
     prior = _prior(settings.prior)
     started = time.perf_counter()
-    hypotheses, energy = lift_keypoints(prior, keypoints, times, cameras, roots, settings, settings.quiet)
+    absent = ~presence(keypoints, times)  # (P, T)
+    hypotheses, median, energy = lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings, staging)
     timings["lift_s"] = time.perf_counter() - started
     log(f"lifted {hypotheses.shape[1]} hypotheses in {timings['lift_s']:.1f} s")
-    absent = ~presence(keypoints, times)  # (P, T)
-    hypotheses[np.broadcast_to(absent[:, None], hypotheses.shape[:3])] = np.nan
-    energy[np.broadcast_to(absent[:, None], energy.shape)] = np.nan
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
     meta = {
         "version": __version__,
@@ -255,7 +269,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog):
     }
     result = LiftResult(
         hypotheses=hypotheses,
-        median=np.median(hypotheses, axis=1),
+        median=median,
         keypoints2d=np.moveaxis(keypoints, 2, 1),
         frame_times=times,
         fps=fps,
@@ -268,21 +282,27 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog):
     return result, videos
 
 
-def export_atomically(result, videos, folder: Path, name: str, formats, log: JobLog) -> list[Path]:
-    """Export into a staging folder beside ``folder``, then move every file in; returns the final paths."""
-    from exporters import export
-
+@contextmanager
+def staging_folder(folder: Path, name: str) -> Iterator[Path]:
+    """A new staging folder beside ``folder`` (created if needed), removed with whatever is left in it at the end."""
     folder.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".partial", dir=folder.parent))
     try:
-        written = export(result, staging, name, formats, videos, say=log)
-        final = []
-        for path in written:
-            os.replace(path, folder / path.name)
-            final.append(folder / path.name)
-        return final
+        yield staging
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def export_atomically(result, videos, staging: Path, folder: Path, name: str, formats, log: JobLog) -> list[Path]:
+    """Export into ``staging``, then move every file written into ``folder``; returns the final paths."""
+    from exporters import export
+
+    written = export(result, staging, name, formats, videos, say=log)
+    final = []
+    for path in written:
+        os.replace(path, folder / path.name)
+        final.append(folder / path.name)
+    return final
 
 
 def finished_outputs(folder: Path, formats) -> list[str] | None:
@@ -339,8 +359,10 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     log(f"input {job.input} -> {folder}")
     entry = job_entry(job, "failed")
     try:
-        result, videos = lift_job(job, settings, log)
-        outputs = [str(p) for p in export_atomically(result, videos, folder, job.name, settings.formats, log)]
+        with staging_folder(folder, job.name) as staging:
+            result, videos = lift_job(job, settings, log, staging)
+            written = export_atomically(result, videos, staging, folder, job.name, settings.formats, log)
+        outputs = [str(p) for p in written]
         manifest = {"input": job.input, "formats": list(settings.formats), "outputs": outputs}
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
         (folder / FAILURE).unlink(missing_ok=True)

@@ -187,7 +187,7 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
 
 def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> None:
     import exporters
-    from platypose_cli.lift_run import JobLog, export_atomically
+    from platypose_cli.lift_run import JobLog, export_atomically, staging_folder
 
     folder = tmp_path / "take"
     folder.mkdir()
@@ -198,8 +198,8 @@ def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> Non
         raise KeyboardInterrupt
 
     monkeypatch.setattr(exporters, "export", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        export_atomically(None, {}, folder, "take", ("npz",), JobLog())
+    with pytest.raises(KeyboardInterrupt), staging_folder(folder, "take") as staging:
+        export_atomically(None, {}, staging, folder, "take", ("npz",), JobLog())
     assert (folder / "take.npz").read_bytes() == b"earlier result"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["take"]
 
