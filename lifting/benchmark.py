@@ -45,14 +45,19 @@ def network_flops(config: PriorConfig, frames: int, batch: int) -> float:
 
 
 @contextmanager
-def timed_forward(model: MotionPrior) -> Iterator[list[float]]:
-    """Record the seconds of every ``model.forward`` call into the yielded list while the context is open."""
+def timed_forward(model: MotionPrior, device: torch.device = torch.device("cpu")) -> Iterator[list[float]]:
+    """Record the seconds of every ``model.forward`` call into the yielded list while the context is open.
+
+    On a GPU each call is synchronised before and after, so its seconds are its own.
+    """
     durations: list[float] = []
     forward = model.forward
 
     def timed(*args, **kwargs):
+        synchronize(device)
         started = time.perf_counter()
         result = forward(*args, **kwargs)
+        synchronize(device)
         durations.append(time.perf_counter() - started)
         return result
 
@@ -63,15 +68,23 @@ def timed_forward(model: MotionPrior) -> Iterator[list[float]]:
         del model.forward  # back to the class's method
 
 
-def matmul_probe(size: int) -> Callable[[], float]:
-    """A function timing one float32 ``torch.mm`` of two ``size`` x ``size`` matrices; it returns the GFLOP/s."""
+def synchronize(device: torch.device) -> None:
+    """Wait for the device's queued work (CUDA runs asynchronously; a no-op on the CPU)."""
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)
+
+
+def matmul_probe(size: int, device: torch.device = torch.device("cpu")) -> Callable[[], float]:
+    """A function timing one float32 ``torch.mm`` of two ``size`` x ``size`` matrices on ``device``; returns GFLOP/s."""
     generator = torch.Generator().manual_seed(0)
-    a = torch.randn(size, size, generator=generator)
-    b = torch.randn(size, size, generator=generator)
+    a = torch.randn(size, size, generator=generator).to(device)
+    b = torch.randn(size, size, generator=generator).to(device)
 
     def probe() -> float:
+        synchronize(device)
         started = time.perf_counter()
         torch.mm(a, b)
+        synchronize(device)
         return 2.0 * size**3 / (time.perf_counter() - started) / 1e9
 
     return probe
@@ -119,11 +132,11 @@ def time_sampler(
     measured this way sees the same load as the sampler on a shared machine).
     """
     cameras, keypoints = walking_view(prior, frames)
-    obs, rays = cameras_and_rays(cameras, keypoints[..., :2], keypoints[..., 2])
+    obs, rays = cameras_and_rays(cameras, keypoints[..., :2], keypoints[..., 2], device=prior.device)
     calls = len(sampling_steps(config.steps, config.skip, prior.config.diffusion_steps))
     sample(prior, obs, rays, config, frames)
     runs, networks = [], []
-    with timed_forward(prior.model) as durations:
+    with timed_forward(prior.model, prior.device) as durations:
         for _ in range(repeats):
             durations.clear()
             started = time.perf_counter()

@@ -112,7 +112,7 @@ def lift_windows(
     chunk = batch_windows * (F if frame_by_frame else 1)
     for start in range(0, pixels.shape[1], chunk):
         part = pixels[:, start : start + chunk]
-        obs, rays = cameras_and_rays(list(cameras), part, np.ones(part.shape[:-1]))
+        obs, rays = cameras_and_rays(list(cameras), part, np.ones(part.shape[:-1]), device=prior.device)
         out.append(sample(prior, obs, rays, config, frames=part.shape[2]).joints)
     joints = np.concatenate(out)  # (B or B*F, N, F or 1, 17, 3)
     if frame_by_frame:

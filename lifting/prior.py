@@ -105,6 +105,11 @@ class PriorBundle:
         return self.model.config
 
     @property
+    def device(self) -> torch.device:
+        """Device of the network's weights (inputs to the sampler are put there)."""
+        return next(self.model.parameters()).device
+
+    @property
     def fps(self) -> float:
         """Frame rate the prior runs at."""
         return self.model.config.fps

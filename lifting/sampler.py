@@ -352,8 +352,16 @@ def sample(
 
 
 def cameras_and_rays(
-    cameras: list, keypoints: np.ndarray, confidence: np.ndarray, dtype: torch.dtype = torch.float32
+    cameras: list,
+    keypoints: np.ndarray,
+    confidence: np.ndarray,
+    dtype: torch.dtype = torch.float32,
+    device: str | torch.device = "cpu",
 ) -> tuple[Observations, RayConstraints]:
-    """Observations and ray constraints for cameras (list of lifting.camera.Camera) and pixels ``(C, B, F, 17, 2)``."""
-    obs = Observations.from_arrays(CameraBatch.from_cameras(cameras, dtype=dtype), keypoints, confidence, dtype=dtype)
+    """Observations and ray constraints for cameras (list of lifting.camera.Camera) and pixels ``(C, B, F, 17, 2)``.
+
+    The tensors live on ``device``; the sampler runs wherever the observations are.
+    """
+    batch = CameraBatch.from_cameras(cameras, dtype=dtype, device=device)
+    obs = Observations.from_arrays(batch, keypoints, confidence, dtype=dtype)
     return obs, ray_constraints(obs)

@@ -32,13 +32,13 @@ def sampler_settings(prior, samples: int, frames: int, steps: int, k: int, repea
     return sampler_config(samples=samples, steps=steps + SKIPPED_STEPS, skip=SKIPPED_STEPS, guidance_iters=k)
 
 
-def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int) -> dict:
+def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int, runtime: str) -> dict:
     """Time the sampler and the matmul reference; the ``sampler`` part of the report."""
     import statistics
 
     from lifting.benchmark import matmul_probe, time_sampler
 
-    probe = matmul_probe(matmul_size)
+    probe = matmul_probe(matmul_size, prior.device)
     probe()  # warm-up
     rates: list[float] = []
     timing = time_sampler(prior, config, frames, repeats, between=lambda: rates.append(probe()))
@@ -46,6 +46,8 @@ def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int) 
     return {
         "samples": config.samples,
         "frames": frames,
+        "device": str(prior.device),
+        "runtime": runtime,
         "steps": timing.calls,
         "guidance_iters": config.guidance_iters,
         "repeats": repeats,
@@ -83,6 +85,8 @@ def clip_section(prior, video: Path, seconds: float, threads: int | None, say) -
         "detect_s": timing.detect_s,
         "lift_s": timing.lift_s,
         "total_s": timing.detect_s + timing.lift_s,
+        "detect_cpu_s": timing.detect_cpu_s,
+        "lift_cpu_s": timing.lift_cpu_s,
         "detect_peak_rss_mb": timing.detect_peak_rss_mb,
         "peak_rss_mb": timing.peak_rss_mb,
     }
@@ -104,13 +108,15 @@ def report_lines(report: dict) -> list[str]:
         f"prior: {p['path']} ({p['layers']} layers, width {p['width']}, {p['heads']} heads, FF {p['ff_width']})",
         (
             f"sampler: {s['samples']} hypotheses x {s['frames']} frames, {s['steps']} steps x "
-            f"{s['guidance_iters']} guidance iterations, median of {s['repeats']} runs after a warm-up"
+            f"{s['guidance_iters']} guidance iterations, median of {s['repeats']} runs after a warm-up, "
+            f"{s['runtime']} network on {s['device']}"
         ),
         _row("hypothesis-frames per second", f"{s['hypothesis_frames_per_s']:.1f}"),
         _row("seconds per run", f"{s['run_s']:.3f}"),
         _row("seconds per diffusion step", f"{s['step_s']:.4f}"),
         _row("  network", f"{s['network_step_s']:.4f}"),
         _row("  guidance", f"{s['guidance_step_s']:.4f}"),
+        _row("guidance share of sampling", f"{100 * s['guidance_step_s'] / s['step_s']:.1f} %"),
         _row("network GFLOP per step (analytic)", f"{s['network_gflop_per_step']:.3f}"),
         _row("network GFLOP/s", f"{s['network_gflops']:.2f}"),
         _row(f"matmul GFLOP/s ({s['matmul_size']}^2 float32)", f"{s['matmul_gflops']:.2f}"),
@@ -127,6 +133,7 @@ def report_lines(report: dict) -> list[str]:
             _row("detection seconds", f"{e['detect_s']:.1f}"),
             _row("lifting seconds (1 person)", f"{e['lift_s']:.1f}"),
             _row("total seconds", f"{e['total_s']:.1f}"),
+            _row("CPU seconds (detection + lifting)", f"{e['detect_cpu_s']:.0f} + {e['lift_cpu_s']:.0f}"),
             _row("peak RSS MiB after detection", f"{e['detect_peak_rss_mb']:.0f}"),
             _row("peak RSS MiB after lifting", f"{e['peak_rss_mb']:.0f}"),
         ]
@@ -151,6 +158,8 @@ def bench(
     end_to_end: bool = typer.Option(True, "--end-to-end/--no-end-to-end", help="Also detect and lift a looped clip."),
     clip_seconds: float = typer.Option(60.0, "--clip-seconds", help="Length of the end-to-end clip (30 fps)."),
     video: Path = typer.Option(DEMO_VIDEO, "--video", help="Video looped into the end-to-end clip."),
+    device: str = typer.Option("cpu", "--device", help="cpu, cuda or auto (cuda when available)."),
+    runtime: str = typer.Option("float32", "--runtime", help="Denoiser runtime: float32, bfloat16 or onnx (CPU)."),
     json_path: Path | None = typer.Option(None, "--json", help="Also write the report as JSON here."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
 ) -> None:
@@ -159,7 +168,8 @@ def bench(
 
     from lifting.atomic import write_text_atomic
     from lifting.errors import InputError
-    from lifting.prior import DEFAULT_PRIOR, load_prior
+    from lifting.prior import DEFAULT_PRIOR
+    from lifting.runtime import load_for_runtime
     from platypose_cli.bench_clip import peak_rss_mb
 
     def say(message: str) -> None:
@@ -172,11 +182,13 @@ def bench(
         raise InputError(f"{video}: video to loop not found (give --video)")
     if threads is not None:
         torch.set_num_threads(threads)
-    prior, _ = load_prior(prior_path)
+    prior = load_for_runtime(prior_path, device, runtime, threads)
+    if end_to_end and prior.device.type != "cpu":
+        raise InputError(f"--device {device}: the end-to-end clip is lifted on the CPU only (add --no-end-to-end)")
     sampler = sampler_settings(prior, samples, frames, steps, k, repeats, matmul_size)
     clip = clip_section(prior, video, clip_seconds, threads, say) if end_to_end else None  # first: own peak memory
     say(f"timing the sampler: {samples} x {frames} frames, 1 warm-up and {repeats} runs")
-    timed = sampler_section(prior, sampler, frames, repeats, matmul_size)
+    timed = sampler_section(prior, sampler, frames, repeats, matmul_size, runtime)
     config = prior.config
     report = {
         "machine": {

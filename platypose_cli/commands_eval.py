@@ -37,19 +37,21 @@ def evaluate_command(
     symmetry_weight: float = typer.Option(0.0, help="Weight of the left/right symmetry energy (0: off)."),
     seed: int = typer.Option(0, help="Random seed."),
     json_out: Path = typer.Option(None, "--json", help="Also write the table as JSON here."),
+    device: str = typer.Option("cpu", help="cpu, cuda or auto (cuda when available)."),
+    runtime: str = typer.Option("float32", help="Denoiser runtime: float32, bfloat16 or onnx (CPU; docs/bench.md)."),
 ) -> None:
     """Project motion through cameras, lift it, and print minMPJPE, minMPSPE, PA-*, MPJVE, ECE."""
     from lifting.camera_rigs import ring_cameras
     from lifting.evaluation import evaluate, format_header
     from lifting.motion_io import load_motion_paths
-    from lifting.prior import load_prior
+    from lifting.runtime import load_for_runtime
     from lifting.timebase import resample
 
     frames_list = int_list(frames, "--frames")
     samples_list = int_list(samples, "--samples")
     config = sampler_config(steps=steps, skip=skip, eta=eta, guidance_iters=guidance_iters, energy_scale=energy_scale,
                             robust=robust, bone_weight=bone_weight, symmetry_weight=symmetry_weight, size_prior=size_prior, seed=seed)  # fmt: skip
-    bundle, _ = load_prior(prior)
+    bundle = load_for_runtime(prior, device, runtime)
     if max(frames_list) > bundle.config.max_frames:
         raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")
     if cams is not None:
