@@ -97,8 +97,49 @@ def robust_slope(squared: torch.Tensor, loss: str, scale: float) -> torch.Tensor
 SYMMETRIC_PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # packed 3x3: xx, xy, xz, yy, yz, zz
 
 
+@dataclass(frozen=True)
+class ViewResiduals:
+    """One camera's guidance quantities, each ``(B, N, F, 17)``: ratios ``u``, ``v`` (camera-frame x/z, y/z),
+    ``inverse_depth``, residuals in normalised image units, and ``weight`` = 2 conf * robust slope; ``gains``
+    (normalised image units per unit of u and of v); ``energy`` ``(B, N, F)``."""
+
+    u: torch.Tensor
+    v: torch.Tensor
+    inverse_depth: torch.Tensor
+    residual_u: torch.Tensor
+    residual_v: torch.Tensor
+    weight: torch.Tensor
+    gains: tuple[float, float]
+    energy: torch.Tensor
+
+
+def view_residuals(joints: torch.Tensor, obs: Observations, loss: str, scale: float) -> list[ViewResiduals]:
+    """Residuals of world joints ``(B, N, F, 17, 3)`` in every camera (one matrix product moves them all)."""
+    cams = obs.cameras
+    C = len(cams)
+    shape = joints.shape[:-1]  # (B, N, F, 17)
+    camera_frame = torch.addmm(cams.t.reshape(3 * C, 1), cams.R.reshape(3 * C, 3), joints.reshape(-1, 3).T)
+    camera_frame = camera_frame.reshape(C, 3, *shape)
+    gains = (torch.stack([cams.K[:, 0, 0], cams.K[:, 1, 1]], -1) * obs.pixel_scale[:, None]).tolist()
+    views = []
+    for c in range(C):
+        x, y, depth = camera_frame[c]
+        inverse_depth = depth.clamp(min=1e-3).reciprocal_()
+        u, v = x * inverse_depth, y * inverse_depth
+        target = obs.normalized[c].unsqueeze(1)  # (B, 1, F, 17, 2)
+        gain_u, gain_v = gains[c]
+        residual_u = (u - target[..., 0]).mul_(gain_u)
+        residual_v = (v - target[..., 1]).mul_(gain_v)
+        squared = residual_u * residual_u + residual_v * residual_v
+        conf = obs.confidence[c].unsqueeze(1)  # (B, 1, F, 17)
+        energy = (conf * robust_penalty(squared, loss, scale)).sum(-1)
+        weight = 2 * conf * robust_slope(squared, loss, scale)
+        views.append(ViewResiduals(u, v, inverse_depth, residual_u, residual_v, weight, (gain_u, gain_v), energy))
+    return views
+
+
 def reprojection_terms(
-    joints: torch.Tensor, obs: Observations, loss: str = "l2", scale: float = 0.05
+    joints: torch.Tensor, obs: Observations, loss: str = "l2", scale: float = 0.05, camera_frame: bool = False
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Energy ``(B, N, F)``, gradient ``(3, B, N, F, 17)`` and packed Gauss-Newton curvature ``(6, B, N, F, 17)``.
 
@@ -107,38 +148,28 @@ def reprojection_terms(
     normalised image units), which equals :func:`reprojection_energy` up to the
     lens distortion's local stretch. Gradient and curvature are component-first
     (x, y, z; the curvature's six entries in ``SYMMETRIC_PAIRS`` order) so that
-    every operation runs on contiguous per-component arrays.
+    every operation runs on contiguous per-component arrays. They are in world
+    axes, or with ``camera_frame`` (one camera only) in that camera's axes, where
+    they are much cheaper: rotate them with ``R`` (world -> camera).
     """
-    cams = obs.cameras
-    C = len(cams)
-    shape = joints.shape[:-1]  # (B, N, F, 17)
-    camera_frame = torch.addmm(cams.t.reshape(3 * C, 1), cams.R.reshape(3 * C, 3), joints.reshape(-1, 3).T)
-    camera_frame = camera_frame.reshape(C, 3, *shape)
-    gains = (torch.stack([cams.K[:, 0, 0], cams.K[:, 1, 1]], -1) * obs.pixel_scale[:, None]).tolist()
-    rotations = cams.R.tolist()
-    energy = joints.new_zeros(shape[:-1])
-    grad = [joints.new_zeros(shape) for _ in range(3)]
-    curvature = [joints.new_zeros(shape) for _ in SYMMETRIC_PAIRS]
-    for c in range(C):
-        x, y, depth = camera_frame[c]
-        inverse_depth = depth.clamp(min=1e-3).reciprocal_()
-        u, v = x * inverse_depth, y * inverse_depth
-        target = obs.normalized[c].unsqueeze(1)  # (B, 1, F, 17, 2)
-        (gain_u, gain_v), R = gains[c], rotations[c]
-        residual_u = (u - target[..., 0]).mul_(gain_u)
-        residual_v = (v - target[..., 1]).mul_(gain_v)
-        squared = residual_u * residual_u + residual_v * residual_v
-        conf = obs.confidence[c].unsqueeze(1)  # (B, 1, F, 17)
-        energy += (conf * robust_penalty(squared, loss, scale)).sum(-1)
-        weight = 2 * conf * robust_slope(squared, loss, scale)
+    views = view_residuals(joints, obs, loss, scale)
+    if camera_frame:
+        if len(views) != 1:
+            raise ValueError(f"camera-frame terms need exactly one camera, got {len(views)}")
+        return _camera_frame_terms(views[0])
+    energy = sum(view.energy for view in views)
+    grad = [torch.zeros_like(views[0].u) for _ in range(3)]
+    curvature = [torch.zeros_like(views[0].u) for _ in SYMMETRIC_PAIRS]
+    for view, R in zip(views, obs.cameras.R.tolist()):
+        (gain_u, gain_v), inverse_depth, weight = view.gains, view.inverse_depth, view.weight
         # Jacobian rows: gain / z * (R_row - ratio * R_z), for u (row 0) and v (row 1)
-        rows_u = [(u * -R[2][k]).add_(R[0][k]) for k in range(3)]
-        rows_v = [(v * -R[2][k]).add_(R[1][k]) for k in range(3)]
+        rows_u = [(view.u * -R[2][k]).add_(R[0][k]) for k in range(3)]
+        rows_v = [(view.v * -R[2][k]).add_(R[1][k]) for k in range(3)]
         curv_u = inverse_depth * inverse_depth * weight
         curv_v = curv_u * (gain_v * gain_v)
         curv_u.mul_(gain_u * gain_u)
-        slope_u = (inverse_depth * weight).mul_(residual_u).mul_(gain_u)
-        slope_v = (inverse_depth * weight).mul_(residual_v).mul_(gain_v)
+        slope_u = (inverse_depth * weight).mul_(view.residual_u).mul_(gain_u)
+        slope_v = (inverse_depth * weight).mul_(view.residual_v).mul_(gain_v)
         for k in range(3):
             grad[k] += slope_u * rows_u[k] + slope_v * rows_v[k]
         weighted_u = [curv_u * r for r in rows_u]
@@ -146,6 +177,20 @@ def reprojection_terms(
         for entry, (k, m) in zip(curvature, SYMMETRIC_PAIRS):
             entry += weighted_u[k] * rows_u[m] + weighted_v[k] * rows_v[m]
     return energy, torch.stack(grad), torch.stack(curvature)
+
+
+def _camera_frame_terms(view: ViewResiduals) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """One camera's gradient and curvature in its own axes, where the Jacobian rows are (1, 0, -u) and (0, 1, -v)."""
+    (gain_u, gain_v), u, v = view.gains, view.u, view.v
+    scaled = view.weight * view.inverse_depth
+    slope_u = (scaled * view.residual_u).mul_(gain_u)
+    slope_v = (scaled * view.residual_v).mul_(gain_v)
+    grad = torch.stack([slope_u, slope_v, -(slope_u * u).add_(slope_v * v)])
+    scaled.mul_(view.inverse_depth)
+    curv_u, curv_v = scaled * (gain_u * gain_u), scaled * (gain_v * gain_v)
+    xz, yz = -curv_u * u, -curv_v * v
+    zz = -(xz * u).add_(yz * v)
+    return view.energy, grad, torch.stack([curv_u, torch.zeros_like(u), xz, curv_v, yz, zz])
 
 
 def packed_identity(scale: torch.Tensor) -> torch.Tensor:

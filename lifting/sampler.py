@@ -242,62 +242,82 @@ class GuidedProblem:
         """
         c = self.config
         joints = self.world_joints(x0, offset)
-        energy, grad, curvature = reprojection_terms(joints, self.obs, c.robust, c.robust_scale)
-        energy, grad, curvature = self.add_extra_terms(joints, energy, grad, curvature)
+        # one camera: solve each joint's 3x3 system in that camera's axes, where its terms are far cheaper
+        rotation = self.obs.cameras.R[0] if len(self.obs.cameras) == 1 and c.direction == "gauss-newton" else None
+        energy, grad, curvature = reprojection_terms(joints, self.obs, c.robust, c.robust_scale, rotation is not None)
+        energy, grad, curvature = self.add_extra_terms(joints, energy, grad, curvature, rotation)
         total = energy.sum(-1).reshape(-1)
         if c.direction == "gradient":
             with torch.enable_grad():
                 x = x0.detach().requires_grad_(True)
                 (grad_x,) = torch.autograd.grad(self.world_joints(x, offset), x, grad_outputs=grad.movedim(0, -1))
             return total, -grad_x, torch.zeros_like(offset[:, :, :1])
-        trace = curvature[0] + curvature[3] + curvature[5]  # (B, N, F, 17)
+        trace = curvature[0] + curvature[3] + curvature[5]  # (B, N, F, 17), the same in any axes
         damping = c.damping / 3 * trace.mean(dim=(-1, -2))  # mean curvature diagonal per hypothesis, (B, N)
         system = curvature + packed_identity(damping[..., None, None] + 1e-9)
-        step = solve_symmetric3(system, grad).neg_().movedim(0, -1)  # (B, N, F, 17, 3)
+        step = solve_symmetric3(system, grad).neg_()  # (3, B, N, F, 17)
+        if rotation is not None:  # camera axes -> world axes
+            step = (rotation.T @ step.reshape(3, -1)).reshape(step.shape)
+        step = step.movedim(0, -1)  # (B, N, F, 17, 3)
         direction = joints_to_features(step).reshape(x0.shape) / self.std
         return total, direction, step[:, :, :1, 0, :]  # the shift the features cannot hold: frame 0's root
 
-    def add_extra_terms(self, joints, energy, grad, curvature):
+    def add_extra_terms(self, joints, energy, grad, curvature, rotation: torch.Tensor | None = None):
         """Add the structural energies (autograd, small) and the anchor (analytic) to the reprojection terms.
 
         ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
-        :func:`lifting.energy.reprojection_terms` returns them.
+        :func:`lifting.energy.reprojection_terms` returns them, in world axes or, given the
+        world -> camera ``rotation``, in that camera's axes.
         """
         c = self.config
+
+        def component_first(vectors: torch.Tensor) -> torch.Tensor:
+            """World vectors ``(..., 3)`` -> ``(3, ...)`` in the axes of ``grad``."""
+            return (vectors if rotation is None else vectors @ rotation.T).movedim(-1, 0)
+
         if c.bone_weight > 0 or c.symmetry_weight > 0:
             with torch.enable_grad():
                 j = joints.detach().requires_grad_(True)
                 extra = c.bone_weight * bone_constancy_energy(j) + c.symmetry_weight * symmetry_energy(j)
                 (extra_grad,) = torch.autograd.grad(extra.sum(), j)
-            energy, grad = energy + extra.detach(), grad + extra_grad.movedim(-1, 0)
-        if self.anchor is not None:
+            energy, grad = energy + extra.detach(), grad + component_first(extra_grad)
+        if self.anchor is not None:  # isotropic curvature: the same in any axes
             mask = self.anchor.mask[:, None, :]
             gap = joints - self.anchor.joints
             energy = energy + self.anchor.weight * mask * (gap**2).sum(dim=(-1, -2))
-            grad = grad + (2 * self.anchor.weight * mask[..., None, None] * gap).movedim(-1, 0)
+            grad = grad + component_first(2 * self.anchor.weight * mask[..., None, None] * gap)
             curvature = curvature + packed_identity(2 * self.anchor.weight * mask[..., None])
         return energy, grad, curvature
 
     def guide(self, x0: torch.Tensor, iterations: int) -> tuple[torch.Tensor, torch.Tensor]:
         """k guidance steps on ``x0`` ``(B*N, F, D)`` and its offset with the configured step rule."""
         c = self.config
+
+        def select(accept: torch.Tensor, new: torch.Tensor, old: torch.Tensor) -> torch.Tensor:
+            """``where(accept, new, old)`` per hypothesis (rows), without a full copy when all or none accept."""
+            if bool(accept.all()):
+                return new
+            if not bool(accept.any()):
+                return old
+            return torch.where(accept.reshape(-1, *([1] * (new.dim() - 1))), new, old)
+
         offset = self.solve_offset(x0)
         step = torch.full((x0.shape[0],), c.energy_scale, dtype=x0.dtype, device=x0.device)
         energy, direction, shift = self.evaluate(x0, offset)
         for _ in range(iterations):
             size = step.reshape(self.batch, -1, 1, 1)
-            candidate = x0 + step[:, None, None] * direction
+            candidate = torch.addcmul(x0, step[:, None, None], direction)
             candidate_offset = offset + size * shift
             new_energy, new_direction, new_shift = self.evaluate(candidate, candidate_offset)
-            finite = torch.isfinite(new_energy) & torch.isfinite(new_direction).all(dim=(1, 2))
+            finite = torch.isfinite(new_energy) & torch.isfinite(new_direction.sum(dim=(1, 2)))  # NaN, inf propagate
             worse = ~finite | (new_energy > energy)
             accept = ~worse if c.step_rule == "backtrack" else torch.ones_like(worse)
             keep = accept.reshape(self.batch, -1, 1, 1)
-            x0 = torch.where(accept[:, None, None], candidate, x0)
+            x0 = select(accept, candidate, x0)
             offset = torch.where(keep, candidate_offset, offset)
             gain = (energy - new_energy) / energy.abs().clamp(min=1e-12)
             energy = torch.where(accept, new_energy, energy)
-            direction = torch.where(accept[:, None, None], new_direction, direction)
+            direction = select(accept, new_direction, direction)
             shift = torch.where(keep, new_shift, shift)
             grown = step * c.grow if c.step_rule == "backtrack" else step
             step = torch.where(worse, step * c.decay, grown)
