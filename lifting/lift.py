@@ -190,13 +190,13 @@ class _WindowRunner:
         """Joints (P, N, F, 17, 3) and energy (P, N, F) of window ``w``; ``anchor`` = joints (P, N, F, 17, 3), mask (F,)."""
         kp = self.per_window[w]  # (C, P, F, 17, 3)
         P, F = kp.shape[1:3]
-        obs, rays = cameras_and_rays(self.cameras, kp[..., :2], kp[..., 2])
-        dtype = obs.keypoints.dtype
-        root = torch.as_tensor(self.roots[w], dtype=dtype) if self.roots is not None else None
+        obs, rays = cameras_and_rays(self.cameras, kp[..., :2], kp[..., 2], device=self.prior.device)
+        dtype, device = obs.keypoints.dtype, obs.keypoints.device
+        root = torch.as_tensor(self.roots[w], dtype=dtype, device=device) if self.roots is not None else None
         held = None
         if anchor is not None:
-            mask = torch.as_tensor(np.repeat(anchor[1][None], P, axis=0), dtype=dtype)
-            held = Anchor(torch.as_tensor(anchor[0], dtype=dtype), mask, self.settings.anchor_weight)
+            mask = torch.as_tensor(np.repeat(anchor[1][None], P, axis=0), dtype=dtype, device=device)
+            held = Anchor(torch.as_tensor(anchor[0], dtype=dtype, device=device), mask, self.settings.anchor_weight)
         result = sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
         if self.progress is not None:
             self.progress(w + 1, self.plan.count)

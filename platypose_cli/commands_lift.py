@@ -12,17 +12,19 @@ from platypose_cli.detection import DetectOptions
 
 def lift_settings(
     out: Path, cams: Path | None, prior: Path | None, detect: DetectOptions, sampler: dict, window: int, overlap: int,
-    formats: str, persons: str, root: str, root_file: Path | None, quiet: bool, arguments: dict,
+    formats: str, persons: str, root: str, root_file: Path | None, quiet: bool, arguments: dict, device: str = "cpu",
 ):  # fmt: skip
     """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
     from detectors.tracking import persons_count
     from exporters.export import parse_formats
     from lifting.errors import InputError
+    from lifting.runtime import resolve_device
     from platypose_cli.lift_run import ROOT_MODES, RunSettings
     from platypose_cli.options import sampler_config
 
     persons_count(persons)
     sampler_config(**sampler)
+    resolve_device(device)
     if root not in ROOT_MODES:
         raise InputError(f"--root must be one of {', '.join(ROOT_MODES)}, got {root!r}")
     if window < 2 or not 0 <= overlap <= window // 2:
@@ -30,7 +32,7 @@ def lift_settings(
     return RunSettings(
         out=out, cams=cams, prior=prior, detect=detect, sampler=sampler, window=window, overlap=overlap,
         formats=parse_formats(formats), persons=persons, root=root, root_file=root_file, quiet=quiet,
-        arguments=arguments,
+        arguments=arguments, device=device,
     )  # fmt: skip
 
 
@@ -94,6 +96,7 @@ def lift(
     ),
     retry_failed: bool = typer.Option(False, "--retry-failed", help="With --resume: run failed inputs again."),
     seed: int | None = typer.Option(None, "--seed", help="Random seed of the sampler [0]."),
+    device: str = typer.Option("cpu", "--device", help="Sampler device: cpu, cuda or auto (cuda when available)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
 ) -> None:
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
@@ -123,7 +126,7 @@ def lift(
     detect = DetectOptions(detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps,
                            image_size=image_size)  # fmt: skip
     settings = lift_settings(out, cams, prior, detect, sampler, window, overlap, formats, persons, root,
-                             root_trajectory, quiet, arguments)  # fmt: skip
+                             root_trajectory, quiet, arguments, device)  # fmt: skip
     if root_trajectory is not None and len(job_list) > 1:
         raise InputError(f"--root-trajectory {root_trajectory}: give it for one input, not {len(job_list)}")
 

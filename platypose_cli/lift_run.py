@@ -53,6 +53,7 @@ class RunSettings:
     root_file: Path | None = None
     quiet: bool = False
     arguments: dict = field(default_factory=dict)
+    device: str = "cpu"
 
 
 class JobLog:
@@ -81,13 +82,13 @@ class JobLog:
 _PRIORS: dict[str, object] = {}
 
 
-def _prior(path: Path | None):
-    """The prior at ``path`` (default: the shipped one), loaded once per process."""
-    from lifting.prior import load_prior
+def _prior(path: Path | None, device: str = "cpu"):
+    """The prior at ``path`` (default: the shipped one) on ``device``, loaded once per process."""
+    from lifting.runtime import load_for_runtime
 
-    key = str(path)
+    key = f"{path}@{device}"
     if key not in _PRIORS:
-        _PRIORS[key] = load_prior(path)[0]
+        _PRIORS[key] = load_for_runtime(path, device)
     return _PRIORS[key]
 
 
@@ -251,7 +252,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     keypoints, times, track_ids = gather_keypoints(job, views, cameras, settings.persons)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
     roots = root_paths(keypoints, times, cameras, settings, log)
-    prior = _prior(settings.prior)
+    prior = _prior(settings.prior, settings.device)
     started = time.perf_counter()
     absent = ~presence(keypoints, times)  # (P, T)
     hypotheses, median, energy = lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings, staging)

@@ -79,3 +79,16 @@ def test_eval_cli_runs_with_a_runtime_and_device(run_cli, prior_file, data_dir) 
     assert code == 0 and "platypose" in stdout
     code, _, stderr = run_cli(*args, "--runtime", "int8")
     assert code == 2 and "unknown runtime 'int8'" in stderr
+
+
+def test_lift_cli_device_option(run_cli, prior_file, data_dir, tmp_path) -> None:
+    """``platypose lift --device cpu`` lifts one view of real keypoints; an unknown device is refused before any work."""
+    take = data_dir / "video" / "pose2sim-balancing"
+    args = ["lift", "--cams", take / "calib_pose2sim.toml", "--keypoints", take / "openpose-body25b" / "cam01_json",
+            "--prior", prior_file, "--out", tmp_path, "--samples", "2", "--steps", "3", "--skip", "1",
+            "--guidance-iters", "1", "--formats", "npz", "--persons", "largest", "--threads", "1", "--quiet"]  # fmt: skip
+    code, stdout, stderr = run_cli(*args, "--device", "cpu")
+    assert code == 0, stderr
+    assert "1 ok, 0 failed" in stdout
+    code, _, stderr = run_cli(*args, "--device", "tpu")
+    assert code == 2 and "unknown device 'tpu'" in stderr and len(stderr.strip().splitlines()) == 1
