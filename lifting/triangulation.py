@@ -16,6 +16,7 @@ from lifting.camera import Camera, project, undistort_normalized
 
 # A person hypothesis must triangulate at least this fraction of the joints to be chosen.
 MIN_JOINT_FRACTION = 0.5
+BLOCK = 8192  # points triangulated at a time: the DLT's SVD needs about 1 KB per point
 
 
 def triangulate(
@@ -28,8 +29,14 @@ def triangulate(
     if pixels.shape[0] != C or conf.shape != pixels.shape[:-1] or pixels.shape[-1] != 2:
         raise ValueError(f"expected pixels (C={C}, ..., J, 2) and confidences (C, ..., J), got {pixels.shape}, {conf.shape}")
     batch = pixels.shape[1:-1]
-    flat = pixels.reshape(C, -1, 2)
-    weight = conf.reshape(C, -1)
+    flat, weights = pixels.reshape(C, -1, 2), conf.reshape(C, -1)
+    blocks = range(0, max(flat.shape[1], 1), BLOCK)  # memory bounded for long tracks; one block when empty
+    points = [_dlt(flat[:, b : b + BLOCK], weights[:, b : b + BLOCK], cameras, min_views) for b in blocks]
+    return np.concatenate(points).reshape(*batch, 3)
+
+
+def _dlt(flat: np.ndarray, weight: np.ndarray, cameras: Sequence[Camera], min_views: int) -> np.ndarray:
+    """Points ``(N, 3)`` from pixels ``(C, N, 2)`` and weights ``(C, N)``: :func:`triangulate` on a flat block."""
     usable = (weight > 0) & np.all(np.isfinite(flat), axis=-1)
     weight = np.where(usable, weight, 0.0)
     flat = np.where(usable[..., None], flat, 0.0)
@@ -42,7 +49,7 @@ def triangulate(
     with np.errstate(divide="ignore", invalid="ignore"):
         points = homogeneous[:, :3] / homogeneous[:, 3:4]
     points[usable.sum(axis=0) < min_views] = np.nan
-    return points.reshape(*batch, 3)
+    return points
 
 
 def reprojection_errors(points: np.ndarray, pixels: np.ndarray, cameras: Sequence[Camera]) -> np.ndarray:
