@@ -44,6 +44,11 @@ def open_recording(path: Path, application_id: str, recording_name: str, layout:
     return rec
 
 
+def flush(rec: rr.RecordingStream) -> None:
+    """Write everything logged so far to the file (without this, a long recording piles up in memory)."""
+    rec.flush()
+
+
 def close_recording(rec: rr.RecordingStream) -> None:
     """Flush everything and finish the file (footer included)."""
     rec.flush()

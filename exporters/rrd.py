@@ -72,6 +72,7 @@ def _log_person(rec, result: LiftResult, p: int) -> None:
         on = np.flatnonzero(present[t])
         if len(on):
             _log_person_frames(rec, result, p, t.start + on, result.hypotheses[p, :, t][:, on])
+            rra.flush(rec)
 
 
 def _log_person_frames(rec, result: LiftResult, p: int, idx: np.ndarray, hypotheses: np.ndarray) -> None:
@@ -124,6 +125,7 @@ def _log_keypoints(rec, result: LiftResult, c: int) -> None:
                 np.arange(t.start, t.stop), kp[t_idx, j_idx, :2], j_idx, valid.sum(axis=1), KEYPOINTS_CLASS,
                 radius=4.0,
             )  # fmt: skip
+            rra.flush(rec)
 
 
 def _log_video(rec, entity: str, video: Path, mode: str, offset_s: float, say: Callable[[str], None]) -> None:
