@@ -330,6 +330,8 @@ class GuidedProblem:
             direction = select(accept, new_direction, direction)
             shift = torch.where(keep, new_shift, shift)
             grown = step * c.grow if c.step_rule == "backtrack" else step
+            if c.direction == "gauss-newton":  # a Gauss-Newton step is whole at 1: longer only runs along the rays
+                grown = grown.clamp(max=c.energy_scale)
             step = torch.where(worse, step * c.decay, grown)
             converged = (accept & (gain <= c.guidance_tol)) | (step < 1e-4 * c.energy_scale)
             if c.guidance_tol > 0 and bool(converged.all()):
