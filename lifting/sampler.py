@@ -37,6 +37,7 @@ from lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
 from lifting.translation import RayConstraints, ray_constraints, solve_translation
 
 STEP_RULES = ("backtrack", "paper")
+DEPTH_RANGE = 2.0  # one view: a root over this many times nearer or farther than the median hypothesis is moved back
 DIRECTIONS = ("gauss-newton", "gradient")
 
 
@@ -207,11 +208,30 @@ class GuidedProblem:
             return self.root_trajectory[:, None] - local[..., 0, :]
         placed = typical_size(local) if self.config.size_prior else local
         offset = solve_translation(placed, self.rays, self.obs.cameras, self.config.translation_smoothness)
+        if len(self.obs.cameras) == 1:
+            offset = self.rescue_depth(local[..., 0, :], offset)
         if self.anchor is not None:  # continuation: start on the anchor, return to the rays' placement by the end
             continued = self.anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
             ramp = continuation_ramp(self.anchor.mask)[:, None, :, None]
             offset = ramp * continued + (1 - ramp) * offset
         return offset
+
+    def rescue_depth(self, roots: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
+        """One view: keep every root (``roots`` ``(B, N, F, 3)`` + ``offset``) within ``DEPTH_RANGE`` times the
+        hypotheses' median depth of its frame, moving it along its ray.
+
+        The rays' algebraic error is smallest with the pose at the camera centre, and guidance can
+        stretch a pose along the rays to fit there: a few hypotheses of early, poorly fitting
+        steps fell towards the camera (pelvis 0.1-0.3 m from it) and stayed.
+        """
+        cameras = self.obs.cameras
+        center = -cameras.t[0] @ cameras.R[0]  # camera centre in the world
+        ray = roots + offset - center  # (B, N, F, 3)
+        depth = ray @ cameras.R[0, 2]
+        median = depth.median(dim=1, keepdim=True).values.clamp(min=1e-3)  # (B, 1, F)
+        limited = torch.minimum(torch.maximum(depth, median / DEPTH_RANGE), median * DEPTH_RANGE)
+        factor = limited / depth.clamp(min=1e-3)  # continuous in depth; behind the camera counts as very near
+        return torch.where((factor != 1)[..., None], center + ray * factor[..., None] - roots, offset)
 
     def inpaint(self, x0: torch.Tensor) -> torch.Tensor:
         """Continue the anchor in ``x0`` ``(B*N, F, D)``: anchored frames take the anchor's features (RePaint-style),
@@ -331,7 +351,7 @@ class GuidedProblem:
             shift = torch.where(keep, new_shift, shift)
             grown = step * c.grow if c.step_rule == "backtrack" else step
             if c.direction == "gauss-newton":  # a Gauss-Newton step is whole at 1: longer only runs along the rays
-                grown = grown.clamp(max=c.energy_scale)
+                grown = grown.clamp(max=1.0)
             step = torch.where(worse, step * c.decay, grown)
             converged = (accept & (gain <= c.guidance_tol)) | (step < 1e-4 * c.energy_scale)
             if c.guidance_tol > 0 and bool(converged.all()):

@@ -27,35 +27,48 @@ def test_plan_covers_the_track_and_weights_sum_to_one():
         plan_windows(100, 16, 9)  # overlap above half a window
 
 
-def test_window_seams_of_a_lifted_real_motion_stay_small(data_dir):
-    """Shipped prior, one view: steps across seams stay within 3x the fastest step inside windows.
-
-    Independently sampled, bridged windows jumped by 54 cm here (5x the inside maximum);
-    sequential in-painted continuation brings seams to about 2x. The issue's goal (no
-    larger than inside) is not reached yet: the prior's continuation right after the
-    in-painted frames kinks by a few centimetres.
-    """
+def _seam_and_inside_steps(data_dir, views: int, seconds: int) -> tuple[float, float]:
+    """Largest frame-to-frame joint step (m) at window seams and inside windows of real climbing lifted with
+    the shipped prior, default windows (64 frames, overlap 16), 8 hypotheses, ``views`` ring cameras."""
     from lifting.motion_io import load_motion_paths
     from lifting.prior import load_prior
 
     prior, _ = load_prior()
     climb = load_motion_paths([data_dir / "motion" / "holosoma-climb"])[1]
-    truth = resample(climb.joints, climb.fps, 30.0)[:60]  # 2 s of real climbing
+    truth = resample(climb.joints, climb.fps, 30.0)[: 30 * seconds]
     truth = truth - truth[:, 0].mean(0) + [0.0, 0.0, 1.0]
-    cams = ring_cameras(4)[:1]
+    cams = ring_cameras(4)[:views]
     pixels = np.stack([project(truth, c) for c in cams])[:, :, None]  # (C, T, P=1, 17, 2)
     keypoints = np.concatenate([pixels, np.ones(pixels.shape[:-1] + (1,))], -1)
     times = np.arange(len(truth)) / 30.0
-    settings = WindowSettings(window=16, overlap=4)
-    out = lift_tracks(prior, cams, keypoints, times, SamplerConfig(samples=4), settings)
+    settings = WindowSettings()
+    out = lift_tracks(prior, cams, keypoints, times, SamplerConfig(samples=8), settings)
     hyps = out.hypotheses[0]  # (N, T, 17, 3)
-    assert hyps.shape == (4, 60, 17, 3) and np.isfinite(hyps).all()
+    assert hyps.shape == (8, len(truth), 17, 3) and np.isfinite(hyps).all()
     speed = np.linalg.norm(np.diff(hyps, axis=1), axis=-1).max(-1)  # (N, T-1) fastest joint per frame step
-    plan = plan_windows(60, 16, 4)
-    seam = np.zeros(59, dtype=bool)
+    plan = plan_windows(len(truth), settings.window, settings.overlap)
+    seam = np.zeros(len(truth) - 1, dtype=bool)
     for start in plan.starts[1:]:
         seam[start - 1 : start + settings.overlap + 1] = True  # steps into, inside and out of each overlap
-    assert speed[:, seam].max() <= 3 * speed[:, ~seam].max(), (speed[:, seam].max(), speed[:, ~seam].max())
+    return float(speed[:, seam].max()), float(speed[:, ~seam].max())
+
+
+def test_four_view_seams_are_no_faster_than_inside_windows(data_dir):
+    """The issue's criterion, 10 s of real climbing seen by 4 cameras: the fastest step at seams is no larger."""
+    at_seams, inside = _seam_and_inside_steps(data_dir, views=4, seconds=10)
+    assert at_seams <= inside, (at_seams, inside)
+
+
+def test_one_view_seams_stay_within_the_steps_inside_windows(data_dir):
+    """20 s of real climbing seen by one camera: the fastest step at seams is within 1.25x the fastest inside.
+
+    With one view each window's free frames wander in depth more than the truth moves, most
+    near its end, and the next window starts from those frames, so seams sit 0.85-1.2x the
+    inside maximum over seeds (before continuing the anchor's gap into the free frames: 3.5x,
+    71 cm against 20 cm, with jumps over 30 cm).
+    """
+    at_seams, inside = _seam_and_inside_steps(data_dir, views=1, seconds=20)
+    assert at_seams <= 1.25 * inside and at_seams < 0.3, (at_seams, inside)
 
 
 def test_one_view_placement_does_not_drift_over_windows(data_dir):
