@@ -109,16 +109,14 @@ def _smooth_solve(normal: torch.Tensor, rhs: torch.Tensor, mu: torch.Tensor) -> 
     rhs = torch.cat([rhs, rhs.new_zeros(B, N, padded - F, 3)], dim=2)
     penalty = torch.zeros(padded, padded, dtype=normal.dtype, device=normal.device)
     penalty[:F, :F] = acceleration_penalty(F, normal.dtype, normal.device)
-    penalty = penalty.reshape(blocks, size, blocks, size)
+    penalty = torch.kron(penalty, eye).reshape(blocks, 3 * size, blocks, 3 * size)  # frames x axes, per block
     ks = torch.arange(blocks, device=normal.device)
-    frames_eye = torch.eye(size, dtype=normal.dtype, device=normal.device)
-    smooth_diag = torch.einsum("bn,kfg,ij->bnkfigj", mu, penalty[ks, :, ks, :], eye)
-    data_diag = torch.einsum("bnkfij,fg->bnkfigj", normal.reshape(B, N, blocks, size, 3, 3), frames_eye)
-    diag = (smooth_diag + data_diag).reshape(B * N, blocks, 3 * size, 3 * size)
-    lower = torch.einsum("bn,kfg,ij->bnkfigj", mu, penalty[ks[1:], :, ks[:-1], :], eye)
-    solution = solve_block_tridiagonal(
-        diag, lower.reshape(B * N, blocks - 1, 3 * size, 3 * size), rhs.reshape(B * N, blocks, 3 * size)
-    )
+    mu = mu.reshape(B * N, 1, 1, 1)
+    diag = mu * penalty[ks, :, ks, :]  # (B*N, K, 3 size, 3 size)
+    frame_blocks = diag.view(B * N, blocks, size, 3, size, 3).diagonal(dim1=2, dim2=4)  # (B*N, K, 3, 3, size)
+    frame_blocks += normal.reshape(B * N, blocks, size, 3, 3).permute(0, 1, 3, 4, 2)
+    lower = mu * penalty[ks[1:], :, ks[:-1], :]
+    solution = solve_block_tridiagonal(diag, lower, rhs.reshape(B * N, blocks, 3 * size))
     return solution.reshape(B, N, padded, 3)[:, :, :F]
 
 
