@@ -23,6 +23,7 @@ from lifting.camera import Camera
 from lifting.triangulation import reprojection_errors, triangulate
 
 MIN_SHARED = 20  # joint observations two tracks must share to be compared
+FRAME_BLOCK = 1024  # frames triangulated and reprojected at a time: memory stays bounded for long takes
 
 
 def group_cost(tracks: Sequence[np.ndarray], cameras: Sequence[Camera]) -> float:
@@ -36,13 +37,21 @@ def group_cost(tracks: Sequence[np.ndarray], cameras: Sequence[Camera]) -> float
     if shared.sum() < MIN_SHARED:
         return np.inf
     confidence = np.where(shared, keypoints[..., 2], 0.0)
-    points = triangulate(keypoints[..., :2], confidence, cameras)
-    errors = reprojection_errors(points, keypoints[..., :2], cameras)
+    errors = np.concatenate(
+        [_errors(keypoints[:, t : t + FRAME_BLOCK], confidence[:, t : t + FRAME_BLOCK], cameras)
+         for t in range(0, keypoints.shape[1], FRAME_BLOCK)], axis=1,
+    )  # fmt: skip
     usable = seen & shared & np.isfinite(errors)
     if usable.sum() < MIN_SHARED:
         return np.inf
     size = np.nanmedian(np.fmax.reduce(person_size(keypoints), axis=0))
     return float(np.median(errors[usable]) / size)
+
+
+def _errors(keypoints: np.ndarray, confidence: np.ndarray, cameras: Sequence[Camera]) -> np.ndarray:
+    """Reprojection errors (C, T, 17) of the points triangulated from keypoints (C, T, 17, 3) with ``confidence``."""
+    points = triangulate(keypoints[..., :2], confidence, cameras)
+    return reprojection_errors(points, keypoints[..., :2], cameras)
 
 
 def match_across_views(
