@@ -18,7 +18,7 @@ from lifting.camera import Camera
 from lifting.prior import PriorBundle
 from lifting.sampler import Anchor, SamplerConfig, cameras_and_rays, sample
 from lifting.timebase import blend_samples, interpolate, interpolation_weights
-from lifting.windows import WindowPlan, blend_weights, continuation_anchor, cut, plan_windows
+from lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
 
 
 @dataclass(frozen=True)
@@ -87,11 +87,11 @@ def lift_stream(
     resampled = np.moveaxis(resample_keypoints(np.moveaxis(keypoints, 1, 0), frame_times, clock), 0, 1)  # (C, T', P, 17, 3)
     length = min(settings.window, prior.config.max_frames)
     plan = plan_windows(len(clock), length, min(settings.overlap, length // 2))
-    per_window = cut(np.moveaxis(resampled, 2, 1), plan, axis=2)  # (W, C, P, F, 17, 3)
+    per_window = WindowView(np.moveaxis(resampled, 2, 1), plan, axis=2)  # [w]: (C, P, F, 17, 3)
     roots = None
     if root_trajectory is not None:
-        roots = cut(interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock), plan, axis=0)  # (W, F, P, 3)
-        roots = np.moveaxis(roots, 2, 1)  # (W, P, F, 3)
+        path = interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock)  # (T', P, 3)
+        roots = WindowView(np.moveaxis(path, 1, 0), plan, axis=1)  # [w]: (P, F, 3)
     runner = _WindowRunner(prior, list(cameras), per_window, roots, config, settings, plan, progress)
     stitcher = StreamingStitch(plan, clock, np.asarray(frame_times, dtype=np.float64))
     previous = None
@@ -120,6 +120,23 @@ def lift_tracks(
         hypotheses=np.concatenate([c.hypotheses for c in chunks], axis=2),
         energy=np.concatenate([c.energy for c in chunks], axis=2),
     )
+
+
+class WindowView:
+    """``cut(values, plan, axis)[w]`` cut only when window ``w`` is asked for: a long track is not copied per window."""
+
+    def __init__(self, values: np.ndarray, plan: WindowPlan, axis: int) -> None:
+        self.values, self.plan, self.axis = values, plan, axis
+
+    def __len__(self) -> int:
+        return self.plan.count
+
+    def __getitem__(self, w: int) -> np.ndarray:
+        start, F = int(self.plan.starts[w]), self.plan.length
+        frames = np.moveaxis(self.values, self.axis, 0)[start : start + F]
+        if len(frames) < F:  # the last window runs past the end: padded with NaN, as cut pads
+            frames = np.concatenate([frames, np.full((F - len(frames), *frames.shape[1:]), np.nan, frames.dtype)])
+        return np.moveaxis(frames, 0, self.axis)
 
 
 class StreamingStitch:

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from lifting import lift as lift_module
-from lifting.lift import WindowSettings, lift_stream, lift_tracks, prior_clock
+from lifting.lift import WindowSettings, WindowView, lift_stream, lift_tracks, prior_clock
 from lifting.sampler import SamplerConfig
 from lifting.timebase import interpolate
-from lifting.windows import plan_windows, stitch
+from lifting.windows import cut, plan_windows, stitch
 
 TAKE = "video/pose2sim-balancing"
 
@@ -53,6 +53,15 @@ def test_streamed_frames_equal_stitching_the_whole_track(tiny_prior, real_track,
     assert np.array_equal(streamed, np.moveaxis(whole, 0, 2).astype(np.float32))
     streamed_energy = np.concatenate([c.energy for c in chunks], axis=2)
     assert np.array_equal(streamed_energy, np.moveaxis(whole_energy, 0, 2).astype(np.float32))
+
+
+def test_window_view_cuts_like_cut(real_track):
+    keypoints = real_track[0][:, :, 0]  # (C, T, 17, 3)
+    plan = plan_windows(keypoints.shape[1], 15, 4)
+    assert plan.padded_total > keypoints.shape[1]  # the last window is padded
+    view, windows = WindowView(keypoints, plan, axis=1), cut(keypoints, plan, axis=1)
+    assert len(view) == len(windows) == plan.count
+    assert all(np.array_equal(view[w], windows[w], equal_nan=True) for w in range(plan.count))
 
 
 def test_lift_tracks_gathers_the_stream(tiny_prior, real_track):
