@@ -58,10 +58,18 @@ def resample_keypoints(keypoints: np.ndarray, times: np.ndarray, new_times: np.n
 
     A resampled keypoint is missing unless both neighbouring samples are present.
     """
+    if len(times) == 1:  # every new time takes the one sample
+        zeros = np.zeros(len(new_times), dtype=np.intp)
+        return resample_keypoints_at(np.concatenate([keypoints, keypoints]), zeros, zeros.astype(np.float64))
+    return resample_keypoints_at(keypoints, *interpolation_weights(times, new_times))
+
+
+def resample_keypoints_at(keypoints: np.ndarray, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Keypoints ``(T, ..., 3)`` at samples ``idx`` (T',) blended with ``idx + 1`` by ``w`` (T',): ``(T', ..., 3)``."""
     present = (np.isfinite(keypoints).all(-1) & (keypoints[..., 2] > 0)).astype(np.float64)
     filled = np.where(present[..., None] > 0, keypoints, 0.0)
-    values = interpolate(filled, times, new_times)
-    valid = interpolate(present, times, new_times) > 1 - 1e-9
+    values = blend_samples(filled, idx, w)
+    valid = blend_samples(present, idx, w) > 1 - 1e-9
     values[..., 2] = np.where(valid, values[..., 2], 0.0)
     values[..., :2] = np.where(valid[..., None], values[..., :2], np.nan)
     return values
@@ -84,10 +92,9 @@ def lift_stream(
     known, fixes each person's pelvis path. ``progress(done, total)`` counts windows.
     """
     clock = prior_clock(frame_times, prior.fps)
-    resampled = np.moveaxis(resample_keypoints(np.moveaxis(keypoints, 1, 0), frame_times, clock), 0, 1)  # (C, T', P, 17, 3)
     length = min(settings.window, prior.config.max_frames)
     plan = plan_windows(len(clock), length, min(settings.overlap, length // 2))
-    per_window = WindowView(np.moveaxis(resampled, 2, 1), plan, axis=2)  # [w]: (C, P, F, 17, 3)
+    per_window = KeypointWindows(keypoints, frame_times, clock, plan)  # [w]: (C, P, F, 17, 3)
     roots = None
     if root_trajectory is not None:
         path = interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock)  # (T', P, 3)
@@ -122,6 +129,33 @@ def lift_tracks(
     )
 
 
+class KeypointWindows:
+    """Window ``w``'s keypoints ``(C, P, F, 17, 3)`` on the prior's clock, resampled when the window is asked for.
+
+    The same numbers as resampling the whole track with :func:`resample_keypoints` and
+    cutting it into windows (NaN past the end), without a resampled copy of a long track.
+    """
+
+    def __init__(self, keypoints: np.ndarray, frame_times: np.ndarray, clock: np.ndarray, plan: WindowPlan) -> None:
+        frames = np.moveaxis(keypoints, 1, 0)  # (T, C, P, 17, 3)
+        if len(frame_times) == 1:  # as resample_keypoints: every prior frame takes the one sample
+            frames = np.concatenate([frames, frames])
+            self.idx, self.w = np.zeros(len(clock), np.intp), np.zeros(len(clock))
+        else:
+            self.idx, self.w = interpolation_weights(frame_times, clock)
+        self.frames, self.plan = frames, plan
+
+    def __len__(self) -> int:
+        return self.plan.count
+
+    def __getitem__(self, w: int) -> np.ndarray:
+        start, F = int(self.plan.starts[w]), self.plan.length
+        idx, weight = self.idx[start : start + F], self.w[start : start + F]
+        first = int(idx[0])
+        window = resample_keypoints_at(self.frames[first : int(idx[-1]) + 2], idx - first, weight)  # (F', C, P, 17, 3)
+        return np.moveaxis(_pad(window, F), 0, 2)
+
+
 class WindowView:
     """``cut(values, plan, axis)[w]`` cut only when window ``w`` is asked for: a long track is not copied per window."""
 
@@ -133,10 +167,14 @@ class WindowView:
 
     def __getitem__(self, w: int) -> np.ndarray:
         start, F = int(self.plan.starts[w]), self.plan.length
-        frames = np.moveaxis(self.values, self.axis, 0)[start : start + F]
-        if len(frames) < F:  # the last window runs past the end: padded with NaN, as cut pads
-            frames = np.concatenate([frames, np.full((F - len(frames), *frames.shape[1:]), np.nan, frames.dtype)])
-        return np.moveaxis(frames, 0, self.axis)
+        return np.moveaxis(_pad(np.moveaxis(self.values, self.axis, 0)[start : start + F], F), 0, self.axis)
+
+
+def _pad(frames: np.ndarray, length: int) -> np.ndarray:
+    """``frames`` (t, ...) padded with NaN to ``length`` frames, as :func:`lifting.windows.cut` pads the last window."""
+    if len(frames) >= length:
+        return frames
+    return np.concatenate([frames, np.full((length - len(frames), *frames.shape[1:]), np.nan, frames.dtype)])
 
 
 class StreamingStitch:

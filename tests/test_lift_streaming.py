@@ -4,7 +4,15 @@ import numpy as np
 import pytest
 
 from lifting import lift as lift_module
-from lifting.lift import WindowSettings, WindowView, lift_stream, lift_tracks, prior_clock
+from lifting.lift import (
+    KeypointWindows,
+    WindowSettings,
+    WindowView,
+    lift_stream,
+    lift_tracks,
+    prior_clock,
+    resample_keypoints,
+)
 from lifting.sampler import SamplerConfig
 from lifting.timebase import interpolate
 from lifting.windows import cut, plan_windows, stitch
@@ -55,13 +63,22 @@ def test_streamed_frames_equal_stitching_the_whole_track(tiny_prior, real_track,
     assert np.array_equal(streamed_energy, np.moveaxis(whole_energy, 0, 2).astype(np.float32))
 
 
-def test_window_view_cuts_like_cut(real_track):
-    keypoints = real_track[0][:, :, 0]  # (C, T, 17, 3)
-    plan = plan_windows(keypoints.shape[1], 15, 4)
-    assert plan.padded_total > keypoints.shape[1]  # the last window is padded
-    view, windows = WindowView(keypoints, plan, axis=1), cut(keypoints, plan, axis=1)
-    assert len(view) == len(windows) == plan.count
-    assert all(np.array_equal(view[w], windows[w], equal_nan=True) for w in range(plan.count))
+def test_windows_cut_and_resample_like_the_whole_track(real_track):
+    keypoints, times = real_track[0], real_track[1]  # (C, T, P, 17, 3) at 60 fps, some joints missing
+    assert (keypoints[..., 2] == 0).any()
+    clock = prior_clock(times, 25.0)
+    plan = plan_windows(len(clock), 15, 4)
+    assert plan.padded_total > len(clock)  # the last window is padded
+    whole = np.moveaxis(resample_keypoints(np.moveaxis(keypoints, 1, 0), times, clock), 0, 1)  # (C, T', P, 17, 3)
+    windows = cut(np.moveaxis(whole, 2, 1), plan, axis=2)
+    resampled, view = KeypointWindows(keypoints, times, clock, plan), WindowView(np.moveaxis(whole, 2, 1), plan, axis=2)
+    assert len(resampled) == len(view) == len(windows) == plan.count
+    for w in range(plan.count):
+        assert np.array_equal(resampled[w], windows[w], equal_nan=True)
+        assert np.array_equal(view[w], windows[w], equal_nan=True)
+    one = KeypointWindows(keypoints[:, :1], times[:1], clock[:1], plan_windows(1, 15, 4))[0]  # a single frame
+    expected = resample_keypoints(np.moveaxis(keypoints[:, :1], 1, 0), times[:1], clock[:1])  # (1, C, P, 17, 3)
+    assert one.shape == (1, 1, 1, 17, 3) and np.array_equal(one, np.moveaxis(expected, 0, 2), equal_nan=True)
 
 
 def test_lift_tracks_gathers_the_stream(tiny_prior, real_track):
