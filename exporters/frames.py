@@ -71,6 +71,7 @@ class FrameArray:
             del mapped
 
     def __array__(self, dtype: np.dtype | None = None, copy: bool | None = None) -> np.ndarray:
+        """The whole array read into memory (``np.asarray(a)``; exporters read chunks instead)."""
         return self[...] if dtype is None else self[...].astype(dtype)
 
 
