@@ -3,7 +3,9 @@
 Input is 2D keypoints of P persons seen by C calibrated cameras on one clock;
 output is N hypotheses per person at the input's frame times, each one
 continuous motion across windows (see :mod:`lifting.windows`). Each window's
-persons and hypotheses go through the network as one batch.
+persons and hypotheses go through the network as one batch. Results stream out
+(:func:`lift_stream`) as soon as no later window changes them, so memory does
+not grow with the track's length.
 """
 
 from __future__ import annotations
