@@ -37,7 +37,8 @@ from lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
 from lifting.translation import RayConstraints, ray_constraints, solve_translation
 
 STEP_RULES = ("backtrack", "paper")
-DEPTH_RANGE = 2.0  # one view: a root over this many times nearer or farther than the median hypothesis is moved back
+DEPTH_RANGE = 1.5  # one view: a root over this many times nearer or farther than the median hypothesis is moved back
+SIZE_LIMITS = (0.5, 2.0)  # the size prior never scales a prediction by more than this
 DIRECTIONS = ("gauss-newton", "gradient")
 
 
@@ -52,7 +53,9 @@ class SamplerConfig:
     couples per-frame root offsets (0: independent frames). ``size_prior`` places each
     new network prediction where a person of typical adult size would stand (one
     view cannot tell a small near person from a tall far one; guidance then fits the
-    pose at that place). ``bone_weight`` and
+    pose at that place); ``size_spread`` gives each hypothesis its own size, typical
+    times ``exp(size_spread * n)`` with n standard normal (adults' heights vary by
+    about 4 %, their proportions more; 0: every hypothesis typical). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared).
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
     took a step gaining less than ``guidance_tol`` (relative) or its step has shrunk
@@ -75,6 +78,7 @@ class SamplerConfig:
     robust_scale: float = 0.05
     translation_smoothness: float = 1.0
     size_prior: bool = True
+    size_spread: float = 0.1
     bone_weight: float = 0.0
     symmetry_weight: float = 0.0
     seed: int = 0
@@ -96,6 +100,7 @@ class SamplerConfig:
             (self.robust in ROBUST_LOSSES, f"unknown robust loss {self.robust!r}; choose {', '.join(ROBUST_LOSSES)}"),
             (self.robust_scale > 0, f"robust scale must be positive, got {self.robust_scale}"),
             (self.translation_smoothness >= 0, "translation smoothness must be >= 0"),
+            (0 <= self.size_spread <= 0.5, f"size spread must be in [0, 0.5], got {self.size_spread}"),
             (self.bone_weight >= 0 and self.symmetry_weight >= 0, "structural energy weights must be >= 0"),
         ]
         for ok, message in checks:
@@ -140,18 +145,45 @@ def continuation_ramp(mask: torch.Tensor) -> torch.Tensor:
     return ((F - 1 - frames) / (F - 1 - last_anchored).clamp(min=1)).clamp(0, 1)
 
 
-def typical_size(joints: torch.Tensor, limits: tuple[float, float] = (0.5, 2.0)) -> torch.Tensor:
-    """Scale the poses ``(B, N, F, 17, 3)`` of each window about their pelvis so that their median is of adult size.
+def typical_size(joints: torch.Tensor, factors: torch.Tensor | None = None) -> torch.Tensor:
+    """Scale the poses ``(B, N, F, 17, 3)`` about their pelvis to adult size.
 
-    Size is the sum of limb and trunk lengths; one factor per window (median over its
-    hypotheses and frames, clamped to ``limits``) keeps the hypotheses' relative sizes.
+    Size is the sum of limb and trunk lengths (median over frames). Without ``factors``
+    one scale per window (median over its hypotheses) brings the window to typical size
+    and keeps the hypotheses' relative sizes; with ``factors`` ``(N,)`` hypothesis n is
+    brought to typical x ``factors[n]``. Scales are clamped to ``SIZE_LIMITS``.
     """
     lengths = bone_lengths_torch(joints)[..., list(SIZE_BONES)].sum(-1)  # (B, N, F)
     typical = sum(TYPICAL_BONE_LENGTHS[b] for b in SIZE_BONES)
-    size = lengths.flatten(1).median(dim=-1).values.clamp(min=1e-3)  # (B,)
-    scale = (typical / size).clamp(*limits)
+    if factors is None:
+        size = lengths.flatten(1).median(dim=-1).values[:, None]  # (B, 1)
+        target = torch.full_like(size, typical)
+    else:
+        size = lengths.median(dim=-1).values  # (B, N)
+        target = typical * factors.to(lengths)[None]
+    scale = (target / size.clamp(min=1e-3)).clamp(*SIZE_LIMITS)
     root = joints[..., :1, :]
-    return root + scale[:, None, None, None, None] * (joints - root)
+    return root + scale[..., None, None, None] * (joints - root)
+
+
+def limit_depth(roots: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor) -> torch.Tensor:
+    """Move roots ``(B, N, F, 3)`` (world) along their camera rays to within ``DEPTH_RANGE`` times the
+    median depth of the N hypotheses of their window and frame (camera ``rotation`` (3, 3), ``translation`` (3,)).
+
+    A root too near is put at ``median / DEPTH_RANGE`` on its own ray; one (nearly) beside or behind
+    the camera (depth under ``median / DEPTH_RANGE**2``) has no usable ray and takes the median ray
+    of the hypotheses instead, so a root is never thrown far sideways.
+    """
+    center = -translation @ rotation  # camera centre in the world
+    ray = roots - center
+    depth = ray @ rotation[2]  # (B, N, F)
+    median = depth.median(dim=1, keepdim=True).values.clamp(min=1e-3)  # (B, 1, F)
+    limited = torch.minimum(torch.maximum(depth, median / DEPTH_RANGE), median * DEPTH_RANGE)
+    median_ray = ray.median(dim=1, keepdim=True).values  # (B, 1, F, 3), componentwise
+    median_ray = median_ray / (median_ray @ rotation[2]).clamp(min=1e-6)[..., None]  # at unit depth
+    usable = (depth > median / DEPTH_RANGE**2)[..., None]
+    unit_ray = torch.where(usable, ray / depth.clamp(min=1e-6)[..., None], median_ray)
+    return torch.where((limited != depth)[..., None], center + unit_ray * limited[..., None], roots)
 
 
 def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
@@ -186,12 +218,14 @@ class GuidedProblem:
         config: SamplerConfig,
         root_trajectory: torch.Tensor | None = None,
         anchor: Anchor | None = None,
+        size_factors: torch.Tensor | None = None,
     ) -> None:
         if rays is None and root_trajectory is None:
             raise ValueError("either ray constraints (to solve the root) or a known root trajectory is needed")
         self.prior, self.obs, self.rays, self.config = prior, obs, rays, config
         self.root_trajectory = root_trajectory
         self.anchor = anchor
+        self.size_factors = size_factors
         self.batch = obs.keypoints.shape[1]
         self.anchor_features: torch.Tensor | None = None
         self.std = torch.as_tensor(prior.normalizer.std, dtype=obs.keypoints.dtype, device=obs.keypoints.device)
@@ -206,32 +240,16 @@ class GuidedProblem:
         local = self.local_joints(x0)
         if self.root_trajectory is not None:
             return self.root_trajectory[:, None] - local[..., 0, :]
-        placed = typical_size(local) if self.config.size_prior else local
+        placed = typical_size(local, self.size_factors) if self.config.size_prior else local
         offset = solve_translation(placed, self.rays, self.obs.cameras, self.config.translation_smoothness)
-        if len(self.obs.cameras) == 1:
-            offset = self.rescue_depth(local[..., 0, :], offset)
+        if len(self.obs.cameras) == 1:  # a few poorly fitting early predictions fell towards the camera centre
+            roots = local[..., 0, :]
+            offset = limit_depth(roots + offset, self.obs.cameras.R[0], self.obs.cameras.t[0]) - roots
         if self.anchor is not None:  # continuation: start on the anchor, return to the rays' placement by the end
             continued = self.anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
             ramp = continuation_ramp(self.anchor.mask)[:, None, :, None]
             offset = ramp * continued + (1 - ramp) * offset
         return offset
-
-    def rescue_depth(self, roots: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
-        """One view: keep every root (``roots`` ``(B, N, F, 3)`` + ``offset``) within ``DEPTH_RANGE`` times the
-        hypotheses' median depth of its frame, moving it along its ray.
-
-        The rays' algebraic error is smallest with the pose at the camera centre, and guidance can
-        stretch a pose along the rays to fit there: a few hypotheses of early, poorly fitting
-        steps fell towards the camera (pelvis 0.1-0.3 m from it) and stayed.
-        """
-        cameras = self.obs.cameras
-        center = -cameras.t[0] @ cameras.R[0]  # camera centre in the world
-        ray = roots + offset - center  # (B, N, F, 3)
-        depth = ray @ cameras.R[0, 2]
-        median = depth.median(dim=1, keepdim=True).values.clamp(min=1e-3)  # (B, 1, F)
-        limited = torch.minimum(torch.maximum(depth, median / DEPTH_RANGE), median * DEPTH_RANGE)
-        factor = limited / depth.clamp(min=1e-3)  # continuous in depth; behind the camera counts as very near
-        return torch.where((factor != 1)[..., None], center + ray * factor[..., None] - roots, offset)
 
     def inpaint(self, x0: torch.Tensor) -> torch.Tensor:
         """Continue the anchor in ``x0`` ``(B*N, F, D)``: anchored frames take the anchor's features (RePaint-style),
@@ -375,15 +393,16 @@ def sample(
     root is solved per frame from ``rays``. ``progress(done, total)`` is called after
     every diffusion step.
     """
-    problem = GuidedProblem(prior, obs, rays, config, root_trajectory, anchor)
     model = prior.model
     dtype = obs.keypoints.dtype
     device = obs.keypoints.device
     schedule = DiffusionSchedule(prior.config.diffusion_steps)
     steps = sampling_steps(config.steps, config.skip, prior.config.diffusion_steps)
     generator = torch.Generator(device="cpu").manual_seed(config.seed)
-    shape = (problem.batch * config.samples, frames, prior.config.features)
+    shape = (obs.keypoints.shape[1] * config.samples, frames, prior.config.features)
     noise = torch.randn(shape, generator=generator, dtype=torch.float32).to(device=device, dtype=dtype)
+    sizes = torch.exp(config.size_spread * torch.randn(config.samples, generator=generator)) if config.size_spread > 0 else None
+    problem = GuidedProblem(prior, obs, rays, config, root_trajectory, anchor, sizes)
     x_t = schedule.add_noise(torch.zeros_like(noise), int(steps[0]), noise)
     x0 = x_t
     for i, t in enumerate(steps):

@@ -7,7 +7,8 @@ import torch
 from lifting import metrics
 from lifting.camera import project
 from lifting.camera_rigs import ring_cameras
-from lifting.sampler import SamplerConfig, cameras_and_rays, sample
+from lifting.sampler import DEPTH_RANGE, SamplerConfig, cameras_and_rays, limit_depth, sample, typical_size
+from lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_lengths
 
 
 def _lift(prior, truth, views, noise_px=0.0, **config):
@@ -114,3 +115,34 @@ def test_structural_energies_lower_bone_length_variation(tiny_prior, heldout_win
 def test_bad_sampler_settings_are_refused(bad):
     with pytest.raises(ValueError):
         SamplerConfig(**bad)
+
+
+def test_depth_limit_keeps_every_root_in_front_and_near_the_others():
+    """One view: roots too far, too near, beside or behind the camera come back within DEPTH_RANGE of the median
+    depth, and never far sideways (a root just behind the camera was once thrown kilometres away)."""
+    cam = ring_cameras(4)[0]
+    R, t = torch.tensor(cam.R), torch.tensor(cam.t)
+    rng = np.random.default_rng(3)
+    in_camera = np.concatenate([rng.normal([0, 0, 4], [0.3, 0.3, 0.5], (8, 3)),
+                                [[0.2, 0.1, 30.0], [0.3, 0.0, 2.0], [1.5, 0.2, 0.001], [0.4, -0.2, -0.4], [0.0, 0.0, -6.0]]])  # fmt: skip
+    world = torch.tensor((in_camera - cam.t) @ cam.R)[None, :, None]  # (B=1, N=13, F=1, 3)
+    limited = limit_depth(world, R, t)[0, :, 0].numpy() @ cam.R.T + cam.t  # back in camera axes
+    median = np.median(in_camera[:, 2])
+    assert np.all(limited[:, 2] >= median / DEPTH_RANGE - 1e-6) and np.all(limited[:, 2] <= median * DEPTH_RANGE + 1e-6)
+    assert np.allclose(limited[:8], in_camera[:8])  # within range: untouched
+    assert np.allclose(limited[8] / limited[8, 2], in_camera[8] / in_camera[8, 2])  # too far: along its own ray
+    assert np.allclose(limited[9] / limited[9, 2], in_camera[9] / in_camera[9, 2])  # too near: along its own ray
+    assert np.all(np.linalg.norm(limited[:, :2], axis=-1) < 0.5 * median)  # beside / behind: onto the median ray
+
+
+def test_size_prior_scales_each_hypothesis_to_its_own_factor(heldout_window):
+    poses = torch.tensor(np.stack([heldout_window, 1.3 * heldout_window]))[None]  # (B=1, N=2, F, 17, 3)
+    factors = torch.tensor([0.9, 1.1], dtype=torch.float64)
+    typical = sum(TYPICAL_BONE_LENGTHS[b] for b in SIZE_BONES)
+    sized = typical_size(poses, factors)[0].numpy()
+    size = np.median(bone_lengths(sized)[..., list(SIZE_BONES)].sum(-1), axis=-1)
+    assert np.allclose(size, typical * factors.numpy(), rtol=1e-5)
+    assert np.allclose(sized[:, :, 0], poses[0, :, :, 0].numpy())  # scaled about the pelvis
+    same = typical_size(poses)[0].numpy()  # no factors: one scale for the window keeps relative sizes
+    ratio = bone_lengths(same[1]).sum(-1) / bone_lengths(same[0]).sum(-1)
+    assert np.allclose(ratio, 1.3)
