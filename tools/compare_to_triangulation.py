@@ -1,0 +1,83 @@
+"""Compare lifts of a multi-view take with a plain triangulation of its 2D keypoints.
+
+    .venv/bin/python tools/compare_to_triangulation.py OUT/all/<job>/<job>.npz OUT/cam01/<job>/<job>.npz ...
+
+The first npz must be a lift from several views: its 2D keypoints (all views, person 0)
+are triangulated with its cameras (DLT, ``lifting.triangulation.triangulate``) and that
+is the reference. Every npz given (the first included) is then compared with it, frame
+by frame where the reference has all 17 joints, and printed as a Markdown table row:
+
+- median vs triangulation: mean / median over joints and frames of the distance from
+  the hypotheses' median to the reference (mm); and the pelvis alone;
+- best hypothesis per joint: for each joint and frame the nearest hypothesis (mm, mean);
+- inside box: share of reference joints inside the hypotheses' per-axis min-max box;
+- pelvis depth: 5 / 50 / 95 % of the hypotheses' pelvis depth from the first camera
+  of the lift against the reference's median depth, and the share of frames whose
+  reference depth lies within the hypotheses' 5-95 % range.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from exporters.npz import read_npz  # noqa: E402
+from lifting.triangulation import triangulate  # noqa: E402
+
+
+def reference_joints(path: Path) -> np.ndarray:
+    """Triangulated joints ``(T, 17, 3)`` of person 0 from all views of the lift ``path``; NaN where not seen twice."""
+    result = read_npz(path)
+    if len(result.cameras) < 2:
+        raise SystemExit(f"{path}: the reference lift must have several views, it has {len(result.cameras)}")
+    keypoints = np.asarray(result.keypoints2d)[:, 0]  # (C, T, 17, 3)
+    confidence = np.nan_to_num(keypoints[..., 2])
+    points = triangulate(np.nan_to_num(keypoints[..., :2]), confidence, result.cameras)
+    seen = (confidence > 0).sum(0) >= 2
+    return np.where(seen[..., None], points, np.nan)
+
+
+def compare(path: Path, reference: np.ndarray) -> str:
+    """One Markdown row of figures for the lift ``path`` against ``reference`` ``(T, 17, 3)``."""
+    result = read_npz(path)
+    hyps = np.asarray(result.hypotheses)[0].astype(np.float64)  # (N, T, 17, 3)
+    median = np.asarray(result.median)[0].astype(np.float64)
+    frames = np.isfinite(reference).all(axis=(-1, -2)) & np.isfinite(hyps).all(axis=(0, -1, -2))
+    ref, hyps, median = reference[frames], hyps[:, frames], median[frames]
+    to_median = np.linalg.norm(median - ref, axis=-1) * 1000
+    best = np.linalg.norm(hyps - ref, axis=-1).min(axis=0) * 1000
+    inside = ((hyps.min(0) <= ref) & (ref <= hyps.max(0))).all(-1).mean()
+    cam = result.cameras[0]
+    depth = (hyps[..., 0, :] @ cam.R.T + cam.t)[..., 2]  # (N, T') pelvis depth from the first camera
+    ref_depth = (ref[:, 0] @ cam.R.T + cam.t)[:, 2]
+    low, mid, high = np.percentile(depth, [5, 50, 95])
+    lo_t, hi_t = np.percentile(depth, [5, 95], axis=0)
+    within = ((lo_t <= ref_depth) & (ref_depth <= hi_t)).mean()
+    return (
+        f"| {path.parent.parent.name} ({len(result.cameras)} view(s), {hyps.shape[0]} hypotheses, {frames.sum()} frames) "
+        f"| {to_median.mean():.1f} / {np.median(to_median):.1f} mm | {to_median[:, 0].mean():.1f} mm "
+        f"| {best.mean():.1f} mm | {100 * inside:.0f} % "
+        f"| {low:.2f} / {mid:.2f} / {high:.2f} m vs {np.median(ref_depth):.2f} m ({100 * within:.0f} % of frames inside) |"
+    )
+
+
+def main() -> None:
+    """Parse the lifts, triangulate the first one's keypoints, print one row per lift."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("lifts", nargs="+", type=Path, help="npz files; the first is a multi-view lift")
+    args = parser.parse_args()
+    reference = reference_joints(args.lifts[0])
+    print("| lift | median vs triangulation (mean / median) | pelvis | best hypothesis per joint | inside min-max box "
+          "| pelvis depth 5 / 50 / 95 % |")  # fmt: skip
+    print("|---|---|---|---|---|---|")
+    for path in args.lifts:
+        print(compare(path, reference))
+
+
+if __name__ == "__main__":
+    main()
