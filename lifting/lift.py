@@ -18,7 +18,7 @@ import torch
 
 from lifting.camera import Camera
 from lifting.prior import PriorBundle
-from lifting.sampler import Anchor, SamplerConfig, cameras_and_rays, sample
+from lifting.sampler import Anchor, SampleResult, SamplerConfig, cameras_and_rays, sample
 from lifting.timebase import blend_samples, interpolate, interpolation_weights
 from lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
 
@@ -106,9 +106,10 @@ def lift_stream(
     previous = None
     for w in range(plan.count):
         anchor = continuation_anchor(previous, plan) if previous is not None else None
-        joints, energy = runner.run(w, anchor)
-        previous = np.asarray(joints, dtype=np.float32)  # (P, N, F, 17, 3)
-        window = (np.moveaxis(previous, 2, 0), np.moveaxis(np.asarray(energy, dtype=np.float32), 2, 0))
+        result = runner.run(w, anchor)
+        previous = np.asarray(result.fitted, dtype=np.float32)  # (P, N, F, 17, 3): the next window continues the fit
+        joints = np.asarray(result.joints, dtype=np.float32)
+        window = (np.moveaxis(joints, 2, 0), np.moveaxis(np.asarray(result.energy, dtype=np.float32), 2, 0))
         for start, (hypotheses, frame_energy) in stitcher.add(w, window):
             yield LiftChunk(start, np.moveaxis(hypotheses, 0, 2), np.moveaxis(frame_energy, 0, 2))
 
@@ -243,8 +244,8 @@ class _WindowRunner:
         self.prior, self.cameras, self.per_window, self.roots = prior, cameras, per_window, roots
         self.config, self.settings, self.plan, self.progress = config, settings, plan, progress
 
-    def run(self, w: int, anchor: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
-        """Joints (P, N, F, 17, 3) and energy (P, N, F) of window ``w``; ``anchor`` = joints (P, N, F, 17, 3), mask (F,)."""
+    def run(self, w: int, anchor: tuple[np.ndarray, np.ndarray] | None) -> SampleResult:
+        """Hypotheses of window ``w`` (persons as the batch); ``anchor`` = joints (P, N, F, 17, 3), mask (F,)."""
         kp = self.per_window[w]  # (C, P, F, 17, 3)
         P, F = kp.shape[1:3]
         obs, rays = cameras_and_rays(self.cameras, kp[..., :2], kp[..., 2], device=self.prior.device)
@@ -257,4 +258,4 @@ class _WindowRunner:
         result = sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
         if self.progress is not None:
             self.progress(w + 1, self.plan.count)
-        return result.joints, result.energy
+        return result

@@ -30,6 +30,7 @@ from lifting.energy import (
     reprojection_terms,
     symmetry_energy,
 )
+from lifting.noise_spread import noise_spread
 from lifting.prior import PriorBundle
 from lifting.representation import features_to_joints, joints_to_features
 from lifting.schedule import DiffusionSchedule, sampling_steps
@@ -55,7 +56,9 @@ class SamplerConfig:
     view cannot tell a small near person from a tall far one; guidance then fits the
     pose at that place); ``size_spread`` gives each hypothesis its own size, typical
     times ``exp(size_spread * n)`` with n standard normal (adults' heights vary by
-    about 4 %, their proportions more; 0: every hypothesis typical). ``bone_weight`` and
+    about 4 %, their proportions more; 0: every hypothesis typical). ``noise_spread``
+    (two or more cameras) moves each hypothesis by a draw of the joints' uncertainty
+    under the 2D noise its fit's residuals show (:mod:`lifting.noise_spread`). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared).
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
     took a step gaining less than ``guidance_tol`` (relative) or its step has shrunk
@@ -79,6 +82,7 @@ class SamplerConfig:
     translation_smoothness: float = 1.0
     size_prior: bool = True
     size_spread: float = 0.1
+    noise_spread: bool = True
     bone_weight: float = 0.0
     symmetry_weight: float = 0.0
     seed: int = 0
@@ -125,10 +129,15 @@ class Anchor:
 
 @dataclass(frozen=True)
 class SampleResult:
-    """Hypotheses ``joints`` (B, N, F, 17, 3) in world metres and their per-frame reprojection ``energy`` (B, N, F)."""
+    """Hypotheses ``joints`` (B, N, F, 17, 3) in world metres and their per-frame reprojection ``energy`` (B, N, F).
+
+    ``fitted`` are the joints as guidance left them, before the noise spread (the same
+    array without it); the next window of a long track continues these.
+    """
 
     joints: np.ndarray
     energy: np.ndarray
+    fitted: np.ndarray
 
 
 def continuation_ramp(mask: torch.Tensor) -> torch.Tensor:
@@ -184,6 +193,12 @@ def limit_depth(roots: torch.Tensor, rotation: torch.Tensor, translation: torch.
     usable = (depth > median / DEPTH_RANGE**2)[..., None]
     unit_ray = torch.where(usable, ray / depth.clamp(min=1e-6)[..., None], median_ray)
     return torch.where((limited != depth)[..., None], center + unit_ray * limited[..., None], roots)
+
+
+def antithetic_normal(count: int, generator: torch.Generator) -> torch.Tensor:
+    """``count`` standard normal draws ``(count, 17, 3)`` in pairs z, -z, so that their median is zero to the last bit."""
+    half = torch.randn(((count + 1) // 2, 17, 3), generator=generator)
+    return torch.cat([half, -half])[:count]
 
 
 def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
@@ -402,6 +417,7 @@ def sample(
     shape = (obs.keypoints.shape[1] * config.samples, frames, prior.config.features)
     noise = torch.randn(shape, generator=generator, dtype=torch.float32).to(device=device, dtype=dtype)
     sizes = torch.exp(config.size_spread * torch.randn(config.samples, generator=generator)) if config.size_spread > 0 else None
+    draws = antithetic_normal(config.samples, generator)  # the noise spread's, one (17, 3) per hypothesis
     problem = GuidedProblem(prior, obs, rays, config, root_trajectory, anchor, sizes)
     x_t = schedule.add_noise(torch.zeros_like(noise), int(steps[0]), noise)
     x0 = x_t
@@ -417,9 +433,11 @@ def sample(
         if progress is not None:
             progress(i + 1, len(steps))
     with torch.no_grad():
-        joints = problem.world_joints(x0, offset)
+        fitted = problem.world_joints(x0, offset)
+        spread = config.noise_spread and len(obs.cameras) > 1
+        joints = fitted + noise_spread(fitted, obs, draws) if spread else fitted
         energy = reprojection_energy(joints, obs, config.robust, config.robust_scale)
-    return SampleResult(joints=joints.cpu().numpy(), energy=energy.cpu().numpy())
+    return SampleResult(joints.cpu().numpy(), energy.cpu().numpy(), fitted.cpu().numpy())
 
 
 def cameras_and_rays(

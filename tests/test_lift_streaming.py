@@ -40,9 +40,9 @@ def test_streamed_frames_equal_stitching_the_whole_track(tiny_prior, real_track,
     run = lift_module._WindowRunner.run
 
     def recording_run(self, w, anchor):
-        joints, energy = run(self, w, anchor)
-        windows.append((np.asarray(joints, np.float32), np.asarray(energy, np.float32)))
-        return joints, energy
+        result = run(self, w, anchor)
+        windows.append((np.asarray(result.joints, np.float32), np.asarray(result.energy, np.float32)))
+        return result
 
     monkeypatch.setattr(lift_module._WindowRunner, "run", recording_run)
     settings = WindowSettings(window=16, overlap=4)

@@ -39,8 +39,8 @@ def test_four_views_collapse_onto_the_truth(tiny_prior, heldout_window):
 
 
 def test_guidance_reaches_the_noise_level_of_the_2d_input(tiny_prior, heldout_window):
-    for views in (4, 1):
-        result, _ = _lift(tiny_prior, heldout_window, views=views, noise_px=2.0, samples=20)
+    for views in (4, 1):  # the fit itself, before the noise spread
+        result, _ = _lift(tiny_prior, heldout_window, views=views, noise_px=2.0, samples=20, noise_spread=False)
         rms = _rms_px(result, views)
         noise_rms = np.sqrt(2) * 2.0
         # every hypothesis fits down to the noise itself (a fit absorbs part of it, more so with one view)
@@ -63,7 +63,7 @@ def test_lambda_sweep_over_two_decades_is_smooth(tiny_prior, heldout_window):
     scales = [0.1, 0.3, 1.0, 3.0, 10.0]
     errors = []
     for scale in scales:
-        result, _ = _lift(tiny_prior, heldout_window, views=4, noise_px=1.0, samples=10, energy_scale=scale)
+        result, _ = _lift(tiny_prior, heldout_window, views=4, noise_px=1.0, samples=10, energy_scale=scale, noise_spread=False)
         errors.append(np.median(_rms_px(result, 4)))
     errors = np.array(errors)
     assert np.all(np.isfinite(errors))
@@ -146,3 +146,41 @@ def test_size_prior_scales_each_hypothesis_to_its_own_factor(heldout_window):
     same = typical_size(poses)[0].numpy()  # no factors: one scale for the window keeps relative sizes
     ratio = bone_lengths(same[1]).sum(-1) / bone_lengths(same[0]).sum(-1)
     assert np.allclose(ratio, 1.3)
+
+
+def test_noise_spread_covers_the_truth_as_often_as_it_claims(tiny_prior, heldout_window):
+    """4 views, 2 px noise: the fits collapse onto one point per joint that misses the truth by the triangulation
+    error; spread by the residuals' noise, the truth falls inside a hypotheses' ball about their median about as
+    often as the ball's share of hypotheses, and the spread adds no frame-to-frame jitter."""
+    result, _ = _lift(tiny_prior, heldout_window, views=4, noise_px=2.0, samples=50)
+    hyps, fitted = result.joints[0], result.fitted[0]
+    median = np.median(hyps, axis=0)
+    radius = np.linalg.norm(hyps - median, axis=-1)  # (N, F, 17)
+    truth_distance = np.linalg.norm(heldout_window - median, axis=-1)  # (F, 17)
+    for share in (0.5, 0.9):
+        covered = np.mean(truth_distance < np.quantile(radius, share, axis=0))
+        assert abs(covered - share) < 0.15, (share, covered)
+    fitted_radius = np.linalg.norm(fitted - np.median(fitted, axis=0), axis=-1)
+    assert np.mean(truth_distance < np.quantile(fitted_radius, 0.9, axis=0)) < 0.3  # collapsed: overconfident
+    offsets = hyps - fitted
+    assert np.abs(np.diff(offsets, axis=1)).max() < 0.1 * np.abs(offsets).max()  # one draw per window: no jitter
+    rms = _rms_px(result, 4)
+    assert np.all((rms > 0.8 * np.sqrt(2) * 2.0) & (rms < 1.5 * np.sqrt(2) * 2.0)), rms  # as far from the 2D as the truth
+
+
+def test_noise_spread_ignores_frames_without_a_fit():
+    """A track's padding frames (no keypoints, joints NaN) leave the other frames' spread finite."""
+    from lifting.noise_spread import unit_weight_variance
+
+    energy = torch.tensor([[[1.0, 2.0, float("nan")], [3.0, 1.0, float("nan")]]])  # (B=1, N=2, F=3)
+    confidence = torch.ones(2, 1, 3, 17)
+    confidence[:, :, 2] = 0  # frame 2 unobserved
+    variance = unit_weight_variance(energy, confidence)
+    assert torch.allclose(variance, torch.tensor([3.0 / (2 * 17 * (2 * 2 - 3))]))  # median fit 3 over 34 redundant
+
+
+def test_noise_free_views_get_no_spread(tiny_prior, heldout_window):
+    result, _ = _lift(tiny_prior, heldout_window, views=4, samples=20)
+    assert np.abs(result.joints - result.fitted).max() < 0.002
+    one_view, _ = _lift(tiny_prior, heldout_window, views=1, noise_px=2.0, samples=5)
+    assert np.array_equal(one_view.joints, one_view.fitted)  # one camera: nothing redundant to measure noise by
