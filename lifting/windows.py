@@ -74,12 +74,15 @@ def blend_weights(plan: WindowPlan) -> np.ndarray:
 
 
 def anchored_frames(plan: WindowPlan) -> int:
-    """How many of a window's first frames are anchored to the window before: the first half of the overlap.
+    """How many of a window's first frames are anchored to the window before: two (position and velocity).
 
-    The second half is the window's own and is blended in, so where the prior departs from
-    the anchored frames the change is spread over those frames instead of showing as a jump.
+    The rest of the overlap is the window's own and is blended in, so where the prior departs
+    from the anchored frames the change is spread over those frames instead of showing as a jump.
+    With one camera, anchoring half the overlap (8 of 16 frames) made hypotheses step 1.15x faster
+    at seams than inside windows (relative to the true motion, 8 seeds of 20 s of climbing); with
+    two frames they step as fast as inside (1.01x), with the whole overlap 1.3x.
     """
-    return plan.overlap // 2
+    return min(2, plan.overlap)
 
 
 def stitch(windows: np.ndarray, plan: WindowPlan) -> np.ndarray:
