@@ -80,7 +80,9 @@ def solve_translation(
     normal = normal + 1e-6 * data_scale[..., None, None, None] * eye
     if smoothness <= 0 or F < 3:
         return torch.linalg.solve(normal, rhs.unsqueeze(-1)).squeeze(-1)
-    return _smooth_solve(normal, rhs, smoothness * data_scale)
+    # float64: frames without evidence leave only the ridge and the acceleration penalty (free on straight lines),
+    # a condition float32 Cholesky cannot take (it failed on windows seen once or never, at smoothness 10)
+    return _smooth_solve(normal.double(), rhs.double(), smoothness * data_scale.double()).to(joints.dtype)
 
 
 def acceleration_penalty(frames: int, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
