@@ -55,8 +55,8 @@ class SamplerConfig:
     pose at that place). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared).
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
-    took a step gaining less than ``guidance_tol`` (relative) or its step has shrunk
-    to nothing (0: always k).
+    took a step gaining less than ``guidance_tol`` of its energy at the start of this
+    diffusion step's guidance, or its step has shrunk to nothing (0: always k).
     """
 
     samples: int = 50
@@ -260,37 +260,56 @@ class GuidedProblem:
             offset = self.root_trajectory[:, None] - local[..., 0, :]
         return local + offset[..., None, :]
 
-    def evaluate(self, x0: torch.Tensor, offset: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """Energy per hypothesis ``(B*N,)`` and descent directions for ``x0`` ``(B*N, F, D)`` and the offset ``(B, N, 1, 3)``.
+    def displaced(self, start: torch.Tensor, moved: torch.Tensor) -> torch.Tensor:
+        """World joints ``(3, B, N, F, 17)`` (component-first) after moving ``start`` by ``moved``; with a known
+        root path each frame's pelvis stays on it (the joints move relative to it)."""
+        if self.root_trajectory is not None:
+            return start + (moved - moved[..., :1])
+        return start + moved
 
-        "gradient": minus the gradient (the paper's update). "gauss-newton": minus a
-        damped Gauss-Newton step per joint in world space (the 3x3 reprojection
-        curvature of each joint over all cameras), mapped back onto ``x0`` and the
-        offset; it converges in a few iterations where the plain gradient needs
-        hundreds, and leaves the depth of a single view to the prior (no curvature
-        there, only damping).
+    def absorb(self, x0: torch.Tensor, offset: torch.Tensor, moved: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Windows ``x0`` ``(B*N, F, D)`` and offsets ``(B, N, F, 3)`` holding the joints moved by ``moved``
+        ``(3, B, N, F, 17)``: features are linear in joint moves up to one shift per window (frame 0's root),
+        which the offset takes."""
+        joints = moved.movedim(0, -1)  # (B, N, F, 17, 3)
+        features = joints_to_features(joints).reshape(x0.shape) / self.std
+        return x0 + features, offset + joints[:, :, :1, 0, :]
+
+    def evaluate(self, joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Energy per hypothesis ``(B*N,)`` and descent direction ``(3, B, N, F, 17)`` (a move of every world joint,
+        component-first) at world joints ``joints`` ``(B, N, F, 17, 3)``.
+
+        "gradient": the joints' move for minus the gradient with respect to the windows' features
+        (the paper's update). "gauss-newton": minus a damped Gauss-Newton step per joint in world
+        space (the 3x3 reprojection curvature of each joint over all cameras); it converges in a
+        few iterations where the plain gradient needs hundreds, and leaves the depth of a single
+        view to the prior (no curvature there, only damping).
         """
         c = self.config
-        joints = self.world_joints(x0, offset)
         # one camera: solve each joint's 3x3 system in that camera's axes, where its terms are far cheaper
         rotation = self.obs.cameras.R[0] if len(self.obs.cameras) == 1 and c.direction == "gauss-newton" else None
         energy, grad, curvature = reprojection_terms(joints, self.obs, c.robust, c.robust_scale, rotation is not None)
         energy, grad, curvature = self.add_extra_terms(joints, energy, grad, curvature, rotation)
         total = energy.sum(-1).reshape(-1)
         if c.direction == "gradient":
-            with torch.enable_grad():
-                x = x0.detach().requires_grad_(True)
-                (grad_x,) = torch.autograd.grad(self.world_joints(x, offset), x, grad_outputs=grad.movedim(0, -1))
-            return total, -grad_x, torch.zeros_like(offset[:, :, :1])
+            return total, self.feature_gradient_move(grad)
         trace = curvature[0] + curvature[3] + curvature[5]  # (B, N, F, 17), the same in any axes
         damping = c.damping / 3 * trace.mean(dim=(-1, -2))  # mean curvature diagonal per hypothesis, (B, N)
         system = curvature + packed_identity(damping[..., None, None] + 1e-9)
         step = solve_symmetric3(system, grad).neg_()  # (3, B, N, F, 17)
         if rotation is not None:  # camera axes -> world axes
             step = (rotation.T @ step.reshape(3, -1)).reshape(step.shape)
-        step = step.movedim(0, -1)  # (B, N, F, 17, 3)
-        direction = joints_to_features(step).reshape(x0.shape) / self.std
-        return total, direction, step[:, :, :1, 0, :]  # the shift the features cannot hold: frame 0's root
+        return total, step
+
+    def feature_gradient_move(self, grad: torch.Tensor) -> torch.Tensor:
+        """The joints' move ``(3, B, N, F, 17)`` for a unit step along minus the features' gradient, given the
+        joints' gradient ``grad`` ``(3, B, N, F, 17)`` (the decoding is affine: both are linear in ``grad``)."""
+        B, N, F = grad.shape[1:4]
+        offset = grad.new_zeros(B, N, F, 3)
+        with torch.enable_grad():
+            x = grad.new_zeros(B * N, F, self.prior.config.features, requires_grad=True)
+            (grad_x,) = torch.autograd.grad(self.world_joints(x, offset), x, grad_outputs=grad.movedim(0, -1))
+        return features_to_joints(grad_x * -self.std).reshape(B, N, F, -1, 3).movedim(-1, 0)
 
     def add_extra_terms(self, joints, energy, grad, curvature, rotation: torch.Tensor | None = None):
         """Add the structural energies (autograd, small) and the anchor (analytic) to the reprojection terms.
@@ -320,35 +339,30 @@ class GuidedProblem:
         return energy, grad, curvature
 
     def guide(self, x0: torch.Tensor, iterations: int) -> tuple[torch.Tensor, torch.Tensor]:
-        """k guidance steps on ``x0`` ``(B*N, F, D)`` and its offset with the configured step rule."""
+        """At most k guidance steps on ``x0`` ``(B*N, F, D)`` and its offset with the configured step rule.
+
+        The steps move the world joints (component-first, decoded once); the windows and offsets
+        take the accepted move at the end. Guidance stops early once every hypothesis took a step
+        gaining less than ``guidance_tol`` of its energy at the start (or cannot step any more).
+        """
         c = self.config
-
-        def select(accept: torch.Tensor, new: torch.Tensor, old: torch.Tensor) -> torch.Tensor:
-            """``where(accept, new, old)`` per hypothesis (rows), without a full copy when all or none accept."""
-            if bool(accept.all()):
-                return new
-            if not bool(accept.any()):
-                return old
-            return torch.where(accept.reshape(-1, *([1] * (new.dim() - 1))), new, old)
-
         offset = self.solve_offset(x0)
+        start = self.world_joints(x0, offset).movedim(-1, 0).contiguous()  # (3, B, N, F, 17)
+        moved = torch.zeros_like(start)
+        rows = (1, self.batch, -1, 1, 1)  # one hypothesis per row of the component-first arrays
         step = torch.full((x0.shape[0],), c.energy_scale, dtype=x0.dtype, device=x0.device)
-        energy, direction, shift = self.evaluate(x0, offset)
+        energy, direction = self.evaluate(start.movedim(0, -1))
+        initial = energy.abs().clamp(min=1e-12)
         for _ in range(iterations):
-            size = step.reshape(self.batch, -1, 1, 1)
-            candidate = torch.addcmul(x0, step[:, None, None], direction)
-            candidate_offset = offset + size * shift
-            new_energy, new_direction, new_shift = self.evaluate(candidate, candidate_offset)
-            finite = torch.isfinite(new_energy) & torch.isfinite(new_direction.sum(dim=(1, 2)))  # NaN, inf propagate
-            worse = ~finite | (new_energy > energy)
+            candidate = torch.addcmul(moved, step.reshape(rows), direction)
+            new_energy, new_direction = self.evaluate(self.displaced(start, candidate).movedim(0, -1))
+            finite = torch.isfinite(new_energy) & torch.isfinite(new_direction.sum(dim=(0, 3, 4)).reshape(-1))
+            worse = ~finite | (new_energy > energy)  # NaN and inf propagate into the sums
             accept = ~worse if c.step_rule == "backtrack" else torch.ones_like(worse)
-            keep = accept.reshape(self.batch, -1, 1, 1)
-            x0 = select(accept, candidate, x0)
-            offset = torch.where(keep, candidate_offset, offset)
-            gain = (energy - new_energy) / energy.abs().clamp(min=1e-12)
+            moved = _select_rows(accept, candidate, moved, rows)
+            direction = _select_rows(accept, new_direction, direction, rows)
+            gain = (energy - new_energy) / initial
             energy = torch.where(accept, new_energy, energy)
-            direction = select(accept, new_direction, direction)
-            shift = torch.where(keep, new_shift, shift)
             grown = step * c.grow if c.step_rule == "backtrack" else step
             if c.direction == "gauss-newton":  # a Gauss-Newton step is whole at 1: longer only runs along the rays
                 grown = grown.clamp(max=1.0)
@@ -356,8 +370,17 @@ class GuidedProblem:
             converged = (accept & (gain <= c.guidance_tol)) | (step < 1e-4 * c.energy_scale)
             if c.guidance_tol > 0 and bool(converged.all()):
                 break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
-        return x0, offset
+        return self.absorb(x0, offset, moved)
 
+
+def _select_rows(accept: torch.Tensor, new: torch.Tensor, old: torch.Tensor, rows: tuple[int, ...]) -> torch.Tensor:
+    """``where(accept, new, old)`` per hypothesis (``accept`` reshaped to ``rows``), without a full copy when all
+    or none accept."""
+    if bool(accept.all()):
+        return new
+    if not bool(accept.any()):
+        return old
+    return torch.where(accept.reshape(rows), new, old)
 
 def sample(
     prior: PriorBundle,
