@@ -24,10 +24,11 @@ from lifting.energy import (
     ROBUST_LOSSES,
     Observations,
     bone_constancy_energy,
+    add_to_diagonal_,
     bone_lengths_torch,
-    packed_identity,
     reprojection_energy,
     reprojection_terms,
+    solve_symmetric3,
     symmetry_energy,
 )
 from lifting.prior import PriorBundle
@@ -152,21 +153,6 @@ def typical_size(joints: torch.Tensor, limits: tuple[float, float] = (0.5, 2.0))
     scale = (typical / size).clamp(*limits)
     root = joints[..., :1, :]
     return root + scale[:, None, None, None, None] * (joints - root)
-
-
-def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
-    """Solve many symmetric positive definite 3x3 systems by the adjugate (fast on CPU), component-first.
-
-    ``matrix`` ``(6, ...)`` packed in ``SYMMETRIC_PAIRS`` order (xx, xy, xz, yy, yz, zz), ``rhs`` ``(3, ...)``;
-    returns the solutions ``(3, ...)``.
-    """
-    a, b, c, d, e, f = matrix
-    x, y, z = rhs
-    A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
-    D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
-    inv_det = (a * A + b * B + c * C).reciprocal_()
-    solution = torch.stack([A * x + B * y + C * z, B * x + D * y + E * z, C * x + E * y + F * z])
-    return solution.mul_(inv_det)
 
 
 class GuidedProblem:
@@ -295,8 +281,8 @@ class GuidedProblem:
             return total, self.feature_gradient_move(grad)
         trace = curvature[0] + curvature[3] + curvature[5]  # (B, N, F, 17), the same in any axes
         damping = c.damping / 3 * trace.mean(dim=(-1, -2))  # mean curvature diagonal per hypothesis, (B, N)
-        system = curvature + packed_identity(damping[..., None, None] + 1e-9)
-        step = solve_symmetric3(system, grad).neg_()  # (3, B, N, F, 17)
+        system = add_to_diagonal_(curvature, damping[..., None, None] + 1e-9)
+        step = solve_symmetric3(system, grad, scale=-1.0)  # (3, B, N, F, 17)
         if rotation is not None:  # camera axes -> world axes
             step = (rotation.T @ step.reshape(3, -1)).reshape(step.shape)
         return total, step
@@ -335,7 +321,7 @@ class GuidedProblem:
             gap = joints - self.anchor.joints
             energy = energy + self.anchor.weight * mask * (gap**2).sum(dim=(-1, -2))
             grad = grad + component_first(2 * self.anchor.weight * mask[..., None, None] * gap)
-            curvature = curvature + packed_identity(2 * self.anchor.weight * mask[..., None])
+            curvature = add_to_diagonal_(curvature, 2 * self.anchor.weight * mask[..., None])
         return energy, grad, curvature
 
     def guide(self, x0: torch.Tensor, iterations: int) -> tuple[torch.Tensor, torch.Tensor]:

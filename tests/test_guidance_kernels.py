@@ -7,9 +7,15 @@ import pytest
 import torch
 
 from lifting.camera_rigs import ring_cameras
-from lifting.energy import SYMMETRIC_PAIRS, Observations, reprojection_energy, reprojection_terms
+from lifting.energy import (
+    SYMMETRIC_PAIRS,
+    Observations,
+    add_to_diagonal_,
+    reprojection_energy,
+    reprojection_terms,
+    solve_symmetric3,
+)
 from lifting.camera import CameraBatch
-from lifting.sampler import solve_symmetric3
 from lifting.translation import solve_block_tridiagonal
 
 
@@ -61,6 +67,9 @@ def test_packed_symmetric_solve_matches_linalg() -> None:
     packed = torch.stack([matrices[:, k, m] for k, m in SYMMETRIC_PAIRS])
     solution = solve_symmetric3(packed, rhs.T.contiguous())
     assert torch.allclose(solution.T, torch.linalg.solve(matrices, rhs), rtol=1e-10)
+    damped = solve_symmetric3(add_to_diagonal_(packed.clone(), torch.full((50,), 0.5, dtype=torch.float64)), rhs.T, -2.0)
+    expected = -2.0 * torch.linalg.solve(matrices + 0.5 * torch.eye(3, dtype=torch.float64), rhs)
+    assert torch.allclose(damped.T, expected, rtol=1e-10)
 
 
 @pytest.mark.parametrize("w", [2, 6])
