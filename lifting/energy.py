@@ -113,12 +113,18 @@ class ViewResiduals:
     energy: torch.Tensor
 
 
-def view_residuals(joints: torch.Tensor, obs: Observations, loss: str, scale: float) -> list[ViewResiduals]:
-    """Residuals of world joints ``(B, N, F, 17, 3)`` in every camera (one matrix product moves them all)."""
+def view_residuals(
+    joints: torch.Tensor, obs: Observations, loss: str, scale: float, in_camera_frame: bool = False
+) -> list[ViewResiduals]:
+    """Residuals of world joints ``(B, N, F, 17, 3)`` in every camera (one matrix product moves them all), or of
+    joints already in the frame of the one camera (``in_camera_frame``)."""
     cams = obs.cameras
     C = len(cams)
     shape = joints.shape[:-1]  # (B, N, F, 17)
-    camera_frame = torch.addmm(cams.t.reshape(3 * C, 1), cams.R.reshape(3 * C, 3), joints.reshape(-1, 3).T)
+    if in_camera_frame:
+        camera_frame = joints.reshape(-1, 3).T  # a view for component-first storage
+    else:
+        camera_frame = torch.addmm(cams.t.reshape(3 * C, 1), cams.R.reshape(3 * C, 3), joints.reshape(-1, 3).T)
     camera_frame = camera_frame.reshape(C, 3, *shape)
     gains = (torch.stack([cams.K[:, 0, 0], cams.K[:, 1, 1]], -1) * obs.pixel_scale[:, None]).tolist()
     views = []
@@ -139,7 +145,7 @@ def view_residuals(joints: torch.Tensor, obs: Observations, loss: str, scale: fl
 
 
 def reprojection_terms(
-    joints: torch.Tensor, obs: Observations, loss: str = "l2", scale: float = 0.05, camera_frame: bool = False
+    joints: torch.Tensor, obs: Observations, loss: str = "l2", scale: float = 0.05, in_camera_frame: bool = False
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Energy ``(B, N, F)``, gradient ``(3, B, N, F, 17)`` and packed Gauss-Newton curvature ``(6, B, N, F, 17)``.
 
@@ -149,11 +155,12 @@ def reprojection_terms(
     lens distortion's local stretch. Gradient and curvature are component-first
     (x, y, z; the curvature's six entries in ``SYMMETRIC_PAIRS`` order) so that
     every operation runs on contiguous per-component arrays. They are in world
-    axes, or with ``camera_frame`` (one camera only) in that camera's axes, where
-    they are much cheaper: rotate them with ``R`` (world -> camera).
+    axes; with ``in_camera_frame`` (one camera only) the joints are given in that
+    camera's frame (``R X + t``) and the terms come in its axes, where they are much
+    cheaper.
     """
-    views = view_residuals(joints, obs, loss, scale)
-    if camera_frame:
+    views = view_residuals(joints, obs, loss, scale, in_camera_frame)
+    if in_camera_frame:
         if len(views) != 1:
             raise ValueError(f"camera-frame terms need exactly one camera, got {len(views)}")
         return _camera_frame_terms(views[0])

@@ -90,7 +90,7 @@ def test_block_tridiagonal_solve_matches_a_dense_solve(w: int) -> None:
 
 
 def test_one_camera_terms_in_its_own_axes_rotate_into_the_world_terms() -> None:
-    """With one camera, the cheap camera-axes gradient and curvature are the world ones seen in the camera's axes."""
+    """With one camera, the cheap camera-frame gradient and curvature are the world ones seen in the camera's axes."""
     torch.manual_seed(3)
     batch = CameraBatch.from_cameras(ring_cameras(4)[2:3], dtype=torch.float64)
     joints = torch.randn(1, 2, 3, 17, 3, dtype=torch.float64) * 0.3
@@ -98,8 +98,8 @@ def test_one_camera_terms_in_its_own_axes_rotate_into_the_world_terms() -> None:
     obs = Observations.from_arrays(batch, pixels, np.ones(pixels.shape[:-1]), dtype=torch.float64)
     for loss in ("l2", "geman-mcclure"):
         energy, grad, curvature = reprojection_terms(joints, obs, loss)
-        energy_c, grad_c, curvature_c = reprojection_terms(joints, obs, loss, camera_frame=True)
         R = batch.R[0]
+        energy_c, grad_c, curvature_c = reprojection_terms(joints @ R.T + batch.t[0], obs, loss, in_camera_frame=True)
         assert torch.allclose(energy_c, energy, rtol=1e-12)
         assert torch.allclose(grad_c.movedim(0, -1), grad.movedim(0, -1) @ R.T, rtol=1e-9, atol=1e-12)
         assert torch.allclose(_unpack(curvature_c), R @ _unpack(curvature) @ R.T, rtol=1e-9, atol=1e-9)

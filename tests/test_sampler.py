@@ -162,10 +162,23 @@ def test_guidance_stops_once_the_fit_gains_nothing_and_lands_where_k_steps_land(
     problem, x0 = _problem(tiny_prior, heldout_window, views=1)
     calls = []
     evaluate = GuidedProblem.evaluate
-    monkeypatch.setattr(GuidedProblem, "evaluate", lambda self, joints: calls.append(1) or evaluate(self, joints))
+    monkeypatch.setattr(GuidedProblem, "evaluate", lambda self, *args: calls.append(1) or evaluate(self, *args))
     stopped = problem.world_joints(*problem.guide(x0, 10))
     early = len(calls)
     problem.config = SamplerConfig(guidance_tol=0.0)
     every = problem.world_joints(*problem.guide(x0, 10))
     assert early < 11 and len(calls) - early == 11  # exact 2D in one view: the rays are reached in a few steps
     assert (stopped - every).norm(dim=-1).max() < 1e-3  # metres
+
+
+def test_one_view_guidance_in_the_camera_frame_equals_guidance_in_the_world(tiny_prior, heldout_window, monkeypatch):
+    from lifting.sampler import Anchor, GuidedProblem
+
+    problem, x0 = _problem(tiny_prior, heldout_window, views=1, guidance_tol=0.0, bone_weight=1.0)
+    mask = (torch.arange(len(heldout_window)) < 4).float()[None]
+    anchor_joints = torch.as_tensor(heldout_window, dtype=torch.float32).expand(1, 6, *heldout_window.shape)
+    problem.anchor = Anchor(anchor_joints, mask)
+    in_camera = problem.world_joints(*problem.guide(x0, 3))
+    monkeypatch.setattr(GuidedProblem, "camera_frame", lambda self: None)
+    in_world = problem.world_joints(*problem.guide(x0, 3))
+    assert (in_camera - in_world).norm(dim=-1).max() < 1e-4  # metres
