@@ -87,6 +87,7 @@ class MotionPrior(nn.Module):
         step_token = self.step_mlp(sinusoidal_embedding(t, self.config.width).to(x_t.dtype))[:, None, :]
         tokens = torch.cat([step_token, self.input(x_t)], dim=1) + self.positions[: frames + 1].to(x_t.dtype)
         fused = not (self.training or torch.is_grad_enabled()) and torch.backends.mha.get_fastpath_enabled()
+        fused = fused and tokens.dtype == torch.float32  # bfloat16: torch's own layer kernel is faster on CPU
         hidden = self.norm(encode_for_inference(self.encoder, tokens) if fused else self.encoder(tokens))
         return self.output(hidden[:, 1:])
 
@@ -95,8 +96,10 @@ def encode_for_inference(encoder: nn.TransformerEncoder, tokens: torch.Tensor) -
     """The pre-norm GELU encoder's layers on ``tokens`` ``(B, L, d)`` without autograd or dropout, as plain matrix
     products over all B*L tokens and ``scaled_dot_product_attention`` reading the heads in place.
 
-    Equals ``encoder(tokens)`` in eval mode up to float rounding. On a CPU it is 10-20 % faster than torch's
-    fused encoder-layer kernel, whose query/key/value re-layout alone took a quarter of the network's time.
+    Equals ``encoder(tokens)`` in eval mode up to float rounding. In float32 on a CPU it is 10-20 % faster
+    than torch's fused encoder-layer kernel, whose query/key/value re-layout alone took a quarter of the
+    network's time; in bfloat16 it is slower (the CPU flash-attention kernel: 29 ms a layer against 10 ms
+    for torch's matrix products and softmax), so bfloat16 keeps torch's kernel.
     """
     batch, length, width = tokens.shape
     x = tokens.reshape(batch * length, width)
