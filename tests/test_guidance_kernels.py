@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
 from lifting.camera_rigs import ring_cameras
-from lifting.energy import SYMMETRIC_PAIRS, Observations, reprojection_energy, reprojection_terms
+from lifting.energy import (
+    SYMMETRIC_PAIRS,
+    Observations,
+    add_to_diagonal_,
+    reprojection_energy,
+    reprojection_terms,
+    solve_symmetric3,
+)
 from lifting.camera import CameraBatch
-from lifting.sampler import solve_symmetric3
 from lifting.translation import solve_block_tridiagonal
 
 
@@ -60,26 +67,30 @@ def test_packed_symmetric_solve_matches_linalg() -> None:
     packed = torch.stack([matrices[:, k, m] for k, m in SYMMETRIC_PAIRS])
     solution = solve_symmetric3(packed, rhs.T.contiguous())
     assert torch.allclose(solution.T, torch.linalg.solve(matrices, rhs), rtol=1e-10)
+    damped = solve_symmetric3(add_to_diagonal_(packed.clone(), torch.full((50,), 0.5, dtype=torch.float64)), rhs.T, -2.0)
+    expected = -2.0 * torch.linalg.solve(matrices + 0.5 * torch.eye(3, dtype=torch.float64), rhs)
+    assert torch.allclose(damped.T, expected, rtol=1e-10)
 
 
-def test_block_tridiagonal_solve_matches_a_dense_solve() -> None:
-    """Block Cholesky over K blocks equals a dense solve of the assembled matrix."""
+@pytest.mark.parametrize("w", [2, 6])
+def test_block_tridiagonal_solve_matches_a_dense_solve(w: int) -> None:
+    """Block Cholesky over K blocks equals a dense solve of the assembled matrix (couplings in a w x w corner)."""
     torch.manual_seed(2)
     M, K, n = 4, 5, 6
     dense = torch.zeros(M, K * n, K * n, dtype=torch.float64)
-    lower = torch.randn(M, K - 1, n, n, dtype=torch.float64)
-    for k in range(K - 1):
-        dense[:, (k + 1) * n : (k + 2) * n, k * n : (k + 1) * n] = lower[:, k]
+    corner = torch.randn(M, K - 1, w, w, dtype=torch.float64)
+    for k in range(K - 1):  # block (k+1, k): top-right corner only
+        dense[:, (k + 1) * n : (k + 1) * n + w, (k + 1) * n - w : (k + 1) * n] = corner[:, k]
     dense = dense + dense.mT + 4 * n * torch.eye(K * n, dtype=torch.float64)  # diagonally dominant: SPD
     diag = torch.stack([dense[:, k * n : (k + 1) * n, k * n : (k + 1) * n] for k in range(K)], dim=1)
     rhs = torch.randn(M, K, n, dtype=torch.float64)
-    solution = solve_block_tridiagonal(diag, lower, rhs)
+    solution = solve_block_tridiagonal(diag, corner, rhs)
     expected = torch.linalg.solve(dense, rhs.reshape(M, K * n, 1)).reshape(M, K, n)
     assert torch.allclose(solution, expected, rtol=1e-10)
 
 
 def test_one_camera_terms_in_its_own_axes_rotate_into_the_world_terms() -> None:
-    """With one camera, the cheap camera-axes gradient and curvature are the world ones seen in the camera's axes."""
+    """With one camera, the cheap camera-frame gradient and curvature are the world ones seen in the camera's axes."""
     torch.manual_seed(3)
     batch = CameraBatch.from_cameras(ring_cameras(4)[2:3], dtype=torch.float64)
     joints = torch.randn(1, 2, 3, 17, 3, dtype=torch.float64) * 0.3
@@ -87,8 +98,17 @@ def test_one_camera_terms_in_its_own_axes_rotate_into_the_world_terms() -> None:
     obs = Observations.from_arrays(batch, pixels, np.ones(pixels.shape[:-1]), dtype=torch.float64)
     for loss in ("l2", "geman-mcclure"):
         energy, grad, curvature = reprojection_terms(joints, obs, loss)
-        energy_c, grad_c, curvature_c = reprojection_terms(joints, obs, loss, camera_frame=True)
         R = batch.R[0]
+        energy_c, grad_c, curvature_c = reprojection_terms(joints @ R.T + batch.t[0], obs, loss, in_camera_frame=True)
         assert torch.allclose(energy_c, energy, rtol=1e-12)
         assert torch.allclose(grad_c.movedim(0, -1), grad.movedim(0, -1) @ R.T, rtol=1e-9, atol=1e-12)
         assert torch.allclose(_unpack(curvature_c), R @ _unpack(curvature) @ R.T, rtol=1e-9, atol=1e-9)
+
+
+def test_torch_bone_lengths_equal_the_skeleton_definition() -> None:
+    """The gathered bone lengths follow ``BONES`` (child - parent), as the numpy ``bone_lengths`` does."""
+    from lifting.energy import bone_lengths_torch
+    from lifting.skeleton import bone_lengths
+
+    joints = np.random.default_rng(2).normal(size=(2, 5, 17, 3))
+    assert np.allclose(bone_lengths_torch(torch.as_tensor(joints)).numpy(), bone_lengths(joints), atol=1e-12)

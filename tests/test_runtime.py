@@ -24,6 +24,30 @@ def _relative_error(a: torch.Tensor, b: torch.Tensor) -> float:
     return float((a - b).norm() / b.norm())
 
 
+def test_inference_path_equals_the_encoder_modules(network) -> None:
+    """Without autograd the network runs its own fused layers; they give the modules' x0 up to float rounding."""
+    x = torch.randn(5, 13, TINY.features)
+    with torch.inference_mode():
+        fused = network(x, torch.tensor(7))
+    modules = network(x, torch.tensor(7))  # autograd on: the nn.TransformerEncoder path
+    assert modules.requires_grad and not fused.requires_grad
+    assert _relative_error(fused, modules.detach()) < 1e-5
+
+
+def test_inference_path_runs_float32_only(network, monkeypatch) -> None:
+    """bfloat16 keeps torch's encoder-layer kernel (faster there than the fused path's attention)."""
+    import lifting.prior
+
+    fused = lifting.prior.encode_for_inference
+    calls = []
+    monkeypatch.setattr(lifting.prior, "encode_for_inference", lambda *args: calls.append(args[1].dtype) or fused(*args))
+    x = torch.randn(2, 8, TINY.features)
+    with torch.inference_mode():
+        network(x, torch.tensor(3))
+        BFloat16Denoiser(network)(x, torch.tensor(3))
+    assert calls == [torch.float32]
+
+
 def test_onnx_runtime_matches_torch_for_any_batch_and_each_window_length(network) -> None:
     """ONNX Runtime's x0 equals torch's to float rounding; one export per window length, any batch size."""
     onnx = OnnxDenoiser(network, threads=1)
