@@ -206,6 +206,14 @@ def _camera_frame_terms(view: ViewResiduals) -> tuple[torch.Tensor, torch.Tensor
     return view.energy, grad, curvature
 
 
+def unpack_symmetric(packed: torch.Tensor) -> torch.Tensor:
+    """Packed 3x3 matrices ``(6, ...)`` in ``SYMMETRIC_PAIRS`` order -> ``(..., 3, 3)``."""
+    rows = [[None] * 3 for _ in range(3)]
+    for entry, (k, m) in zip(packed, SYMMETRIC_PAIRS):
+        rows[k][m] = rows[m][k] = entry
+    return torch.stack([torch.stack(row, dim=-1) for row in rows], dim=-2)
+
+
 def add_to_diagonal_(packed: torch.Tensor, scale: torch.Tensor) -> torch.Tensor:
     """Add ``scale * I`` in place to packed 3x3 matrices ``(6, ...)`` (``SYMMETRIC_PAIRS`` order); ``scale``
     broadcasts against ``(...)``. Returns ``packed``."""

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import torch
 
-from lifting.energy import SYMMETRIC_PAIRS, Observations, reprojection_terms
+from lifting.energy import Observations, reprojection_terms, unpack_symmetric
 
 
 def unit_weight_variance(energy: torch.Tensor, confidence: torch.Tensor) -> torch.Tensor:
@@ -37,23 +37,29 @@ def unit_weight_variance(energy: torch.Tensor, confidence: torch.Tensor) -> torc
     return torch.where(redundancy > 0, fit / redundancy.clamp(min=1), torch.zeros_like(fit))
 
 
-def unpack_symmetric(packed: torch.Tensor) -> torch.Tensor:
-    """Packed 3x3 matrices ``(6, ...)`` in ``SYMMETRIC_PAIRS`` order -> ``(..., 3, 3)``."""
-    rows = [[None] * 3 for _ in range(3)]
-    for entry, (k, m) in zip(packed, SYMMETRIC_PAIRS):
-        rows[k][m] = rows[m][k] = entry
-    return torch.stack([torch.stack(row, dim=-1) for row in rows], dim=-2)
+def residual_variance(joints: torch.Tensor, obs: Observations) -> torch.Tensor:
+    """Unit-weight variance ``(B,)`` of the least-squares fits ``joints`` ``(B, N, F, 17, 3)`` from their residuals."""
+    energy, _, _ = reprojection_terms(joints, obs)
+    return unit_weight_variance(energy, obs.confidence)
 
 
-def noise_spread(joints: torch.Tensor, obs: Observations, draws: torch.Tensor) -> torch.Tensor:
+def noise_spread(
+    joints: torch.Tensor, obs: Observations, draws: torch.Tensor, variance: torch.Tensor,
+    smoothed: tuple[torch.Tensor, torch.Tensor] | None = None,
+) -> torch.Tensor:
     """Offsets ``(B, N, F, 17, 3)`` that spread fitted world joints ``(B, N, F, 17, 3)`` by their 2D noise.
 
-    ``draws`` ``(N, 17, 3)`` are standard normal, one vector per hypothesis and joint. A joint
+    ``draws`` ``(N, 17, 3)`` are standard normal, one vector per hypothesis and joint. ``variance``
+    ``(B,)`` is the 2D noise's, as the least-squares fit's residuals show it (:func:`residual_variance`:
+    it holds the views' disagreement, which real detectors keep from frame to frame, not only their
+    jitter). After a fit smoothed over frames, ``smoothed`` = (jitter variance ``(B,)``, shrink
+    ``(B, F, 17)``): the jitter's part of the variance is shrunk by that factor
+    (:func:`lifting.temporal_fit.posterior_shrink`), the rest (the views' lasting disagreement) is
+    not. A joint
     seen by fewer than two cameras (no depth from the views), or every joint of a window
     without redundancy, gets no offset.
     """
-    energy, _, curvature = reprojection_terms(joints, obs)  # curvature: 2 J^T W J, packed
-    variance = unit_weight_variance(energy, obs.confidence)  # (B,)
+    _, _, curvature = reprojection_terms(joints, obs)  # curvature: 2 J^T W J, packed
     hessian = unpack_symmetric(curvature)  # (B, N, F, 17, 3, 3)
     twice_seen = ((obs.confidence > 0).sum(0) >= 2)[:, None, :, :, None]  # (B, 1, F, 17, 1)
     safe = torch.where(twice_seen[..., None], hessian, torch.eye(3, dtype=hessian.dtype, device=hessian.device))
@@ -62,5 +68,10 @@ def noise_spread(joints: torch.Tensor, obs: Observations, draws: torch.Tensor) -
     # L^T x = z gives x ~ N(0, (L L^T)^-1) = N(0, H^-1); the covariance wanted is sigma^2 (J^T W J)^-1 = 2 sigma^2 H^-1
     z = draws.to(joints)[None, :, None, :, :, None].expand(*hessian.shape[:-1], 1)
     offsets = torch.linalg.solve_triangular(factor.mT, z, upper=True)[..., 0]
-    offsets = offsets * (2 * variance).sqrt()[:, None, None, None, None]
+    variance = variance[:, None, None]  # (B, 1, 1) -> (B, F, 17) below when smoothed
+    if smoothed is not None:
+        jitter, shrink = smoothed
+        jitter = torch.minimum(jitter[:, None, None], variance)
+        variance = variance - jitter + shrink * jitter
+    offsets = offsets * (2 * variance).sqrt()[:, None, :, :, None]
     return torch.where(usable, offsets, torch.zeros_like(offsets))

@@ -31,7 +31,8 @@ from lifting.energy import (
     solve_symmetric3,
     symmetry_energy,
 )
-from lifting.noise_spread import noise_spread
+from lifting.noise_spread import noise_spread, residual_variance
+from lifting.temporal_fit import acceleration_weight, fit_to_noise, keypoint_noise, posterior_shrink
 from lifting.prior import PriorBundle
 from lifting.representation import features_to_joints, joints_to_features
 from lifting.schedule import DiffusionSchedule, sampling_steps
@@ -57,9 +58,11 @@ class SamplerConfig:
     view cannot tell a small near person from a tall far one; guidance then fits the
     pose at that place); ``size_spread`` gives each hypothesis its own size, typical
     times ``exp(size_spread * n)`` with n standard normal (adults' heights vary by
-    about 4 %, their proportions more; 0: every hypothesis typical). ``noise_spread``
-    (two or more cameras) moves each hypothesis by a draw of the joints' uncertainty
-    under the 2D noise its fit's residuals show (:mod:`lifting.noise_spread`). ``bone_weight`` and
+    about 4 %, their proportions more; 0: every hypothesis typical). With two or more
+    cameras, ``noise_fit`` makes the last fit follow the keypoints only as far as their
+    noise (measured from their own jitter) allows, against a prior on joint accelerations
+    (:mod:`lifting.temporal_fit`), and ``noise_spread`` moves each hypothesis by a draw of
+    the joints' remaining uncertainty under that noise (:mod:`lifting.noise_spread`). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared).
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
     took a step gaining less than ``guidance_tol`` of its energy at the start of this
@@ -83,6 +86,7 @@ class SamplerConfig:
     translation_smoothness: float = 1.0
     size_prior: bool = True
     size_spread: float = 0.1
+    noise_fit: bool = True
     noise_spread: bool = True
     bone_weight: float = 0.0
     symmetry_weight: float = 0.0
@@ -132,8 +136,8 @@ class Anchor:
 class SampleResult:
     """Hypotheses ``joints`` (B, N, F, 17, 3) in world metres and their per-frame reprojection ``energy`` (B, N, F).
 
-    ``fitted`` are the joints as guidance left them, before the noise spread (the same
-    array without it); the next window of a long track continues these.
+    ``fitted`` are the joints as guidance and the noise fit left them, before the noise spread
+    (the same array without it); the next window of a long track continues these.
     """
 
     joints: np.ndarray
@@ -462,8 +466,15 @@ def sample(
             progress(i + 1, len(steps))
     with torch.no_grad():
         fitted = problem.world_joints(x0, offset)
-        spread = config.noise_spread and len(obs.cameras) > 1
-        joints = fitted + noise_spread(fitted, obs, draws) if spread else fitted
+        joints = fitted
+        if len(obs.cameras) > 1 and (config.noise_fit or config.noise_spread):
+            variance = residual_variance(fitted, obs)  # of the exact fit: the views' disagreement and jitter
+            smoothed = None
+            if config.noise_fit:
+                noise = keypoint_noise(obs)
+                fitted = fit_to_noise(fitted, obs, noise, prior.fps)
+                smoothed = noise**2, posterior_shrink(fitted, obs, acceleration_weight(noise, prior.fps))
+            joints = fitted + noise_spread(fitted, obs, draws, variance, smoothed) if config.noise_spread else fitted
         energy = reprojection_energy(joints, obs, config.robust, config.robust_scale)
     return SampleResult(joints.cpu().numpy(), energy.cpu().numpy(), fitted.cpu().numpy())
 

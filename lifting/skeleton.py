@@ -66,6 +66,13 @@ TYPICAL_BONE_LENGTHS: tuple[float, ...] = (
     0.085, 0.422, 0.410, 0.085, 0.422, 0.410, 0.240, 0.240, 0.116, 0.050, 0.183, 0.275, 0.259, 0.183, 0.275, 0.259,
 )  # fmt: skip
 
+# Root-mean-square acceleration of every joint (m per frame squared at 30 fps, per axis) over the bundled
+# real mocap resampled to 30 fps (holosoma, DeepMimic, CMU, mocapbank), in JOINT_NAMES order.
+TYPICAL_ACCELERATIONS: tuple[float, ...] = (
+    0.0039, 0.0039, 0.0064, 0.0103, 0.0040, 0.0060, 0.0086, 0.0036, 0.0044, 0.0050, 0.0053, 0.0048, 0.0068, 0.0100,
+    0.0048, 0.0071, 0.0106,
+)  # fmt: skip
+
 # Bones whose lengths measure a person's size the same way in every source (legs,
 # arms, trunk); the neck and head segments depend on how each source places them.
 SIZE_BONES: tuple[int, ...] = tuple(

@@ -83,7 +83,7 @@ def solve_translation(
         return torch.linalg.solve(normal, rhs.unsqueeze(-1)).squeeze(-1)
     # float64: frames without evidence leave only the ridge and the acceleration penalty (free on straight lines),
     # a condition float32 Cholesky cannot take (it failed on windows seen once or never, at smoothness 10)
-    return _smooth_solve(normal.double(), rhs.double(), smoothness * data_scale.double()).to(joints.dtype)
+    return solve_smoothed(normal.double(), rhs.double(), smoothness * data_scale.double()).to(joints.dtype)
 
 
 def acceleration_penalty(frames: int, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
@@ -96,7 +96,7 @@ def acceleration_penalty(frames: int, dtype: torch.dtype, device: torch.device) 
     return second_difference.T @ second_difference
 
 
-def _smooth_solve(normal: torch.Tensor, rhs: torch.Tensor, mu: torch.Tensor) -> torch.Tensor:
+def solve_smoothed(normal: torch.Tensor, rhs: torch.Tensor, mu: torch.Tensor) -> torch.Tensor:
     """Solve ``(blockdiag(normal) + mu D^T D (x) I3) d = rhs`` for ``normal`` ``(B, N, F, 3, 3)``, ``rhs`` ``(B, N, F, 3)``.
 
     The system is banded (accelerations couple frames two apart): it is cut into blocks

@@ -34,7 +34,8 @@ def evaluate_command(
     robust: str = typer.Option("l2", help="Reprojection loss: l2 or geman-mcclure."),
     size_prior: bool = typer.Option(True, help="Place each prediction as a person of median adult size."),
     size_spread: float = typer.Option(0.1, help="Log-normal spread of the hypotheses' sizes about adult size (0: all typical)."),
-    noise_spread: bool = typer.Option(True, help="2+ views: spread hypotheses by the 2D noise the fit shows."),
+    noise_fit: bool = typer.Option(True, help="2+ views: follow the 2D only as far as its jitter allows."),
+    noise_spread: bool = typer.Option(True, help="2+ views: spread hypotheses by the 2D noise."),
     bone_weight: float = typer.Option(0.0, help="Weight of the constant-bone-length energy (0: off)."),
     symmetry_weight: float = typer.Option(0.0, help="Weight of the left/right symmetry energy (0: off)."),
     seed: int = typer.Option(0, help="Random seed."),
@@ -53,7 +54,8 @@ def evaluate_command(
     samples_list = int_list(samples, "--samples")
     config = sampler_config(steps=steps, skip=skip, eta=eta, guidance_iters=guidance_iters, energy_scale=energy_scale,
                             robust=robust, bone_weight=bone_weight, symmetry_weight=symmetry_weight, size_prior=size_prior,
-                            size_spread=size_spread, noise_spread=noise_spread, seed=seed)  # fmt: skip
+                            size_spread=size_spread, noise_fit=noise_fit, noise_spread=noise_spread,
+                            seed=seed)  # fmt: skip
     bundle = load_for_runtime(prior, device, runtime)
     if max(frames_list) > bundle.config.max_frames:
         raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")

@@ -74,8 +74,11 @@ def lift(
     robust: str | None = typer.Option(None, "--robust", help="Reprojection loss: l2 or geman-mcclure [l2]."),
     bone_weight: float | None = typer.Option(None, "--bone-weight", help="Constant bone lengths over time [0: off]."),
     symmetry_weight: float | None = typer.Option(None, "--symmetry-weight", help="Left/right bone symmetry [0: off]."),
+    noise_fit: bool | None = typer.Option(
+        None, "--noise-fit/--no-noise-fit", help="2+ views: follow the 2D only as far as its jitter allows [on]."
+    ),
     noise_spread: bool | None = typer.Option(
-        None, "--noise-spread/--no-noise-spread", help="2+ views: spread hypotheses by the 2D noise the fit shows [on]."
+        None, "--noise-spread/--no-noise-spread", help="2+ views: spread hypotheses by the 2D noise [on]."
     ),
     window: int = typer.Option(64, "--window", help="Window length in prior frames (capped by the prior)."),
     overlap: int = typer.Option(16, "--overlap", help="Frames shared by consecutive windows."),
@@ -124,7 +127,7 @@ def lift(
         job_list = discover_jobs(paths, camera_names)
     given = {"samples": samples, "steps": steps, "skip": skip, "eta": eta, "guidance_iters": guidance_iters,
              "robust": robust, "bone_weight": bone_weight, "symmetry_weight": symmetry_weight,
-             "noise_spread": noise_spread, "seed": seed}  # fmt: skip
+             "noise_fit": noise_fit, "noise_spread": noise_spread, "seed": seed}  # fmt: skip
     sampler = {k: v for k, v in given.items() if v is not None}  # the rest: SamplerConfig's defaults
     detect = DetectOptions(detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps,
                            image_size=image_size)  # fmt: skip

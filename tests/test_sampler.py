@@ -73,8 +73,8 @@ def test_lambda_sweep_over_two_decades_is_smooth(tiny_prior, heldout_window):
 
 def test_paper_step_rule_is_available_and_backtracking_is_no_worse(tiny_prior, heldout_window):
     paper, _ = _lift(tiny_prior, heldout_window, views=4, samples=10, step_rule="paper", direction="gradient",
-                     energy_scale=30.0)  # fmt: skip
-    robust, _ = _lift(tiny_prior, heldout_window, views=4, samples=10)
+                     energy_scale=30.0, noise_fit=False)  # fmt: skip
+    robust, _ = _lift(tiny_prior, heldout_window, views=4, samples=10, noise_fit=False)
     assert np.median(_rms_px(robust, 4)) <= np.median(_rms_px(paper, 4))
 
 
@@ -163,7 +163,8 @@ def test_noise_spread_covers_the_truth_as_often_as_it_claims(tiny_prior, heldout
     fitted_radius = np.linalg.norm(fitted - np.median(fitted, axis=0), axis=-1)
     assert np.mean(truth_distance < np.quantile(fitted_radius, 0.9, axis=0)) < 0.3  # collapsed: overconfident
     offsets = hyps - fitted
-    assert np.abs(np.diff(offsets, axis=1)).max() < 0.1 * np.abs(offsets).max()  # one draw per window: no jitter
+    change = np.linalg.norm(np.diff(offsets, axis=1), axis=-1)
+    assert change.mean() < 0.1 * np.linalg.norm(offsets, axis=-1).mean(), change.mean()  # one draw per window: no jitter
     rms = _rms_px(result, 4)
     assert np.all((rms > 0.8 * np.sqrt(2) * 2.0) & (rms < 1.5 * np.sqrt(2) * 2.0)), rms  # as far from the 2D as the truth
 
@@ -252,3 +253,53 @@ def test_one_view_guidance_in_the_camera_frame_equals_guidance_in_the_world(tiny
     monkeypatch.setattr(GuidedProblem, "camera_frame", lambda self: None)
     in_world = problem.world_joints(*problem.guide(x0, 3))
     assert (in_camera - in_world).norm(dim=-1).max() < 1e-4  # metres
+
+
+def test_keypoint_noise_is_measured_from_the_tracks_own_jitter(heldout_window):
+    from lifting.temporal_fit import keypoint_noise
+
+    cams = ring_cameras(4)
+    pixels = np.stack([project(heldout_window, c) for c in cams])[:, None]  # (C, B=1, F, 17, 2)
+    noisy = pixels + np.random.default_rng(3).normal(0, 3.0, pixels.shape)
+    for observed, expected_px in ((pixels, None), (noisy, 3.0)):
+        obs, _ = cameras_and_rays(cams, observed, np.ones(observed.shape[:-1]))
+        measured_px = float(keypoint_noise(obs)[0]) / float(obs.pixel_scale[0])
+        if expected_px is None:
+            assert measured_px < 0.5, measured_px  # real walking alone: its accelerations are a fraction of a pixel
+        else:
+            assert abs(measured_px - expected_px) < 0.15 * expected_px, measured_px
+
+
+def test_noise_fit_follows_the_keypoints_only_as_far_as_their_noise(tiny_prior, heldout_window):
+    """4 views, 3 px noise: fitting every frame exactly puts the noise into the motion; the noise fit is nearer
+    the truth and moves as smoothly as it; exact keypoints are fitted as before."""
+    exact, _ = _lift(tiny_prior, heldout_window, views=4, noise_px=3.0, samples=10, noise_fit=False, noise_spread=False)
+    fitted, _ = _lift(tiny_prior, heldout_window, views=4, noise_px=3.0, samples=10, noise_spread=False)
+    truth_speed = np.linalg.norm(np.diff(heldout_window, axis=0), axis=-1).mean()
+    error = [np.linalg.norm(r.joints[0] - heldout_window, axis=-1).mean() for r in (exact, fitted)]
+    velocity_error = [metrics.mpjve(r.joints[0], heldout_window) for r in (exact, fitted)]
+    assert error[1] < 0.8 * error[0], error
+    assert velocity_error[1] < 0.5 * velocity_error[0] < truth_speed, (velocity_error, truth_speed)
+    clean, _ = _lift(tiny_prior, heldout_window, views=4, samples=10, noise_spread=False)
+    assert np.linalg.norm(clean.joints[0] - heldout_window, axis=-1).mean() < 0.002
+
+
+def test_padding_frames_are_held_for_the_noise_fit_and_stay_missing(tiny_prior, heldout_window):
+    """A track's last window is padded with frames without joints (NaN): the noise fit holds the nearest frame
+    there (a banded solve cannot take NaN), fits the rest, and gives the padding back as NaN."""
+    from lifting.temporal_fit import fit_to_noise, hold_nearest, keypoint_noise
+
+    values = torch.arange(5.0).reshape(1, 1, 5, 1, 1).expand(1, 1, 5, 17, 3).clone()
+    valid = torch.tensor([False, True, True, True, False]).reshape(1, 1, 5, 1).expand(1, 1, 5, 17)
+    held = hold_nearest(values, valid)[0, 0, :, 0, 0]
+    assert held.tolist() == [1.0, 1.0, 2.0, 3.0, 3.0]
+    cams = ring_cameras(4)
+    pixels = np.stack([project(heldout_window, c) for c in cams])[:, None]
+    pixels = pixels + np.random.default_rng(5).normal(0, 2.0, pixels.shape)
+    confidence = np.ones(pixels.shape[:-1])
+    confidence[:, :, -3:] = 0.0
+    obs, _ = cameras_and_rays(cams, pixels, confidence)
+    joints = torch.as_tensor(np.repeat(heldout_window[None, None], 3, axis=1), dtype=torch.float32).clone()
+    joints[:, :, -3:] = float("nan")
+    fitted = fit_to_noise(joints, obs, keypoint_noise(obs), 30.0)
+    assert torch.isnan(fitted[:, :, -3:]).all() and torch.isfinite(fitted[:, :, :-3]).all()
