@@ -32,7 +32,7 @@ from lifting.energy import (
     symmetry_energy,
 )
 from lifting.noise_spread import noise_spread, residual_variance
-from lifting.temporal_fit import acceleration_weight, fit_to_noise, keypoint_noise, posterior_shrink
+from lifting.temporal_fit import acceleration_weight, fit_to_noise, keypoint_noise, posterior_shrink, smooth_keypoints
 from lifting.prior import PriorBundle
 from lifting.representation import features_to_joints, joints_to_features
 from lifting.schedule import DiffusionSchedule, sampling_steps
@@ -61,7 +61,8 @@ class SamplerConfig:
     about 4 %, their proportions more; 0: every hypothesis typical). With two or more
     cameras, ``noise_fit`` makes the last fit follow the keypoints only as far as their
     noise (measured from their own jitter) allows, against a prior on joint accelerations
-    (:mod:`lifting.temporal_fit`), and ``noise_spread`` moves each hypothesis by a draw of
+    (:mod:`lifting.temporal_fit`); with one camera it smooths the keypoints' paths the same
+    way before guidance fits them. With two or more cameras ``noise_spread`` moves each hypothesis by a draw of
     the joints' remaining uncertainty under that noise (:mod:`lifting.noise_spread`). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared).
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
@@ -450,6 +451,10 @@ def sample(
     noise = torch.randn(shape, generator=generator, dtype=torch.float32).to(device=device, dtype=dtype)
     sizes = torch.exp(config.size_spread * torch.randn(config.samples, generator=generator)) if config.size_spread > 0 else None
     draws = antithetic_normal(config.samples, generator)  # the noise spread's, one (17, 3) per hypothesis
+    raw = obs  # the reported energy is against the keypoints as given
+    if config.noise_fit and len(obs.cameras) == 1:  # guidance fits the keypoints' most likely paths
+        obs = smooth_keypoints(obs, keypoint_noise(obs))
+        rays = ray_constraints(obs) if rays is not None else None
     problem = GuidedProblem(prior, obs, rays, config, root_trajectory, anchor, sizes)
     x_t = schedule.add_noise(torch.zeros_like(noise), int(steps[0]), noise)
     x0 = x_t
@@ -475,7 +480,7 @@ def sample(
                 fitted = fit_to_noise(fitted, obs, noise, prior.fps)
                 smoothed = noise**2, posterior_shrink(fitted, obs, acceleration_weight(noise, prior.fps))
             joints = fitted + noise_spread(fitted, obs, draws, variance, smoothed) if config.noise_spread else fitted
-        energy = reprojection_energy(joints, obs, config.robust, config.robust_scale)
+        energy = reprojection_energy(joints, raw, config.robust, config.robust_scale)
     return SampleResult(joints.cpu().numpy(), energy.cpu().numpy(), fitted.cpu().numpy())
 
 

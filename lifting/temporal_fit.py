@@ -1,4 +1,4 @@
-"""Several cameras: the last fit follows noisy 2D only as far as its noise allows.
+"""Noisy 2D: the motion follows the keypoints only as far as their noise allows.
 
 Guidance fits every frame to its keypoints exactly, so their noise goes straight into the
 motion: 4 views with 2 / 5 px of noise gave a velocity error of 16.8 / 42 mm per frame. As
@@ -13,8 +13,10 @@ the keypoints themselves: the second differences of a noisy track have variance 
 plus the motion's own, and their median absolute value is robust to the motion's rare large
 accelerations. Exact keypoints give sigma near 0 and leave the fit as it was.
 
-With one camera it is not used: depth has no data term to hold it, and the acceleration
-prior straightened the unseen depth paths (5 px: minMPSPE 83 -> 108 mm).
+With one camera the 3D fit is not used: depth has no data term to hold it, and the
+acceleration prior straightened the unseen depth paths (5 px: minMPSPE 83 -> 108 mm). There
+the keypoints' own paths are smoothed the same way before guidance (:func:`smooth_keypoints`),
+and the depth stays the prior's.
 """
 
 from __future__ import annotations
@@ -134,3 +136,34 @@ def _acceleration_gradient(joints: torch.Tensor, weight: torch.Tensor) -> torch.
     grad[:, :, 1:-1] -= 2 * scaled
     grad[:, :, 2:] += scaled
     return grad
+
+
+def smooth_keypoints(obs: Observations, noise: torch.Tensor) -> Observations:
+    """One camera: the keypoints' most likely paths ``(C, B, F, 17, 2)`` under their ``noise`` ``(B,)``.
+
+    Per window, joint and coordinate, minimise ``sum_t c_t (k_t - y_t)^2 + (sigma^2 / a^2) |D k|^2``:
+    sigma the noise (normalised image units, as :func:`keypoint_noise`), a the joint's own RMS
+    acceleration in the track less what the noise explains. Guidance then fits these paths, and
+    the depth stays the prior's. Returns observations with the smoothed undistorted coordinates.
+    """
+    C, B, F = obs.normalized.shape[:3]
+    if F < 3:
+        return obs
+    focal = obs.cameras.K[:, 0, 0].reshape(-1, 1, 1, 1, 1)
+    scale = obs.pixel_scale.reshape(-1, 1, 1, 1, 1) * focal  # normalised image units per undistorted unit
+    coords = obs.normalized.double() * scale.double()  # (C, B, F, 17, 2), normalised image units
+    weight = (obs.confidence > 0).double() * obs.confidence.double()  # (C, B, F, 17)
+    second = coords[:, :, 2:] - 2 * coords[:, :, 1:-1] + coords[:, :, :-2]
+    seen = (weight[:, :, 2:] > 0) & (weight[:, :, 1:-1] > 0) & (weight[:, :, :-2] > 0)
+    count = seen.sum(2).clamp(min=1)[..., None]  # (C, B, 17, 1)
+    mean_square = (second.pow(2) * seen[..., None]).sum(2) / count  # (C, B, 17, 2)
+    variance = noise.double()[None, :, None, None] ** 2
+    motion = (mean_square - 6 * variance).clamp(min=variance)  # the track's own accelerations, at least the noise's
+    ratio = variance / motion.clamp(min=1e-20)  # (C, B, 17, 2); exact straight paths: 0
+    penalty = acceleration_penalty(F, torch.float64, coords.device)
+    system = torch.diag_embed(weight.permute(0, 1, 3, 2)[..., None, :].expand(C, B, 17, 2, F))  # (C, B, 17, 2, F, F)
+    system = system + ratio[..., None, None] * penalty + 1e-9 * torch.eye(F, dtype=torch.float64, device=coords.device)
+    rhs = (weight[..., None] * coords).permute(0, 1, 3, 4, 2)[..., None]  # (C, B, 17, 2, F, 1)
+    smoothed = torch.linalg.solve(system, rhs)[..., 0].permute(0, 1, 4, 2, 3) / scale.double()
+    normalized = torch.where(obs.confidence[..., None] > 0, smoothed.to(obs.normalized.dtype), obs.normalized)
+    return Observations(obs.cameras, obs.keypoints, normalized, obs.confidence)

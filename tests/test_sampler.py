@@ -255,6 +255,19 @@ def test_one_view_guidance_in_the_camera_frame_equals_guidance_in_the_world(tiny
     assert (in_camera - in_world).norm(dim=-1).max() < 1e-4  # metres
 
 
+def test_straight_exact_paths_are_left_alone():
+    """Keypoints of a straight 3D path without noise (second differences nearly zero) stay as they are."""
+    from lifting.temporal_fit import keypoint_noise, smooth_keypoints
+
+    cam = ring_cameras(4)[0]
+    walk = np.zeros((16, 17, 3)) + np.linspace(0, 1, 17)[None, :, None] * [0, 0, 1.0] + [0, 0, 0.5]
+    walk = walk + np.arange(16)[:, None, None] * [0.03, 0.0, 0.0]
+    pixels = project(walk, cam)[None, None]
+    obs, _ = cameras_and_rays([cam], pixels, np.ones(pixels.shape[:-1]), dtype=torch.float64)
+    smoothed = smooth_keypoints(obs, keypoint_noise(obs)).normalized
+    assert torch.isfinite(smoothed).all() and (smoothed - obs.normalized).abs().max() * cam.K[0, 0] < 0.01  # pixels
+
+
 def test_keypoint_noise_is_measured_from_the_tracks_own_jitter(heldout_window):
     from lifting.temporal_fit import keypoint_noise
 
@@ -303,3 +316,25 @@ def test_padding_frames_are_held_for_the_noise_fit_and_stay_missing(tiny_prior, 
     joints[:, :, -3:] = float("nan")
     fitted = fit_to_noise(joints, obs, keypoint_noise(obs), 30.0)
     assert torch.isnan(fitted[:, :, -3:]).all() and torch.isfinite(fitted[:, :, :-3]).all()
+
+
+def test_one_view_keypoint_paths_are_smoothed_to_their_noise(tiny_prior, heldout_window):
+    """One camera, 3 px noise: the smoothed keypoint paths are nearer the true projections than the noisy ones,
+    exact keypoints stay as they are, and the lift moves less jerkily than one fitting every frame exactly."""
+    from lifting.temporal_fit import keypoint_noise, smooth_keypoints
+
+    cam = ring_cameras(4)[0]
+    clean = project(heldout_window, cam)[None, None]  # (C, B, F, 17, 2)
+    noisy = clean + np.random.default_rng(11).normal(0, 3.0, clean.shape)
+    obs_noisy, _ = cameras_and_rays([cam], noisy, np.ones(noisy.shape[:-1]))
+    obs_clean, _ = cameras_and_rays([cam], clean, np.ones(clean.shape[:-1]))
+    smoothed = smooth_keypoints(obs_noisy, keypoint_noise(obs_noisy)).normalized
+    error_before = (obs_noisy.normalized - obs_clean.normalized).norm(dim=-1).mean()
+    error_after = (smoothed - obs_clean.normalized).norm(dim=-1).mean()
+    assert error_after < 0.7 * error_before, (error_after, error_before)
+    kept = smooth_keypoints(obs_clean, keypoint_noise(obs_clean)).normalized
+    assert (kept - obs_clean.normalized).norm(dim=-1).max() * cam.K[0, 0] < 1.0  # pixels: the walk's own accelerations
+    exact, _ = _lift(tiny_prior, heldout_window, views=1, noise_px=3.0, samples=10, noise_fit=False)
+    fitted, _ = _lift(tiny_prior, heldout_window, views=1, noise_px=3.0, samples=10)
+    jerk = [np.abs(np.diff(r.joints[0], 2, axis=1)).mean() for r in (exact, fitted)]
+    assert jerk[1] < 0.7 * jerk[0], jerk
