@@ -53,7 +53,8 @@ class SamplerConfig:
     step fails; ``step_rule`` "backtrack" rejects steps that raise the energy (or are
     not finite) and multiplies the step by ``grow`` after each accepted one, "paper"
     keeps every step and only cuts the scale. ``translation_smoothness``
-    couples per-frame root offsets (0: independent frames). ``size_prior`` places each
+    couples per-frame root offsets (0: independent frames; 100 keeps one view's root depth
+    from jittering frame to frame). ``size_prior`` places each
     new network prediction where a person of typical adult size would stand (one
     view cannot tell a small near person from a tall far one; guidance then fits the
     pose at that place); ``size_spread`` gives each hypothesis its own size, typical
@@ -84,7 +85,7 @@ class SamplerConfig:
     damping: float = 0.1
     robust: str = "l2"
     robust_scale: float = 0.05
-    translation_smoothness: float = 1.0
+    translation_smoothness: float = 100.0
     size_prior: bool = True
     size_spread: float = 0.1
     noise_fit: bool = True
