@@ -34,7 +34,7 @@ def evaluate_command(
     robust: str = typer.Option("l2", help="Reprojection loss: l2 or geman-mcclure."),
     size_prior: bool = typer.Option(True, help="Place each prediction as a person of median adult size."),
     size_spread: float = typer.Option(0.1, help="Log-normal spread of the hypotheses' sizes about adult size (0: all typical)."),
-    noise_fit: bool = typer.Option(True, help="2+ views: follow the 2D only as far as its jitter allows."),
+    noise_fit: bool = typer.Option(True, help="Follow the 2D only as far as its measured jitter allows."),
     noise_spread: bool = typer.Option(True, help="2+ views: spread hypotheses by the 2D noise."),
     bone_weight: float = typer.Option(0.0, help="Weight of the constant-bone-length energy (0: off)."),
     symmetry_weight: float = typer.Option(0.0, help="Weight of the left/right symmetry energy (0: off)."),

@@ -75,7 +75,7 @@ def lift(
     bone_weight: float | None = typer.Option(None, "--bone-weight", help="Constant bone lengths over time [0: off]."),
     symmetry_weight: float | None = typer.Option(None, "--symmetry-weight", help="Left/right bone symmetry [0: off]."),
     noise_fit: bool | None = typer.Option(
-        None, "--noise-fit/--no-noise-fit", help="2+ views: follow the 2D only as far as its jitter allows [on]."
+        None, "--noise-fit/--no-noise-fit", help="Follow the 2D only as far as its measured jitter allows [on]."
     ),
     noise_spread: bool | None = typer.Option(
         None, "--noise-spread/--no-noise-spread", help="2+ views: spread hypotheses by the 2D noise [on]."
