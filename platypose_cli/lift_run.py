@@ -230,6 +230,33 @@ class _LazyBar:
             self.bar.__exit__(None, None, None)
 
 
+REPROJECTION_WARNING_SHARE = 0.02  # of the image width: a view whose keypoints the median motion misses by more is suspect
+
+
+def report_reprojection(median, keypoints: np.ndarray, cameras: list, log: JobLog) -> dict[str, float]:
+    """Per view, the median pixel distance between the median motion ``(P, T, 17, 3)`` and the view's keypoints
+    ``(C, T, P, 17, 3)`` (the largest over persons), logged; views above ``REPROJECTION_WARNING_SHARE`` of their
+    image width get a warning.
+
+    With one view guidance fits the keypoints exactly and nothing is reported. With several, a view far off
+    the others usually has a wrong calibration (or a detector that lost the person there).
+    """
+    from lifting.triangulation import view_median_errors
+
+    if len(cameras) < 2:
+        return {}
+    per_person = [view_median_errors(median[p], keypoints[:, :, p], cameras) for p in range(keypoints.shape[2])]
+    errors = np.nanmax(np.stack(per_person), axis=0) if per_person else np.full(len(cameras), np.nan)
+    report = {cam.name: round(float(e), 2) for cam, e in zip(cameras, errors)}
+    log("median motion against the keypoints (median px per view): "
+        + ", ".join(f"{name} {value:.1f}" for name, value in report.items()))  # fmt: skip
+    for cam, value in zip(cameras, report.values()):
+        if value > REPROJECTION_WARNING_SHARE * cam.width:
+            log.warning(f"view {cam.name}: the median motion lies {value:.1f} px (median) from its keypoints, "
+                        f"{value / cam.width:.0%} of the image width; check its calibration and its detections")  # fmt: skip
+    return report
+
+
 def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     """The LiftResult of one job, its long arrays in files under ``staging``, and the videos of its cameras."""
     from exporters.result import LiftResult
@@ -258,6 +285,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     hypotheses, median, energy = lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings, staging)
     timings["lift_s"] = time.perf_counter() - started
     log(f"lifted {hypotheses.shape[1]} hypotheses in {timings['lift_s']:.1f} s")
+    reprojection = report_reprojection(median, keypoints, cameras, log)
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
     meta = {
         "version": __version__,
@@ -266,6 +294,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
         "prior_sha256": prior.checksum,
         "root": ["given" if settings.root_file else ("solved" if r is None else "triangulated") for r in roots],
         "timings": timings,
+        "reprojection_px": reprojection,
         "warnings": log.warnings,
     }
     result = LiftResult(
