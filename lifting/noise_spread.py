@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import torch
 
-from lifting.energy import Observations, reprojection_terms, unpack_symmetric
+from lifting.energy import unpack_symmetric
 
 
 def unit_weight_variance(energy: torch.Tensor, confidence: torch.Tensor) -> torch.Tensor:
@@ -37,20 +37,16 @@ def unit_weight_variance(energy: torch.Tensor, confidence: torch.Tensor) -> torc
     return torch.where(redundancy > 0, fit / redundancy.clamp(min=1), torch.zeros_like(fit))
 
 
-def residual_variance(joints: torch.Tensor, obs: Observations) -> torch.Tensor:
-    """Unit-weight variance ``(B,)`` of the least-squares fits ``joints`` ``(B, N, F, 17, 3)`` from their residuals."""
-    energy, _, _ = reprojection_terms(joints, obs)
-    return unit_weight_variance(energy, obs.confidence)
-
-
 def noise_spread(
-    joints: torch.Tensor, obs: Observations, draws: torch.Tensor, variance: torch.Tensor,
+    curvature: torch.Tensor, confidence: torch.Tensor, draws: torch.Tensor, variance: torch.Tensor,
     smoothed: tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> torch.Tensor:
-    """Offsets ``(B, N, F, 17, 3)`` that spread fitted world joints ``(B, N, F, 17, 3)`` by their 2D noise.
+    """Offsets ``(B, N, F, 17, 3)`` that spread fitted world joints by their 2D noise, from the fit's packed
+    curvature ``2 J^T W J`` ``(6, B, N, F, 17)`` (:func:`lifting.energy.reprojection_terms`) and the
+    observations' ``confidence`` ``(C, B, F, 17)``.
 
     ``draws`` ``(N, 17, 3)`` are standard normal, one vector per hypothesis and joint. ``variance``
-    ``(B,)`` is the 2D noise's, as the least-squares fit's residuals show it (:func:`residual_variance`:
+    ``(B,)`` is the 2D noise's, as the least-squares fit's residuals show it (:func:`unit_weight_variance`:
     it holds the views' disagreement, which real detectors keep from frame to frame, not only their
     jitter). After a fit smoothed over frames, ``smoothed`` = (jitter variance ``(B,)``, shrink
     ``(B, F, 17)``): the jitter's part of the variance is shrunk by that factor
@@ -59,14 +55,13 @@ def noise_spread(
     seen by fewer than two cameras (no depth from the views), or every joint of a window
     without redundancy, gets no offset.
     """
-    _, _, curvature = reprojection_terms(joints, obs)  # curvature: 2 J^T W J, packed
     hessian = unpack_symmetric(curvature)  # (B, N, F, 17, 3, 3)
-    twice_seen = ((obs.confidence > 0).sum(0) >= 2)[:, None, :, :, None]  # (B, 1, F, 17, 1)
+    twice_seen = ((confidence > 0).sum(0) >= 2)[:, None, :, :, None]  # (B, 1, F, 17, 1)
     safe = torch.where(twice_seen[..., None], hessian, torch.eye(3, dtype=hessian.dtype, device=hessian.device))
     factor, info = torch.linalg.cholesky_ex(safe)
     usable = twice_seen & (info == 0)[..., None]
     # L^T x = z gives x ~ N(0, (L L^T)^-1) = N(0, H^-1); the covariance wanted is sigma^2 (J^T W J)^-1 = 2 sigma^2 H^-1
-    z = draws.to(joints)[None, :, None, :, :, None].expand(*hessian.shape[:-1], 1)
+    z = draws.to(hessian)[None, :, None, :, :, None].expand(*hessian.shape[:-1], 1)
     offsets = torch.linalg.solve_triangular(factor.mT, z, upper=True)[..., 0]
     variance = variance[:, None, None]  # (B, 1, 1) -> (B, F, 17) below when smoothed
     if smoothed is not None:

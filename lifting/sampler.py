@@ -31,7 +31,7 @@ from lifting.energy import (
     solve_symmetric3,
     symmetry_energy,
 )
-from lifting.noise_spread import noise_spread, residual_variance
+from lifting.noise_spread import noise_spread, unit_weight_variance
 from lifting.temporal_fit import acceleration_weight, fit_to_noise, keypoint_noise, posterior_shrink, smooth_keypoints
 from lifting.prior import PriorBundle
 from lifting.representation import features_to_joints, joints_to_features
@@ -471,18 +471,31 @@ def sample(
         if progress is not None:
             progress(i + 1, len(steps))
     with torch.no_grad():
-        fitted = problem.world_joints(x0, offset)
-        joints = fitted
-        if len(obs.cameras) > 1 and (config.noise_fit or config.noise_spread):
-            variance = residual_variance(fitted, obs)  # of the exact fit: the views' disagreement and jitter
-            smoothed = None
-            if config.noise_fit:
-                noise = keypoint_noise(obs)
-                fitted = fit_to_noise(fitted, obs, noise, prior.fps)
-                smoothed = noise**2, posterior_shrink(fitted, obs, acceleration_weight(noise, prior.fps))
-            joints = fitted + noise_spread(fitted, obs, draws, variance, smoothed) if config.noise_spread else fitted
+        fitted, joints = settle_several_views(problem.world_joints(x0, offset), obs, draws, config, prior.fps)
         energy = reprojection_energy(joints, raw, config.robust, config.robust_scale)
     return SampleResult(joints.cpu().numpy(), energy.cpu().numpy(), fitted.cpu().numpy())
+
+
+def settle_several_views(
+    fitted: torch.Tensor, obs: Observations, draws: torch.Tensor, config: SamplerConfig, fps: float
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Several cameras: the guided fit ``(B, N, F, 17, 3)`` moved by the noise fit, and the hypotheses spread from it.
+
+    Returns (fitted, hypotheses); with one camera, or both steps off, both are the fit as given.
+    """
+    if len(obs.cameras) < 2 or not (config.noise_fit or config.noise_spread):
+        return fitted, fitted
+    energy, _, curvature = reprojection_terms(fitted, obs)
+    variance = unit_weight_variance(energy, obs.confidence)  # of the exact fit: the views' disagreement and jitter
+    smoothed = None
+    if config.noise_fit:
+        noise = keypoint_noise(obs)
+        fitted = fit_to_noise(fitted, obs, noise, fps)
+        _, _, curvature = reprojection_terms(fitted, obs)
+        smoothed = noise**2, posterior_shrink(curvature, acceleration_weight(noise, fps))
+    if not config.noise_spread:
+        return fitted, fitted
+    return fitted, fitted + noise_spread(curvature, obs.confidence, draws, variance, smoothed)
 
 
 def cameras_and_rays(

@@ -25,7 +25,7 @@ import torch
 
 from lifting.energy import Observations, reprojection_terms, unpack_symmetric
 from lifting.skeleton import TYPICAL_ACCELERATIONS
-from lifting.translation import acceleration_penalty, solve_smoothed
+from lifting.translation import acceleration_penalty, second_difference, solve_smoothed
 
 MAD_TO_SIGMA = 1.4826  # median absolute deviation -> standard deviation of a normal distribution
 
@@ -36,15 +36,18 @@ def keypoint_noise(obs: Observations) -> torch.Tensor:
     Only triples of consecutive frames where the keypoint is seen count; a window with none gets 0.
     """
     coords = obs.keypoints * obs.pixel_scale.reshape(-1, 1, 1, 1, 1)  # (C, B, F, 17, 2)
-    seen = obs.confidence > 0
-    second = coords[:, :, 2:] - 2 * coords[:, :, 1:-1] + coords[:, :, :-2]
+    second, valid = _seen_second_differences(coords, obs.confidence > 0)
+    values = torch.where(valid[..., None], second.abs(), torch.nan).transpose(0, 1).flatten(1)  # (B, ...)
+    if values.shape[1] == 0:  # under three frames
+        return values.new_zeros(values.shape[0])
+    return torch.nan_to_num(MAD_TO_SIGMA * values.nanmedian(dim=1).values / 6**0.5, nan=0.0)
+
+
+def _seen_second_differences(coords: torch.Tensor, seen: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Second differences over frames of keypoint coordinates ``(C, B, F, 17, 2)``, and where all three frames of
+    each are ``seen`` ``(C, B, F, 17)``."""
     valid = seen[:, :, 2:] & seen[:, :, 1:-1] & seen[:, :, :-2]
-    noise = torch.zeros(coords.shape[1], dtype=coords.dtype, device=coords.device)
-    for b in range(coords.shape[1]):
-        values = second[:, b][valid[:, b]].abs().flatten()
-        if values.numel():
-            noise[b] = MAD_TO_SIGMA * values.median() / 6**0.5
-    return noise
+    return second_difference(coords), valid
 
 
 def fit_to_noise(joints: torch.Tensor, obs: Observations, noise: torch.Tensor, fps: float, iterations: int = 2) -> torch.Tensor:
@@ -62,25 +65,24 @@ def fit_to_noise(joints: torch.Tensor, obs: Observations, noise: torch.Tensor, f
 
     def total(x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         energy, grad, curvature = reprojection_terms(x, obs)
-        second = x[:, :, 2:] - 2 * x[:, :, 1:-1] + x[:, :, :-2]  # (B, N, F-2, 17, 3)
-        smooth = (weight[:, :, None] * (second**2).sum(-1)).sum(dim=(-1, -2))
+        smooth = (weight[:, :, None] * (second_difference(x) ** 2).sum(-1)).sum(dim=(-1, -2))
         return energy.sum(-1) + smooth, grad, curvature
 
     energy, grad, curvature = total(joints)
+    eye = torch.eye(3, dtype=joints.dtype, device=joints.device)
     for _ in range(iterations):
         hessian = unpack_symmetric(curvature)  # (B, N, F, 17, 3, 3)
         damping = 1e-3 * hessian.diagonal(dim1=-2, dim2=-1).mean(dim=(-1, -2, -3)).clamp(min=1e-9)  # (B, N)
-        eye = torch.eye(3, dtype=joints.dtype, device=joints.device)
         normal = hessian + damping[..., None, None, None, None] * eye
         penalty_grad = _acceleration_gradient(joints, weight)  # (B, N, F, 17, 3), of the smoothing energy
         rhs = -(grad.movedim(0, -1) + penalty_grad)
         per_joint = (B, N * 17, F)  # every joint's path is one system
         step = solve_smoothed(
-            normal.permute(0, 1, 3, 2, 4, 5).reshape(*per_joint, 3, 3).double(),
-            rhs.permute(0, 1, 3, 2, 4).reshape(*per_joint, 3).double(),
-            (2 * weight).reshape(B, N * 17).double(),
+            normal.permute(0, 1, 3, 2, 4, 5).reshape(*per_joint, 3, 3),
+            rhs.permute(0, 1, 3, 2, 4).reshape(*per_joint, 3),
+            (2 * weight).reshape(B, N * 17),
         )
-        step = step.reshape(B, N, 17, F, 3).permute(0, 1, 3, 2, 4).to(joints.dtype)
+        step = step.reshape(B, N, 17, F, 3).permute(0, 1, 3, 2, 4)
         candidate = joints + step
         new_energy, new_grad, new_curvature = total(candidate)
         better = (new_energy < energy)[..., None, None, None]
@@ -108,29 +110,28 @@ def acceleration_weight(noise: torch.Tensor, fps: float) -> torch.Tensor:
     return (noise[:, None] / typical) ** 2
 
 
-def posterior_shrink(joints: torch.Tensor, obs: Observations, weight: torch.Tensor) -> torch.Tensor:
+def posterior_shrink(curvature: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
     """Per window, frame and joint ``(B, F, 17)``: the variance of the smoothed fit over that of the frame's own
-    least-squares fit, ``h [(h I + 2 w D^T D)^-1]_ff``, with h each joint's mean data curvature (one value per axis).
+    least-squares fit, ``h [(h I + 2 w D^T D)^-1]_ff``, with h each joint's mean data curvature (one value per axis)
+    from the fit's packed curvature ``(6, B, N, F, 17)`` (:func:`lifting.energy.reprojection_terms`).
 
     The noise spread of several cameras draws from the least-squares uncertainty; after the
     smoothing fit, which averages neighbouring frames, its draws are shrunk by this factor.
     """
-    B, _, F = joints.shape[:3]
+    B, _, F = curvature.shape[1:4]
     if F < 3:  # nothing was smoothed
-        return torch.ones(B, F, 17, dtype=joints.dtype, device=joints.device)
-    _, _, curvature = reprojection_terms(joints, obs)
+        return torch.ones(B, F, 17, dtype=curvature.dtype, device=curvature.device)
     h = (curvature[0] + curvature[3] + curvature[5]).nanmean(dim=(1, 2)) / 3  # (B, 17): mean over hypotheses, frames
-    penalty = acceleration_penalty(F, torch.float64, joints.device)
-    system = h.double()[..., None, None] * torch.eye(F, dtype=torch.float64, device=joints.device)
+    penalty = acceleration_penalty(F, torch.float64, curvature.device)
+    system = h.double()[..., None, None] * torch.eye(F, dtype=torch.float64, device=curvature.device)
     system = system + 2 * weight.double()[..., None, None] * penalty  # (B, 17, F, F)
     variance = torch.linalg.inv(system).diagonal(dim1=-2, dim2=-1)  # (B, 17, F)
-    return (h.double()[..., None] * variance).clamp(max=1.0).transpose(1, 2).to(joints.dtype)
+    return (h.double()[..., None] * variance).clamp(max=1.0).transpose(1, 2).to(curvature.dtype)
 
 
 def _acceleration_gradient(joints: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
     """Gradient ``2 w D^T D x`` of ``sum_j w_j |D x_j|^2`` for joints ``(B, N, F, 17, 3)``, weights ``(B, N, 17)``."""
-    second = joints[:, :, 2:] - 2 * joints[:, :, 1:-1] + joints[:, :, :-2]  # (B, N, F-2, 17, 3)
-    scaled = 2 * weight[:, :, None, :, None] * second
+    scaled = 2 * weight[:, :, None, :, None] * second_difference(joints)  # (B, N, F-2, 17, 3)
     grad = torch.zeros_like(joints)
     grad[:, :, :-2] += scaled
     grad[:, :, 1:-1] -= 2 * scaled
@@ -153,8 +154,7 @@ def smooth_keypoints(obs: Observations, noise: torch.Tensor) -> Observations:
     scale = obs.pixel_scale.reshape(-1, 1, 1, 1, 1) * focal  # normalised image units per undistorted unit
     coords = obs.normalized.double() * scale.double()  # (C, B, F, 17, 2), normalised image units
     weight = (obs.confidence > 0).double() * obs.confidence.double()  # (C, B, F, 17)
-    second = coords[:, :, 2:] - 2 * coords[:, :, 1:-1] + coords[:, :, :-2]
-    seen = (weight[:, :, 2:] > 0) & (weight[:, :, 1:-1] > 0) & (weight[:, :, :-2] > 0)
+    second, seen = _seen_second_differences(coords, weight > 0)
     count = seen.sum(2).clamp(min=1)[..., None]  # (C, B, 17, 1)
     mean_square = (second.pow(2) * seen[..., None]).sum(2) / count  # (C, B, 17, 2)
     variance = noise.double()[None, :, None, None] ** 2

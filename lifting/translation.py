@@ -81,9 +81,13 @@ def solve_translation(
     normal = normal + 1e-6 * data_scale[..., None, None, None] * eye
     if smoothness <= 0 or F < 3:
         return torch.linalg.solve(normal, rhs.unsqueeze(-1)).squeeze(-1)
-    # float64: frames without evidence leave only the ridge and the acceleration penalty (free on straight lines),
-    # a condition float32 Cholesky cannot take (it failed on windows seen once or never, at smoothness 10)
-    return solve_smoothed(normal.double(), rhs.double(), smoothness * data_scale.double()).to(joints.dtype)
+    return solve_smoothed(normal, rhs, smoothness * data_scale)
+
+
+def second_difference(values: torch.Tensor, dim: int = 2) -> torch.Tensor:
+    """``x(t+1) - 2 x(t) + x(t-1)`` along ``dim`` (one shorter by two there): accelerations per frame squared."""
+    frames_first = values.movedim(dim, 0)
+    return (frames_first[2:] - 2 * frames_first[1:-1] + frames_first[:-2]).movedim(0, dim)
 
 
 def acceleration_penalty(frames: int, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
@@ -101,8 +105,13 @@ def solve_smoothed(normal: torch.Tensor, rhs: torch.Tensor, mu: torch.Tensor) ->
 
     The system is banded (accelerations couple frames two apart): it is cut into blocks
     of ``BLOCK_FRAMES`` frames, which makes it block-tridiagonal, and solved by block
-    Cholesky. Frames padded at the end (identity, no coupling) are dropped.
+    Cholesky. Frames padded at the end (identity, no coupling) are dropped. It is solved in
+    float64 and returned in ``rhs``'s dtype: frames without evidence leave only a tiny ridge and
+    the acceleration penalty (free on straight lines), a condition float32 Cholesky cannot take
+    (it failed on windows seen once or never, at smoothness 10).
     """
+    dtype = rhs.dtype
+    normal, rhs, mu = normal.double(), rhs.double(), mu.double()
     B, N, F = normal.shape[:3]
     size = BLOCK_FRAMES
     blocks = -(-F // size)
@@ -121,7 +130,7 @@ def solve_smoothed(normal: torch.Tensor, rhs: torch.Tensor, mu: torch.Tensor) ->
     band = 3 * COUPLED_FRAMES  # accelerations couple a block's last frames only with the next block's first ones
     corner = mu * penalty[ks[1:], :band, ks[:-1], -band:]
     solution = solve_block_tridiagonal(diag, corner, rhs.reshape(B * N, blocks, 3 * size))
-    return solution.reshape(B, N, padded, 3)[:, :, :F]
+    return solution.reshape(B, N, padded, 3)[:, :, :F].to(dtype)
 
 
 def solve_block_tridiagonal(diag: torch.Tensor, corner: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
