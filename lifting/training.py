@@ -213,7 +213,7 @@ def train_prior(
         x_t = schedule.add_noise(x0, t, torch.randn_like(x0))
         loss = ((model(x_t, t) - x0) ** 2).mean()
         for group in optimiser.param_groups:
-            group["lr"] = lr_at(it)
+            group["lr"] = float(lr_at(it))  # a numpy scalar would make the checkpoint unloadable (weights_only)
         optimiser.zero_grad(set_to_none=True)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)

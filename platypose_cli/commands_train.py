@@ -51,6 +51,8 @@ def train(
         if not resume_state:
             raise InputError(f"{out}: checkpoint holds no training state (finished or not resumable)")
         prior_config = bundle.config
+        if not quiet:
+            typer.echo(f"resuming {out} at iteration {resume_state['iteration']} of {iterations}", err=True)
     config = TrainConfig(iterations=iterations, batch_size=batch_size, learning_rate=learning_rate,
                          bone_scale=bone_scale, checkpoint_every=checkpoint_every, seed=seed)  # fmt: skip
     if not quiet:

@@ -45,7 +45,7 @@ def test_prior_info_lists_licences(run_cli, prior_file):
     assert "Apache-2.0" in out and "humanoid3d_walk" in out
 
 
-def test_train_writes_a_loadable_checkpoint_and_resumes(run_cli, data_dir, tmp_path):
+def test_train_writes_a_loadable_checkpoint(run_cli, data_dir, tmp_path):
     out = tmp_path / "p.pt"
     clip = data_dir / "motion/deepmimic/humanoid3d_walk.txt"
     common = ("--layers", "1", "--width", "32", "--heads", "2", "--ff-width", "32", "--max-frames", "8",
@@ -58,6 +58,34 @@ def test_train_writes_a_loadable_checkpoint_and_resumes(run_cli, data_dir, tmp_p
     bundle, extra = load_prior(out)
     assert bundle.config.width == 32 and bundle.manifest["iterations"] == 6 and extra == {}
     assert {c["split"] for c in bundle.manifest["clips"]} == {"train", "validation"}
+
+
+def test_an_interrupted_training_resumes_from_its_last_checkpoint(run_cli, data_dir, tmp_path):
+    from lifting.motion_io import load_motion_paths
+    from lifting.prior import PriorConfig, load_prior
+    from lifting.training import TrainConfig, train_prior
+
+    out, log = tmp_path / "p.pt", tmp_path / "log.jsonl"
+    clips = [data_dir / "motion/deepmimic/humanoid3d_walk.txt", data_dir / "motion/deepmimic/humanoid3d_run.txt"]
+    prior_config = PriorConfig(layers=1, width=32, heads=2, ff_width=32, max_frames=8)
+
+    def stop_after_four(entry: dict) -> None:
+        if entry["iteration"] == 4:
+            raise KeyboardInterrupt  # the user's Ctrl-C, one step after the checkpoint at 3
+
+    with pytest.raises(KeyboardInterrupt):
+        train_prior(load_motion_paths(clips), str(out), prior_config,
+                    TrainConfig(iterations=8, batch_size=4, checkpoint_every=3, validate_every=1), log=stop_after_four)  # fmt: skip
+    bundle, extra = load_prior(out)  # the periodic checkpoint is complete and loadable
+    assert bundle.manifest["iterations"] == 3 and extra["iteration"] == 3
+    code, _, err = run_cli("train", *clips, "--out", out, "--resume", "--iterations", "8", "--batch-size", "4",
+                           "--checkpoint-every", "3", "--log-file", log)  # fmt: skip
+    assert code == 0, err
+    assert f"resuming {out} at iteration 3 of 8" in err
+    bundle, extra = load_prior(out)
+    assert bundle.manifest["iterations"] == 8 and extra == {} and bundle.config.width == 32
+    logged = [json.loads(line)["iteration"] for line in log.read_text().splitlines()]
+    assert logged == [8]  # validation losses are logged every 250 steps and at the end
 
 
 @pytest.mark.parametrize(
