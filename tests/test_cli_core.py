@@ -37,6 +37,7 @@ def test_eval_prints_the_table_and_writes_json(run_cli, prior_file, data_dir, tm
     four_view = rows[1]["values"]
     assert four_view["minMPSPE"] < 10.0  # mm: 4 views, exact 2D
     assert 0 <= four_view["ECE"] <= 1
+    assert four_view["ECE worst"] == four_view["ECE"]  # one clip
 
 
 def test_prior_info_lists_licences(run_cli, prior_file):

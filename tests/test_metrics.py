@@ -95,3 +95,28 @@ def test_ece_pools_windows_whose_frames_share_one_error():
         per_window.append(metrics.ece(hyps, truth))
     assert metrics.ece_from_frequencies(np.mean(pooled, axis=0)) < 0.05
     assert np.mean(per_window) > 0.2
+
+
+def test_worst_clip_ece_shows_opposite_errors_that_pooling_hides():
+    """Clip 0's hypotheses are too tight (truth drawn 3x wider), clip 1's too wide (truth 3x tighter)."""
+    from lifting.evaluation import score_windows
+
+    rng = np.random.default_rng(5)
+    base = _truth(4)
+    hyps, truths, clips = [], [], []
+    for clip, truth_scale in ((0, 3.0), (1, 1 / 3)):
+        for _ in range(60):
+            offsets = rng.normal(0, 0.02, (100, 1, 17, 3))
+            offsets[..., 0, :] = 0
+            truth_offset = rng.normal(0, 0.02 * truth_scale, (1, 17, 3))
+            truth_offset[..., 0, :] = 0
+            hyps.append(base + offsets)
+            truths.append(base + truth_offset)
+            clips.append(clip)
+    values = score_windows(np.stack(hyps), np.stack(truths), np.array(clips))
+    each = [score_windows(np.stack(hyps[i : i + 60]), np.stack(truths[i : i + 60]), np.zeros(60, dtype=int))
+            for i in (0, 60)]  # fmt: skip
+    assert all(e["ECE worst"] == e["ECE"] for e in each)  # one clip: nothing to hide
+    assert values["ECE worst"] == pytest.approx(max(e["ECE"] for e in each))
+    assert min(e["ECE"] for e in each) > 0.25  # both clips are badly calibrated
+    assert values["ECE"] < 0.6 * min(e["ECE"] for e in each)  # and the pool looks much better than either
