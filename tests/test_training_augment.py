@@ -6,7 +6,7 @@ import numpy as np
 
 from lifting.skeleton import BONES, bone_lengths
 from lifting.timebase import resample
-from lifting.training import Clip, TrainConfig, WindowSampler, scale_bones
+from lifting.training import TrainConfig, WindowSampler, prepare_clips, scale_bones
 
 
 def _windows(real_clips, frames: int = 16) -> np.ndarray:
@@ -25,8 +25,8 @@ def test_bone_scaling_scales_each_bone_and_keeps_the_pelvis(real_clips):
     np.testing.assert_array_equal(scaled[:, :, 0], joints[:, :, 0])
 
 
-def test_augmented_batches_keep_left_right_pairs_and_start_at_the_origin(real_clips):
-    clips = [Clip(resample(m.joints, m.fps, 30.0), m.name, m.source, m.licence, m.fps) for m in real_clips]
+def test_augmented_batches_start_at_the_origin_with_varied_bone_lengths(real_clips):
+    clips = prepare_clips(real_clips, 30.0)
     sampler = WindowSampler(clips, 16, TrainConfig(), np.random.default_rng(0))
     batch = sampler.batch(64, 16)
     assert batch.shape == (64, 16, 17, 3) and np.isfinite(batch).all()
@@ -38,7 +38,7 @@ def test_augmented_batches_keep_left_right_pairs_and_start_at_the_origin(real_cl
 
 
 def test_windows_are_drawn_in_proportion_to_clip_length(real_clips):
-    clips = [Clip(resample(m.joints, m.fps, 30.0), m.name, m.source, m.licence, m.fps) for m in real_clips]
+    clips = prepare_clips(real_clips, 30.0)
     lengths = np.array([len(c.joints) for c in clips], dtype=float)
     sampler = WindowSampler(clips, 16, TrainConfig(), np.random.default_rng(0))
     np.testing.assert_allclose(sampler.weights, lengths / lengths.sum())
