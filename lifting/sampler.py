@@ -20,6 +20,7 @@ import numpy as np
 import torch
 
 from lifting.camera import CameraBatch
+from lifting.depth_smoothing import smooth_depth
 from lifting.energy import (
     ROBUST_LOSSES,
     Observations,
@@ -65,7 +66,9 @@ class SamplerConfig:
     (:mod:`lifting.temporal_fit`); with one camera it smooths the keypoints' paths the same
     way before guidance fits them. With two or more cameras ``noise_spread`` moves each hypothesis by a draw of
     the joints' remaining uncertainty under that noise (:mod:`lifting.noise_spread`). ``bone_weight`` and
-    ``symmetry_weight`` switch on the structural energies (metres squared).
+    ``symmetry_weight`` switch on the structural energies (metres squared). With one camera,
+    ``depth_smoothness`` smooths every joint's depth path along its ray after each diffusion
+    step's guidance (:mod:`lifting.depth_smoothing`; 0: off).
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
     took a step gaining less than ``guidance_tol`` of its energy at the start of this
     diffusion step's guidance, or its step has shrunk to nothing (0: always k).
@@ -92,6 +95,7 @@ class SamplerConfig:
     noise_spread: bool = True
     bone_weight: float = 0.0
     symmetry_weight: float = 0.0
+    depth_smoothness: float = 10.0
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -113,6 +117,7 @@ class SamplerConfig:
             (self.translation_smoothness >= 0, "translation smoothness must be >= 0"),
             (0 <= self.size_spread <= 0.5, f"size spread must be in [0, 0.5], got {self.size_spread}"),
             (self.bone_weight >= 0 and self.symmetry_weight >= 0, "structural energy weights must be >= 0"),
+            (self.depth_smoothness >= 0, f"depth smoothness must be >= 0, got {self.depth_smoothness}"),
         ]
         for ok, message in checks:
             if not ok:
@@ -311,6 +316,19 @@ class GuidedProblem:
             return cameras.R[0], cameras.t[0]
         return None
 
+    def depth_smoothed(self, start: torch.Tensor, moved: torch.Tensor, in_camera: bool) -> torch.Tensor:
+        """One camera: the move ``(3, B, N, F, 17)`` from ``start`` after which every joint's depth path is smoothed
+        (:mod:`lifting.depth_smoothing`); ``start`` and ``moved`` are in the camera's frame or (not ``in_camera``) the
+        world's. Joints that are not finite (frames outside a given root path) keep ``moved``."""
+        rotation, translation = self.obs.cameras.R[0], self.obs.cameras.t[0]
+        joints = start + moved if in_camera else rigid_motion(start + moved, rotation, translation)
+        anchored = None if self.anchor is None else self.anchor.mask
+        smoothed = smooth_depth(joints, self.config.depth_smoothness, anchored)
+        if not in_camera:
+            smoothed = rigid_motion(smoothed, rotation.T, -rotation.T @ translation)
+        smoothed_move = smoothed - start
+        return torch.where(torch.isfinite(smoothed_move), smoothed_move, moved)  # frames without a root keep theirs
+
     def evaluate(self, joints: torch.Tensor, anchor: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         """Energy per hypothesis ``(B*N,)`` and descent direction ``(3, B, N, F, 17)`` (a move of every joint,
         component-first) at joints ``joints`` ``(B, N, F, 17, 3)``; joints, ``anchor`` (the anchor's joints) and
@@ -405,6 +423,8 @@ class GuidedProblem:
             converged = (accept & (gain <= c.guidance_tol)) | (step < 1e-4 * c.energy_scale)
             if c.guidance_tol > 0 and bool(converged.all()):
                 break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
+        if len(self.obs.cameras) == 1 and c.depth_smoothness > 0:
+            moved = self.depth_smoothed(start, moved, in_camera=frame is not None)
         if frame is not None:  # the move back in world axes
             moved = rigid_motion(moved, frame[0].T)
         return self.absorb(x0, offset, moved)

@@ -38,6 +38,7 @@ def evaluate_command(
     noise_spread: bool = typer.Option(True, help="2+ views: spread hypotheses by the 2D noise."),
     bone_weight: float = typer.Option(0.0, help="Weight of the constant-bone-length energy (0: off)."),
     symmetry_weight: float = typer.Option(0.0, help="Weight of the left/right symmetry energy (0: off)."),
+    depth_smoothness: float = typer.Option(10.0, help="One view: smoothness of every joint's depth path (0: off)."),
     seed: int = typer.Option(0, help="Random seed."),
     json_out: Path = typer.Option(None, "--json", help="Also write the table as JSON here."),
     device: str = typer.Option("cpu", help="cpu, cuda or auto (cuda when available)."),
@@ -55,7 +56,7 @@ def evaluate_command(
     config = sampler_config(steps=steps, skip=skip, eta=eta, guidance_iters=guidance_iters, energy_scale=energy_scale,
                             robust=robust, bone_weight=bone_weight, symmetry_weight=symmetry_weight, size_prior=size_prior,
                             size_spread=size_spread, noise_fit=noise_fit, noise_spread=noise_spread,
-                            seed=seed)  # fmt: skip
+                            depth_smoothness=depth_smoothness, seed=seed)  # fmt: skip
     bundle = load_for_runtime(prior, device, runtime)
     if max(frames_list) > bundle.config.max_frames:
         raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")

@@ -74,6 +74,9 @@ def lift(
     robust: str | None = typer.Option(None, "--robust", help="Reprojection loss: l2 or geman-mcclure [l2]."),
     bone_weight: float | None = typer.Option(None, "--bone-weight", help="Constant bone lengths over time [0: off]."),
     symmetry_weight: float | None = typer.Option(None, "--symmetry-weight", help="Left/right bone symmetry [0: off]."),
+    depth_smoothness: float | None = typer.Option(
+        None, "--depth-smoothness", help="One view: smoothness of every joint's depth path [10; 0: off]."
+    ),
     noise_fit: bool | None = typer.Option(
         None, "--noise-fit/--no-noise-fit", help="Follow the 2D only as far as its measured jitter allows [on]."
     ),
@@ -127,6 +130,7 @@ def lift(
         job_list = discover_jobs(paths, camera_names)
     given = {"samples": samples, "steps": steps, "skip": skip, "eta": eta, "guidance_iters": guidance_iters,
              "robust": robust, "bone_weight": bone_weight, "symmetry_weight": symmetry_weight,
+             "depth_smoothness": depth_smoothness,
              "noise_fit": noise_fit, "noise_spread": noise_spread, "seed": seed}  # fmt: skip
     sampler = {k: v for k, v in given.items() if v is not None}  # the rest: SamplerConfig's defaults
     detect = DetectOptions(detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps,

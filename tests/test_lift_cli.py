@@ -112,6 +112,28 @@ def test_given_root_trajectory_npz_and_csv(run_cli, data_dir, tmp_path, prior_fi
         assert np.median(np.abs(pelvis - root[keep][:, None])) < 0.002
 
 
+def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir, tmp_path, prior_file) -> None:
+    """``--depth-smoothness``: with one view the hypotheses' depth paths accelerate less with it than without
+    (0); a negative value is a one-line error."""
+    from exporters.npz import read_npz
+
+    keypoints = str(data_dir / TAKE / "openpose-body25b" / "cam01_json")
+    acceleration = {}
+    for value in ("0", "10"):
+        out = tmp_path / value
+        code, _, err = run_cli(*lift_args(data_dir, prior_file, out, "--keypoints", keypoints, "--persons", "largest",
+                                          "--formats", "npz", "--depth-smoothness", value))  # fmt: skip
+        assert code == 0, err
+        result = read_npz(out / "cam01" / "cam01.npz")
+        cam = result.cameras[0]
+        depth = (result.hypotheses[0] @ cam.R.T + cam.t)[..., 2]  # (N, T, 17)
+        acceleration[value] = np.nanpercentile(np.abs(np.diff(depth, 2, axis=1)), 99)
+    assert acceleration["10"] < 0.7 * acceleration["0"], acceleration
+    code, _, err = run_cli(*lift_args(data_dir, prior_file, tmp_path / "bad", "--keypoints", keypoints,
+                                      "--depth-smoothness", "-1"))  # fmt: skip
+    assert code == 2 and "depth smoothness must be >= 0" in err and len(err.strip().splitlines()) == 1, err
+
+
 def test_keypoint_views_must_match_cameras(run_cli, data_dir, tmp_path, prior_file) -> None:
     source = data_dir / TAKE / "openpose-body25b"
     views = tmp_path / "views"

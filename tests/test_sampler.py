@@ -110,7 +110,7 @@ def test_structural_energies_lower_bone_length_variation(tiny_prior, heldout_win
 @pytest.mark.parametrize(
     "bad",
     [dict(samples=0), dict(robust="cauchy"), dict(skip=10), dict(energy_scale=-1.0), dict(step_rule="adam"),
-     dict(decay=1.5)],
+     dict(decay=1.5), dict(depth_smoothness=-1.0)],
 )  # fmt: skip
 def test_bad_sampler_settings_are_refused(bad):
     with pytest.raises(ValueError):

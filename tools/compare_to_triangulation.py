@@ -2,6 +2,9 @@
 
     .venv/bin/python tools/compare_to_triangulation.py OUT/all/<job>/<job>.npz OUT/cam01/<job>/<job>.npz ...
 
+Detection caches (``*.detections.npz``, written beside lifts from video) are skipped, so globs such
+as ``OUT/*/*/*.npz`` work.
+
 The first npz must be a lift from several views: its 2D keypoints (all views, person 0)
 are triangulated with its cameras (DLT, ``lifting.triangulation.triangulate``) and that
 is the reference. Every npz given (the first included) is then compared with it, frame
@@ -71,11 +74,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("lifts", nargs="+", type=Path, help="npz files; the first is a multi-view lift")
     args = parser.parse_args()
-    reference = reference_joints(args.lifts[0])
+    lifts = [path for path in args.lifts if not path.name.endswith(".detections.npz")]  # a glob's detection caches
+    reference = reference_joints(lifts[0])
     print("| lift | median vs triangulation (mean / median) | pelvis | best hypothesis per joint | inside min-max box "
           "| pelvis depth 5 / 50 / 95 % |")  # fmt: skip
     print("|---|---|---|---|---|---|")
-    for path in args.lifts:
+    for path in lifts:
         print(compare(path, reference))
 
 
