@@ -69,18 +69,18 @@ def test_one_view_seams_are_no_faster_than_inside_windows_relative_to_the_motion
     """20 s of real climbing seen by one camera: relative to how fast the true motion is, hypotheses step no
     faster at seams than inside windows, and never jump.
 
-    With one view every hypothesis moves about 1.6x faster than the truth, seams or not (its depth
-    wanders), so the fastest step anywhere is a noisy statistic: seam over inside maxima is 0.70-1.02
-    over 8 seeds (median 0.93). Compared frame by frame with the truth's speed (95th percentile over
-    hypotheses, mean over steps), seams are 0.69-0.89x the inside, median 0.85 (0.81-1.04x when the
-    overlap was blended, 1.12-1.21x when half the overlap was anchored). Before the anchor's gap was
-    continued into the free frames, seams reached 71 cm against 20 cm inside.
+    With one view a hypothesis's depth wanders, seams or not, so the fastest step anywhere is a noisy
+    statistic. Compared frame by frame with the truth's speed (95th percentile over hypotheses, mean over
+    steps), seams are 0.53-1.05x the inside over 16 seeds (median 0.91) with the shipped prior and depth
+    smoothing, and no step of any hypothesis exceeds 0.24 m (seed 0: 0.90x, 0.14 m). Without depth smoothing
+    hypotheses switched their upper body's depth between two frames, up to 0.65 m; before the anchor's gap
+    was continued into the free frames, seams reached 71 cm against 20 cm inside.
     """
     speed, truth_speed, seam = _lifted_climbing(data_dir, views=1, seconds=20)
     relative = np.percentile(speed / np.maximum(truth_speed, 0.01), 95, axis=0)  # (T-1,)
     at_seams, inside = relative[seam].mean(), relative[~seam].mean()
     assert at_seams <= 1.1 * inside, (at_seams, inside)
-    assert speed[:, seam].max() < 0.25, speed[:, seam].max()  # no jump: the truth's fastest step is 0.10 m
+    assert speed.max() < 0.25, speed.max()  # no jump, at seams or inside: the truth's fastest step is 0.10 m
 
 
 def test_one_view_placement_does_not_drift_over_windows(data_dir):
