@@ -1,11 +1,12 @@
 """One camera: keep every joint's depth from jumping between frames, without moving it in the image.
 
 A single view fixes each joint's ray, not its depth along it: the depth is the prior's. A
-sharper prior (the 8,000-iteration M) commits harder to one reading of an ambiguous pose,
-and in some windows a hypothesis switched from one reading to the other (the torso leaning
-towards the camera, then away) within a frame or two: on 20 s of one-view climbing, 8 seeds,
-11 steps over 0.2 m per frame, up to 0.49 m (the truth's fastest is 0.10 m). The network
-made those switches itself; guidance, which moves joints across the rays, cannot see them.
+sharper prior (the shipped M) commits harder to one reading of an ambiguous pose, and in some
+windows a hypothesis switched from one reading to the other (the torso leaning towards the
+camera, then away) within a frame or two: on 20 s of one-view climbing, 16 seeds of 8
+hypotheses, 30 steps over 0.2 m per frame, up to 0.65 m (the truth's fastest is 0.10 m). The
+network made those switches itself; guidance, which moves joints across the rays, cannot see
+them. With this smoothing the largest step is 0.24 m (docs/prior.md).
 
 After each diffusion step's guidance, every joint's depth path ``z`` (camera frame) is
 replaced by the minimiser of
@@ -14,8 +15,8 @@ replaced by the minimiser of
 
 and the joint slides along its own ray to that depth, so its projection does not move. The
 first term keeps the prior's depths (``w_f`` = 1, and 1e4 on frames anchored to the window
-before), the second takes out what changes faster than a person moves: with ``s`` = 10 the
-depth path passes motion below about 2.7 Hz at 30 fps and damps faster changes. The
+before), the second takes out what changes faster than a person moves: with ``s`` = 10 it
+halves a depth change at 2.7 Hz (30 fps), passes slower ones and damps faster ones. The
 network then continues from the smoothed windows, so the next prediction agrees with them.
 """
 
