@@ -88,3 +88,50 @@ def test_h36m_bad_clip_named(tmp_path):
     write_h36m(path, {"S1": {"Eating": np.zeros((5, 17, 3))}})
     with pytest.raises(InputError, match="bad_h36m.npz.*S1/Eating.*32"):
         load_motion(path)
+
+
+
+class _RunsCode:
+    """An object whose unpickling calls a function of the file's choosing (here: creating a marker file)."""
+
+    def __init__(self, marker: str) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+@pytest.mark.parametrize(
+    "args",
+    [["motion", "info", "{folder}/data_3d_h36m.npz"], ["train", "{folder}", "--iterations", "1", "--out", "prior.pt"]],
+    ids=["motion-info", "train-folder-scan"],
+)
+def test_h36m_npz_that_would_run_code_is_refused_and_nothing_runs(tmp_path, monkeypatch, run_cli, args):
+    marker = tmp_path / "ran"
+    folder = tmp_path / "mocap"
+    folder.mkdir()
+    np.savez(folder / "data_3d_h36m.npz", positions_3d=np.array({"S1": {"Walking": _RunsCode(str(marker))}}))
+    with pytest.raises(InputError, match=r"data_3d_h36m.npz.*refused to load .*open.*not loaded"):
+        load_motion(folder / "data_3d_h36m.npz")
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_cli(*[a.format(folder=folder) for a in args])
+    assert code == 2, err
+    assert "data_3d_h36m.npz" in err and "not loaded" in err
+    assert not marker.exists() and not (tmp_path / "prior.pt").exists()
+
+
+def test_h36m_layout_written_by_numpy_1_still_loads(tmp_path):
+    """VideoPose3D's files were written by numpy 1 (pickles naming numpy.core.multiarray; protocol 2 stores bytes via _codecs)."""
+    import io
+    import pickle
+    import zipfile
+
+    points = np.random.default_rng(0).normal(size=(3, 32, 3))
+    stream = pickle.dumps(np.array({"S1": {"A": points}}, dtype=object), protocol=2)
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "|O", "fortran_order": False, "shape": ()})
+    path = tmp_path / "old.npz"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("positions_3d.npy", header.getvalue() + stream.replace(b"numpy._core.", b"numpy.core."))
+    (m,) = load_motion(path)
+    np.testing.assert_array_equal(m.joints, points[:, list(H36M32_TO_OURS)])

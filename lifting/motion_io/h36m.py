@@ -16,6 +16,7 @@ from lifting.errors import InputError
 from lifting.joint_maps import H36M32_TO_OURS
 from lifting.motion import Motion
 from lifting.motion_io.plain_npz import npz_keys
+from lifting.motion_io.safe_unpickle import load_object_member
 
 H36M_FPS = 50.0
 H36M_JOINTS = 32
@@ -28,9 +29,8 @@ def is_h36m_npz(path: Path) -> bool:
 
 def load_h36m(path: Path, fps: float | None = None) -> list[Motion]:
     """One clip per subject and action, sorted by subject then action."""
-    # positions_3d is a pickled dict of arrays, as VideoPose3D writes it; allow_pickle is needed to read it.
-    with np.load(path, allow_pickle=True) as data:
-        positions = data["positions_3d"].item()
+    # positions_3d is a pickled dict of arrays, as VideoPose3D writes it; read without running the file's code.
+    positions = load_object_member(path, "positions_3d")
     if not isinstance(positions, dict) or not all(isinstance(v, dict) for v in positions.values()):
         raise InputError(f"{path}: 'positions_3d' must be {{subject: {{action: (T, 32, 3)}}}}")
     clips = []
