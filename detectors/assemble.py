@@ -11,11 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from detectors.keypoints import to_our_joints
-from detectors.tracking import TrackerConfig, track_detections, tracks_from_ids
-from detectors.types import PoseTrack2D
-from lifting.errors import InputError
-from lifting.joint_maps import KEYPOINT_LAYOUTS
+from platypose.detectors.keypoints import to_our_joints
+from platypose.detectors.tracking import TrackerConfig, track_detections, tracks_from_ids
+from platypose.detectors.types import PoseTrack2D
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import KEYPOINT_LAYOUTS
 
 
 @dataclass(frozen=True)

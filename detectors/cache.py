@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.atomic import atomic_open
+from platypose.lifting.atomic import atomic_open
 
 CACHE_VERSION = 2  # 2: detections in the detector's own layout
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from detectors.types import PoseTrack2D
-from lifting.calibration.matching import align_frames
+from platypose.detectors.types import PoseTrack2D
+from platypose.lifting.calibration.matching import align_frames
 
 
 def distances_to_reference(tracks: PoseTrack2D, reference: PoseTrack2D, person: int) -> np.ndarray:

@@ -17,14 +17,14 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-from detectors.detector import Detector
-from detectors.movenet import DEFAULT_LONGEST, MoveNetMultiPose
-from detectors.persons import load_person_detector
-from detectors.rtmo import RTMO
-from detectors.session import CPU, open_session
-from detectors.topdown import TopDown
-from detectors.yolo_pose import YoloPose
-from lifting.errors import InputError
+from platypose.detectors.detector import Detector
+from platypose.detectors.movenet import DEFAULT_LONGEST, MoveNetMultiPose
+from platypose.detectors.persons import load_person_detector
+from platypose.detectors.rtmo import RTMO
+from platypose.detectors.session import CPU, open_session
+from platypose.detectors.topdown import TopDown
+from platypose.detectors.yolo_pose import YoloPose
+from platypose.lifting.errors import InputError
 
 BUNDLED_MODEL = Path(__file__).resolve().parent / "models" / "movenet-multipose.onnx"
 FORMATS: tuple[str, ...] = ("movenet", "yolo-pose", "rtmo", "rtmpose", "heatmap")

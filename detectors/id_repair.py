@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from detectors.pose_metrics import person_size, pose_distance
-from lifting.skeleton import JOINT_INDEX
+from platypose.detectors.pose_metrics import person_size, pose_distance
+from platypose.lifting.skeleton import JOINT_INDEX
 
 _SEGMENT_NAMES = (
     ("right_hip", "left_hip"), ("left_shoulder", "right_shoulder"),

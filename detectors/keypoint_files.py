@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from detectors.types import PoseTrack2D
-from detectors.video import timing_from_video
-from lifting.atomic import atomic_open
-from lifting.errors import InputError
-from lifting.skeleton import JOINT_INDEX, JOINT_NAMES
+from platypose.detectors.types import PoseTrack2D
+from platypose.detectors.video import timing_from_video
+from platypose.lifting.atomic import atomic_open
+from platypose.lifting.errors import InputError
+from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 
 CSV_HEADER = ("person", "frame", "time", "joint", "x", "y", "confidence")
 

@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from detectors.assemble import Person, assemble_tracks
-from detectors.tracking import TrackerConfig
-from detectors.types import PoseTrack2D
-from lifting.errors import InputError
+from platypose.detectors.assemble import Person, assemble_tracks
+from platypose.detectors.tracking import TrackerConfig
+from platypose.detectors.types import PoseTrack2D
+from platypose.lifting.errors import InputError
 
 FORMAT = "platypose-keypoints2d"
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from lifting.joint_maps import KEYPOINT_LAYOUTS, apply_recipe_with_confidence
+from platypose.lifting.joint_maps import KEYPOINT_LAYOUTS, apply_recipe_with_confidence
 
 _LAYOUT_BY_COUNT = {17: "coco17", 26: "halpe26", 133: "wholebody133"}
 

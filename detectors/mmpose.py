@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from detectors.assemble import Person, assemble_tracks
-from detectors.keypoints import model_layout
-from detectors.tracking import TrackerConfig
-from detectors.types import PoseTrack2D
-from detectors.video import timing_from_video
-from lifting.errors import InputError
+from platypose.detectors.assemble import Person, assemble_tracks
+from platypose.detectors.keypoints import model_layout
+from platypose.detectors.tracking import TrackerConfig
+from platypose.detectors.types import PoseTrack2D
+from platypose.detectors.video import timing_from_video
+from platypose.lifting.errors import InputError
 
 
 def _mmpose_person(instance: dict) -> Person:

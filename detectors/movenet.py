@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from detectors.letterbox import fit_size, letterbox
+from platypose.detectors.letterbox import fit_size, letterbox
 
 DEFAULT_LONGEST = 384  # measured: 256 loses the backlit person in the Sports2D demo; see docs/keypoints.md
 

@@ -15,12 +15,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from detectors.keypoints import missing_persons
-from detectors.tracking import person_size
-from detectors.types import PoseTrack2D
-from lifting.calibration.matching import gather_views
-from lifting.camera import Camera
-from lifting.triangulation import reprojection_errors, triangulate
+from platypose.detectors.keypoints import missing_persons
+from platypose.detectors.tracking import person_size
+from platypose.detectors.types import PoseTrack2D
+from platypose.lifting.calibration.matching import gather_views
+from platypose.lifting.camera import Camera
+from platypose.lifting.triangulation import reprojection_errors, triangulate
 
 MIN_SHARED = 20  # joint observations two tracks must share to be compared
 FRAME_BLOCK = 1024  # frames triangulated and reprojected at a time: memory stays bounded for long takes

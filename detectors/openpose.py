@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from detectors.assemble import Person, assemble_tracks
-from detectors.tracking import TrackerConfig
-from detectors.types import PoseTrack2D
-from detectors.video import timing_from_video
-from lifting.errors import InputError
+from platypose.detectors.assemble import Person, assemble_tracks
+from platypose.detectors.tracking import TrackerConfig
+from platypose.detectors.types import PoseTrack2D
+from platypose.detectors.video import timing_from_video
+from platypose.lifting.errors import InputError
 
 _LAYOUT_BY_COUNT = {17: "coco17", 18: "coco18", 26: "halpe26", 133: "wholebody133"}
 

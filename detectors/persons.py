@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from detectors.boxes import center_to_corners, nms
-from detectors.letterbox import letterbox
-from detectors.onnx_io import input_hw, to_nchw
-from detectors.session import open_session
-from lifting.errors import InputError
+from platypose.detectors.boxes import center_to_corners, nms
+from platypose.detectors.letterbox import letterbox
+from platypose.detectors.onnx_io import input_hw, to_nchw
+from platypose.detectors.session import open_session
+from platypose.lifting.errors import InputError
 
 _STRIDES = (8, 16, 32)
 

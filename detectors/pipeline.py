@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from detectors.cache import DetectionCache, cache_key
-from detectors.detector import Detector
-from detectors.keypoints import to_our_joints
-from detectors.tracking import TrackerConfig, track_detections
-from detectors.types import PoseTrack2D
-from detectors.video import iter_frames, video_info
+from platypose.detectors.cache import DetectionCache, cache_key
+from platypose.detectors.detector import Detector
+from platypose.detectors.keypoints import to_our_joints
+from platypose.detectors.tracking import TrackerConfig, track_detections
+from platypose.detectors.types import PoseTrack2D
+from platypose.detectors.video import iter_frames, video_info
 
 Progress = Callable[[int, int], None]
 

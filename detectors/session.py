@@ -5,7 +5,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
-from lifting.errors import InputError
+from platypose.lifting.errors import InputError
 
 CPU = "CPUExecutionProvider"
 

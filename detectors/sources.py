@@ -5,13 +5,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from detectors.keypoint_files import read_keypoints_csv, read_keypoints_npz
-from detectors.keypoint_json import FORMAT, read_keypoints_json
-from detectors.mmpose import read_mmpose_json
-from detectors.openpose import read_openpose_folder
-from detectors.tracking import TrackerConfig
-from detectors.types import PoseTrack2D
-from lifting.errors import InputError
+from platypose.detectors.keypoint_files import read_keypoints_csv, read_keypoints_npz
+from platypose.detectors.keypoint_json import FORMAT, read_keypoints_json
+from platypose.detectors.mmpose import read_mmpose_json
+from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.tracking import TrackerConfig
+from platypose.detectors.types import PoseTrack2D
+from platypose.lifting.errors import InputError
 
 
 def read_keypoints(

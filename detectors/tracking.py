@@ -21,11 +21,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from detectors.id_repair import SwitchRepairConfig, repair_id_switches
-from detectors.keypoints import missing_persons
-from detectors.pose_metrics import person_size, pose_distance
-from detectors.types import PoseTrack2D
-from lifting.errors import InputError
+from platypose.detectors.id_repair import SwitchRepairConfig, repair_id_switches
+from platypose.detectors.keypoints import missing_persons
+from platypose.detectors.pose_metrics import person_size, pose_distance
+from platypose.detectors.types import PoseTrack2D
+from platypose.lifting.errors import InputError
 
 _NO_MATCH = 1e6
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.errors import InputError
+from platypose.lifting.errors import InputError
 
 VIDEO_SUFFIXES: tuple[str, ...] = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg")
 

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from detectors.boxes import center_to_corners, nms
-from detectors.keypoints import model_layout
-from detectors.letterbox import letterbox
-from detectors.onnx_io import input_hw, to_nchw
+from platypose.detectors.boxes import center_to_corners, nms
+from platypose.detectors.keypoints import model_layout
+from platypose.detectors.letterbox import letterbox
+from platypose.detectors.onnx_io import input_hw, to_nchw
 
 
 class YoloPose:

@@ -4,7 +4,7 @@
 imported only when a recording is written.
 """
 
-from exporters.export import FORMATS, export
-from exporters.result import LiftResult
+from platypose.exporters.export import FORMATS, export
+from platypose.exporters.result import LiftResult
 
 __all__ = ["FORMATS", "LiftResult", "export"]

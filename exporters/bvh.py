@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from exporters.frames import Lead, frame_chunks
-from exporters.ik import CHILDREN, fit_rotations, forward_kinematics, local_euler
-from lifting.atomic import atomic_open
-from lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
+from platypose.exporters.frames import Lead, frame_chunks
+from platypose.exporters.ik import CHILDREN, fit_rotations, forward_kinematics, local_euler
+from platypose.lifting.atomic import atomic_open
+from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
 
 CM_PER_M = 100.0
 DECIMALS = 6

@@ -14,10 +14,10 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from exporters.frames import frame_chunks
-from exporters.result import LiftResult
-from lifting.atomic import atomic_open
-from lifting.skeleton import JOINT_NAMES, NUM_JOINTS
+from platypose.exporters.frames import frame_chunks
+from platypose.exporters.result import LiftResult
+from platypose.lifting.atomic import atomic_open
+from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
 
 LONG_COLUMNS = ("person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m")
 STATISTICS = ("median", "q05", "q95")

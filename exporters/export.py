@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from exporters.bvh import write_bvh
-from exporters.csv_export import write_long_csv, write_summary_csv
-from exporters.frames import Lead
-from exporters.npz import write_npz
-from exporters.result import LiftResult
-from lifting.errors import InputError
+from platypose.exporters.bvh import write_bvh
+from platypose.exporters.csv_export import write_long_csv, write_summary_csv
+from platypose.exporters.frames import Lead
+from platypose.exporters.npz import write_npz
+from platypose.exporters.result import LiftResult
+from platypose.lifting.errors import InputError
 
 FORMATS = ("npz", "csv", "bvh", "rrd")
 BVH_MODES = ("median", "all")
@@ -71,7 +71,7 @@ def export(
         raise InputError(f"--bvh must be one of {', '.join(BVH_MODES)}, got {bvh!r}")
     out_dir = Path(out_dir)
     if "rrd" in formats:
-        from exporters.rrd import check_videos
+        from platypose.exporters.rrd import check_videos
 
         check_videos(result, {k: Path(v) for k, v in (video_paths or {}).items()}, rrd_video)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -89,7 +89,7 @@ def export(
         written.append(write_long_csv(result, out_dir / f"{name}.csv"))
         written.append(write_summary_csv(result, out_dir / f"{name}_summary.csv"))
     if "rrd" in formats:
-        from exporters.rrd import write_rrd
+        from platypose.exporters.rrd import write_rrd
 
         say(f"{name}: rerun recording")
         written.append(write_rrd(result, out_dir / f"{name}.rrd", name, video_paths, rrd_video, say))

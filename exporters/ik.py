@@ -16,7 +16,7 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
+from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
 
 EULER_ORDER = "ZXY"  # intrinsic: R = Rz @ Rx @ Ry
 

@@ -9,14 +9,14 @@ from typing import IO
 
 import numpy as np
 
-from exporters.frames import FrameArray, frame_chunks
-from exporters.result import LiftResult
-from lifting.atomic import atomic_open
-from lifting.calibration.model import Calibration, new_meta
-from lifting.calibration.native import FORMAT, calibration_from_dict, calibration_to_dict
-from lifting.camera import Camera
-from lifting.errors import InputError
-from lifting.skeleton import JOINT_NAMES, PARENTS
+from platypose.exporters.frames import FrameArray, frame_chunks
+from platypose.exporters.result import LiftResult
+from platypose.lifting.atomic import atomic_open
+from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.calibration.native import FORMAT, calibration_from_dict, calibration_to_dict
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
+from platypose.lifting.skeleton import JOINT_NAMES, PARENTS
 
 REQUIRED = (
     "hypotheses", "median", "keypoints2d", "frame_times", "fps", "joint_names", "parents",

@@ -16,9 +16,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from exporters.frames import FrameArray, frame_chunks
-from lifting.camera import Camera
-from lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
+from platypose.exporters.frames import FrameArray, frame_chunks
+from platypose.lifting.camera import Camera
+from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
 
 
 @dataclass(frozen=True)

@@ -23,13 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
-from exporters import rerun_adapter as rra
-from exporters.frames import frame_chunks
-from exporters.result import LiftResult
-from exporters.video import jpeg_frames, needs_reencode, reencode_h264
-from lifting.atomic import atomic_path
-from lifting.errors import InputError
-from lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS
+from platypose.exporters import rerun_adapter as rra
+from platypose.exporters.frames import frame_chunks
+from platypose.exporters.result import LiftResult
+from platypose.exporters.video import jpeg_frames, needs_reencode, reencode_h264
+from platypose.lifting.atomic import atomic_path
+from platypose.lifting.errors import InputError
+from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS
 
 VIDEO_MODES = ("asset", "frames", "none")
 MEDIAN_CLASS = 65000

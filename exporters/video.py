@@ -9,7 +9,7 @@ import av
 import cv2
 import numpy as np
 
-from lifting.errors import InputError
+from platypose.lifting.errors import InputError
 
 # Codecs rerun's viewers decode from an MP4 asset everywhere; others are re-encoded to H.264.
 PLAYABLE_CODECS = frozenset({"h264", "av1"})

@@ -17,12 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from lifting.calibration.defaults import default_camera
-from lifting.camera import Camera, project
-from lifting.prior import MotionPrior, PriorBundle, PriorConfig
-from lifting.representation import features_to_joints
-from lifting.sampler import SamplerConfig, cameras_and_rays, sample
-from lifting.schedule import sampling_steps
+from platypose.lifting.calibration.defaults import default_camera
+from platypose.lifting.camera import Camera, project
+from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig
+from platypose.lifting.representation import features_to_joints
+from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, sample
+from platypose.lifting.schedule import sampling_steps
 
 BENCH_IMAGE_SIZE = (1080, 1920)  # (height, width) of the synthetic view
 BENCH_DISTANCE_M = 4.0  # person in front of the camera

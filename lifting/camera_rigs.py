@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from lifting.camera import Camera
+from platypose.lifting.camera import Camera
 
 
 def look_at(position: np.ndarray, target: np.ndarray, up: np.ndarray = np.array([0.0, 0.0, 1.0])) -> np.ndarray:

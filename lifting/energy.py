@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from lifting.camera import CameraBatch, undistort_normalized
-from lifting.skeleton import BONES, SYMMETRIC_BONES
+from platypose.lifting.camera import CameraBatch, undistort_normalized
+from platypose.lifting.skeleton import BONES, SYMMETRIC_BONES
 
 ROBUST_LOSSES = ("l2", "geman-mcclure")
 

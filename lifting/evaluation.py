@@ -14,10 +14,10 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from lifting import metrics
-from lifting.camera import Camera, project
-from lifting.prior import PriorBundle
-from lifting.sampler import SamplerConfig, cameras_and_rays, sample
+from platypose.lifting import metrics
+from platypose.lifting.camera import Camera, project
+from platypose.lifting.prior import PriorBundle
+from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, sample
 
 METRIC_NAMES = ("minMPJPE", "minMPSPE", "PA-MPJPE", "PA-MPSPE", "MPJVE", "root", "ECE", "ECE worst")
 

@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from lifting.skeleton import JOINT_NAMES
+from platypose.lifting.skeleton import JOINT_NAMES
 
 Recipe = Mapping[str, Mapping[str, float]]
 

@@ -16,11 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from lifting.camera import Camera
-from lifting.prior import PriorBundle
-from lifting.sampler import Anchor, SampleResult, SamplerConfig, cameras_and_rays, sample
-from lifting.timebase import blend_samples, interpolate, interpolation_weights
-from lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
+from platypose.lifting.camera import Camera
+from platypose.lifting.prior import PriorBundle
+from platypose.lifting.sampler import Anchor, SampleResult, SamplerConfig, cameras_and_rays, sample
+from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights
+from platypose.lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
 
 
 @dataclass(frozen=True)

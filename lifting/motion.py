@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from lifting.skeleton import NUM_JOINTS
+from platypose.lifting.skeleton import NUM_JOINTS
 
 
 @dataclass(frozen=True)

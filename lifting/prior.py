@@ -20,11 +20,11 @@ import numpy as np
 import torch
 from torch import nn
 
-from lifting.atomic import atomic_open
-from lifting.errors import InputError
-from lifting.representation import FEATURES_PER_FRAME, Normalizer
-from lifting.schedule import TRAIN_STEPS
-from lifting.skeleton import JOINT_NAMES
+from platypose.lifting.atomic import atomic_open
+from platypose.lifting.errors import InputError
+from platypose.lifting.representation import FEATURES_PER_FRAME, Normalizer
+from platypose.lifting.schedule import TRAIN_STEPS
+from platypose.lifting.skeleton import JOINT_NAMES
 
 CHECKPOINT_FORMAT = "platypose-prior"
 CHECKPOINT_VERSION = 1

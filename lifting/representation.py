@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from lifting.skeleton import NUM_JOINTS
+from platypose.lifting.skeleton import NUM_JOINTS
 
 FEATURES_PER_FRAME = 3 * NUM_JOINTS
 

@@ -11,9 +11,9 @@ from itertools import pairwise
 
 import numpy as np
 
-from lifting.camera import Camera
-from lifting.skeleton import JOINT_NAMES
-from lifting.triangulation import triangulate
+from platypose.lifting.camera import Camera
+from platypose.lifting.skeleton import JOINT_NAMES
+from platypose.lifting.triangulation import triangulate
 
 PELVIS = JOINT_NAMES.index("pelvis")
 

@@ -17,8 +17,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from lifting.errors import InputError
-from lifting.prior import MotionPrior, PriorBundle, load_prior
+from platypose.lifting.errors import InputError
+from platypose.lifting.prior import MotionPrior, PriorBundle, load_prior
 
 DEVICES = ("cpu", "cuda", "auto")
 RUNTIMES = ("float32", "bfloat16", "onnx")

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from lifting.camera import CameraBatch
-from lifting.depth_smoothing import smooth_depth
-from lifting.energy import (
+from platypose.lifting.camera import CameraBatch
+from platypose.lifting.depth_smoothing import smooth_depth
+from platypose.lifting.energy import (
     ROBUST_LOSSES,
     Observations,
     bone_constancy_energy,
@@ -32,13 +32,13 @@ from lifting.energy import (
     solve_symmetric3,
     symmetry_energy,
 )
-from lifting.noise_spread import noise_spread, unit_weight_variance
-from lifting.temporal_fit import acceleration_weight, fit_to_noise, keypoint_noise, posterior_shrink, smooth_keypoints
-from lifting.prior import PriorBundle
-from lifting.representation import features_to_joints, joints_to_features
-from lifting.schedule import DiffusionSchedule, sampling_steps
-from lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
-from lifting.translation import RayConstraints, ray_constraints, solve_translation
+from platypose.lifting.noise_spread import noise_spread, unit_weight_variance
+from platypose.lifting.temporal_fit import acceleration_weight, fit_to_noise, keypoint_noise, posterior_shrink, smooth_keypoints
+from platypose.lifting.prior import PriorBundle
+from platypose.lifting.representation import features_to_joints, joints_to_features
+from platypose.lifting.schedule import DiffusionSchedule, sampling_steps
+from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
+from platypose.lifting.translation import RayConstraints, ray_constraints, solve_translation
 
 STEP_RULES = ("backtrack", "paper")
 DEPTH_RANGE = 1.5  # one view: a root over this many times nearer or farther than the median hypothesis is moved back

@@ -15,12 +15,12 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import torch
 
-from lifting.motion import Motion
-from lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
-from lifting.representation import Normalizer, joints_to_features
-from lifting.schedule import DiffusionSchedule
-from lifting.skeleton import MIRROR, PARENTS, mirror_joints
-from lifting.timebase import interpolate, resample
+from platypose.lifting.motion import Motion
+from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
+from platypose.lifting.representation import Normalizer, joints_to_features
+from platypose.lifting.schedule import DiffusionSchedule
+from platypose.lifting.skeleton import MIRROR, PARENTS, mirror_joints
+from platypose.lifting.timebase import interpolate, resample
 
 
 @dataclass(frozen=True)

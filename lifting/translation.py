@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import torch
 
-from lifting.camera import CameraBatch
-from lifting.energy import Observations
+from platypose.lifting.camera import CameraBatch
+from platypose.lifting.energy import Observations
 
 
 @dataclass(frozen=True)

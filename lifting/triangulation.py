@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lifting.camera import Camera, project, undistort_normalized
+from platypose.lifting.camera import Camera, project, undistort_normalized
 
 # A person hypothesis must triangulate at least this fraction of the joints to be chosen.
 MIN_JOINT_FRACTION = 0.5

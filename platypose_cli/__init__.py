@@ -1,8 +1,1 @@
-"""The ``platypose`` command line."""
-
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("platypose")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0.0.0+unknown"
+"""The ``platypose`` command line (installed as ``platypose.cli``)."""

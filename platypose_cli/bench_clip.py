@@ -9,7 +9,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from lifting.errors import InputError
+from platypose.lifting.errors import InputError
 
 
 def loop_video(source: Path, target: Path, frames: int, fps: float) -> tuple[int, int]:
@@ -19,7 +19,7 @@ def loop_video(source: Path, target: Path, frames: int, fps: float) -> tuple[int
     """
     import cv2
 
-    from detectors.video import iter_frames, video_info
+    from platypose.detectors.video import iter_frames, video_info
 
     height, width = video_info(source).image_size
     writer = cv2.VideoWriter(str(target), cv2.VideoWriter_fourcc(*"mp4v"), fps, (width, height))
@@ -68,12 +68,12 @@ def lift_clip(video: Path, prior, samples: int, threads: int | None, say: Callab
     persons; a looped clip starts new tracks at its seams). The view has the
     default camera (no calibration), like ``platypose lift`` without ``--cams``.
     """
-    from detectors.contracts import load_detector
-    from detectors.pipeline import detect_video
-    from detectors.tracking import select_persons
-    from lifting.calibration.defaults import default_camera
-    from lifting.lift import lift_tracks
-    from lifting.sampler import SamplerConfig
+    from platypose.detectors.contracts import load_detector
+    from platypose.detectors.pipeline import detect_video
+    from platypose.detectors.tracking import select_persons
+    from platypose.lifting.calibration.defaults import default_camera
+    from platypose.lifting.lift import lift_tracks
+    from platypose.lifting.sampler import SamplerConfig
 
     started, cpu_started = time.perf_counter(), time.process_time()
     detector = load_detector(threads=threads)

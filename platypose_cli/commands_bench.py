@@ -10,9 +10,11 @@ from pathlib import Path
 
 import typer
 
-from platypose_cli.app import app
+from platypose.cli.app import app
+from platypose.data import VIDEO_DIR
 
-DEMO_VIDEO = Path(__file__).resolve().parents[1] / "data" / "video" / "sports2d-demo" / "demo.mp4"
+DEMO_VIDEO = VIDEO_DIR / "sports2d-demo" / "demo.mp4"
+
 SKIPPED_STEPS = 2  # as ``platypose lift``: --steps 10 --skip 2 runs 8 network calls
 CLIP_FPS = 30.0
 CLIP_HYPOTHESES = 50
@@ -20,8 +22,8 @@ CLIP_HYPOTHESES = 50
 
 def sampler_settings(prior, samples: int, frames: int, steps: int, k: int, repeats: int, matmul_size: int):
     """The SamplerConfig of ``steps`` network calls; InputError for sizes the prior or the bench cannot run."""
-    from lifting.errors import InputError
-    from platypose_cli.options import sampler_config
+    from platypose.lifting.errors import InputError
+    from platypose.cli.options import sampler_config
 
     if not 1 <= frames <= prior.config.max_frames:
         raise InputError(f"--frames {frames}: the prior's windows hold 1..{prior.config.max_frames} frames")
@@ -36,7 +38,7 @@ def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int, 
     """Time the sampler and the matmul reference; the ``sampler`` part of the report."""
     import statistics
 
-    from lifting.benchmark import matmul_probe, time_sampler
+    from platypose.lifting.benchmark import matmul_probe, time_sampler
 
     probe = matmul_probe(matmul_size, prior.device)
     probe()  # warm-up
@@ -66,7 +68,7 @@ def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int, 
 
 def clip_section(prior, video: Path, seconds: float, threads: int | None, say) -> dict:
     """Loop ``video`` into a ``seconds`` long 30 fps clip, detect and lift it; the ``end_to_end`` part of the report."""
-    from platypose_cli.bench_clip import lift_clip, loop_video
+    from platypose.cli.bench_clip import lift_clip, loop_video
 
     frames = max(1, round(seconds * CLIP_FPS))
     with tempfile.TemporaryDirectory(prefix="platypose-bench-") as folder:
@@ -166,11 +168,11 @@ def bench(
     """Time the guided sampler and a whole single-view clip on this machine (docs/bench.md)."""
     import torch
 
-    from lifting.atomic import write_text_atomic
-    from lifting.errors import InputError
-    from lifting.prior import DEFAULT_PRIOR
-    from lifting.runtime import load_for_runtime
-    from platypose_cli.bench_clip import peak_rss_mb
+    from platypose.lifting.atomic import write_text_atomic
+    from platypose.lifting.errors import InputError
+    from platypose.lifting.prior import DEFAULT_PRIOR
+    from platypose.lifting.runtime import load_for_runtime
+    from platypose.cli.bench_clip import peak_rss_mb
 
     def say(message: str) -> None:
         if not quiet:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from platypose_cli.app import app
+from platypose.cli.app import app
 
 calib_app = typer.Typer(help="Convert camera calibrations to calib.json and check them.", no_args_is_help=True)
 app.add_typer(calib_app, name="calib")
@@ -30,9 +30,9 @@ def convert(
 
     Given a video instead, write a one-camera calibration from its size: field-of-view prior, level camera at the origin.
     """
-    from detectors.video import VIDEO_SUFFIXES, video_info
-    from lifting.calibration import load_calibration, save_calibration
-    from lifting.calibration.defaults import default_calibration
+    from platypose.detectors.video import VIDEO_SUFFIXES, video_info
+    from platypose.lifting.calibration import load_calibration, save_calibration
+    from platypose.lifting.calibration.defaults import default_calibration
 
     if source.suffix.lower() in VIDEO_SUFFIXES:
         height, width = video_info(source).image_size
@@ -47,9 +47,9 @@ def convert(
 
 def _check_videos(calibration, videos: list[Path]) -> None:
     """Match videos to cameras and warn about size differences."""
-    from detectors.video import video_info
-    from lifting.calibration.matching import match_views
-    from lifting.calibration.report import size_mismatch
+    from platypose.detectors.video import video_info
+    from platypose.lifting.calibration.matching import match_views
+    from platypose.lifting.calibration.report import size_mismatch
 
     by_name = {v.name: v for v in videos}
     for camera_name, video_name in match_views(calibration.names, list(by_name), allow_missing=True).items():
@@ -60,10 +60,10 @@ def _check_videos(calibration, videos: list[Path]) -> None:
 
 def _check_keypoints(calibration, folder: Path, fps: float | None) -> None:
     """Triangulate multi-view 2D keypoints and print the median reprojection error."""
-    from detectors.openpose import read_openpose_folder
-    from lifting.calibration.matching import gather_views, match_views
-    from lifting.errors import InputError
-    from lifting.triangulation import associate_single_person, median_reprojection_error, triangulate, view_median_errors
+    from platypose.detectors.openpose import read_openpose_folder
+    from platypose.lifting.calibration.matching import gather_views, match_views
+    from platypose.lifting.errors import InputError
+    from platypose.lifting.triangulation import associate_single_person, median_reprojection_error, triangulate, view_median_errors
 
     views = {d.name: d for d in sorted(folder.iterdir()) if d.is_dir()} if folder.is_dir() else {}
     if not views:
@@ -94,8 +94,8 @@ def check(
     subject: str = typer.Option(None, "--subject", help=SUBJECT_HELP),
 ) -> None:
     """Print each camera, warn about videos whose size differs, and measure triangulation error on keypoints."""
-    from lifting.calibration import load_calibration
-    from lifting.calibration.report import describe_camera
+    from platypose.lifting.calibration import load_calibration
+    from platypose.lifting.calibration.report import describe_camera
 
     calibration = load_calibration(calib, world_up=world_up, units=units, subject=subject)
     typer.echo(f"{calib}: {len(calibration.cameras)} camera(s), format {calibration.meta['format']}, world Z up, metres")

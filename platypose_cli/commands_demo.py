@@ -6,26 +6,26 @@ from pathlib import Path
 
 import typer
 
-from platypose_cli.app import app
+from platypose.cli.app import app
 
-TAKE_PATH = Path("data") / "video" / "pose2sim-balancing"
 SOURCES = ("videos", "keypoints")
 
 
 def demo_take() -> Path:
-    """The bundled take: beside the installed source tree (editable install), else under the working directory."""
-    beside = Path(__file__).resolve().parents[1] / TAKE_PATH
-    return beside if beside.is_dir() else Path.cwd() / TAKE_PATH
+    """The bundled take, installed with the package (``platypose.data``)."""
+    from platypose.data import VIDEO_DIR
+
+    return VIDEO_DIR / "pose2sim-balancing"
 
 
 def demo_job(take: Path, source: str):
     """The demo's job: cam01 + cam02 videos (bundled detector) or the OpenPose keypoints of all 4 views."""
-    from lifting.calibration import load_calibration
-    from lifting.errors import InputError
-    from platypose_cli.lift_jobs import discover_jobs, keypoints_job
+    from platypose.lifting.calibration import load_calibration
+    from platypose.lifting.errors import InputError
+    from platypose.cli.lift_jobs import discover_jobs, keypoints_job
 
     if not (take / "calib_pose2sim.toml").is_file():
-        raise InputError(f"{take}: the demo take is not there; run the demo from the root of a platypose checkout")
+        raise InputError(f"{take}: the demo take is not there; reinstall platypose (it ships as package data)")
     names = load_calibration(take / "calib_pose2sim.toml").names
     if source == "keypoints":
         return keypoints_job(take / "openpose-body25b", [], names)
@@ -38,7 +38,7 @@ def describe(npz: Path) -> list[str]:
     """A few lines about a lift result: size, and per person presence, pelvis height and hypothesis spread."""
     import numpy as np
 
-    from exporters.npz import read_npz
+    from platypose.exporters.npz import read_npz
 
     result = read_npz(npz)
     size = f"{result.num_persons} person(s) x {result.num_hypotheses} hypotheses x {result.num_frames} frames"
@@ -66,9 +66,9 @@ def demo(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
 ) -> None:
     """Lift the bundled Pose2Sim balancing take (real lab videos, 4-camera calibration) and say where the files are."""
-    from platypose_cli.commands_lift import finish, lift_settings
-    from platypose_cli.detection import DetectOptions
-    from platypose_cli.lift_batch import run_batch
+    from platypose.cli.commands_lift import finish, lift_settings
+    from platypose.cli.detection import DetectOptions
+    from platypose.cli.lift_batch import run_batch
 
     take = demo_take()
     job = demo_job(take, source)

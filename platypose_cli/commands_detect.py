@@ -6,8 +6,8 @@ from pathlib import Path
 
 import typer
 
-from platypose_cli.app import app
-from platypose_cli.detection import Detection, DetectOptions, image_size_option, view_name
+from platypose.cli.app import app
+from platypose.cli.detection import Detection, DetectOptions, image_size_option, view_name
 
 
 def _summary(tracks, seconds: float, frames_run: int | None) -> list[str]:
@@ -42,10 +42,10 @@ def _comparison(tracks, reference_path: Path, fps: float | None, image_size: tup
     """Lines with the per-joint median pixel distance from the reference's main person to the nearest track."""
     import numpy as np
 
-    from detectors.compare import distances_to_reference
-    from detectors.sources import read_keypoints
-    from detectors.tracking import persons_to_keep
-    from lifting.skeleton import JOINT_NAMES
+    from platypose.detectors.compare import distances_to_reference
+    from platypose.detectors.sources import read_keypoints
+    from platypose.detectors.tracking import persons_to_keep
+    from platypose.lifting.skeleton import JOINT_NAMES
 
     reference = read_keypoints(reference_path, fps=fps, image_size=image_size)
     main = int(persons_to_keep([reference], "largest")[0])
@@ -108,22 +108,22 @@ def detect(
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar."),
 ) -> None:
     """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
-    from detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
-    from detectors.tracking import persons_count, persons_to_keep
+    from platypose.detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
+    from platypose.detectors.tracking import persons_count, persons_to_keep
 
     persons_count(persons)  # a bad --persons fails before any detection
     names = [view_name(source) for source in sources]
     cameras = None
     if cams is not None:
-        from lifting.calibration import load_calibration
-        from lifting.calibration.matching import match_views
+        from platypose.lifting.calibration import load_calibration
+        from platypose.lifting.calibration.matching import match_views
 
         calibration = load_calibration(cams)
         pairs = match_views(calibration.names, names, allow_missing=True)
         by_view = {view: calibration.camera(camera) for camera, view in pairs.items()}
         cameras = [by_view[name] for name in names]
     elif len(set(names)) != len(names):
-        from lifting.errors import InputError
+        from platypose.lifting.errors import InputError
 
         raise InputError(f"two sources share the output name {names}; give them different names")
     options = DetectOptions(
@@ -134,13 +134,13 @@ def detect(
     results = [detection.tracks(source, out / name, quiet) for source, name in zip(sources, names)]
     views = [tracks for tracks, _, _ in results]
     if cameras is not None:
-        from detectors.multiview import match_across_views
+        from platypose.detectors.multiview import match_across_views
 
         views = match_across_views(views, cameras)
     comparison = []
     if compare is not None:
         if len(views) != 1:
-            from lifting.errors import InputError
+            from platypose.lifting.errors import InputError
 
             raise InputError(f"--compare {compare}: compare one source at a time")
         comparison = _comparison(views[0], compare, fps, image_size_option(image_size))

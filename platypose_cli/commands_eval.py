@@ -8,10 +8,10 @@ from pathlib import Path
 
 import typer
 
-from lifting.atomic import write_text_atomic
-from lifting.errors import InputError
-from platypose_cli.app import app
-from platypose_cli.options import int_list, sampler_config
+from platypose.lifting.atomic import write_text_atomic
+from platypose.lifting.errors import InputError
+from platypose.cli.app import app
+from platypose.cli.options import int_list, sampler_config
 
 
 @app.command("eval")
@@ -45,11 +45,11 @@ def evaluate_command(
     runtime: str = typer.Option("float32", help="Denoiser runtime: float32, bfloat16 or onnx (CPU; docs/bench.md)."),
 ) -> None:
     """Project motion through cameras, lift it, and print minMPJPE, minMPSPE, PA-*, MPJVE, ECE."""
-    from lifting.camera_rigs import ring_cameras
-    from lifting.evaluation import evaluate, format_header
-    from lifting.motion_io import load_motion_paths
-    from lifting.runtime import load_for_runtime
-    from lifting.timebase import resample
+    from platypose.lifting.camera_rigs import ring_cameras
+    from platypose.lifting.evaluation import evaluate, format_header
+    from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.runtime import load_for_runtime
+    from platypose.lifting.timebase import resample
 
     frames_list = int_list(frames, "--frames")
     samples_list = int_list(samples, "--samples")
@@ -61,7 +61,7 @@ def evaluate_command(
     if max(frames_list) > bundle.config.max_frames:
         raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")
     if cams is not None:
-        from lifting.calibration import load_calibration
+        from platypose.lifting.calibration import load_calibration
 
         cameras = list(load_calibration(cams).cameras)
     else:

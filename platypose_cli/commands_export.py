@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from platypose_cli.app import app
+from platypose.cli.app import app
 
 
 def _describe(path: Path, result) -> list[str]:
@@ -53,7 +53,7 @@ def _describe(path: Path, result) -> list[str]:
 
 def _video_map(items: list[str], camera_names: list[str]) -> dict[str, Path]:
     """``NAME=PATH`` items (or one bare PATH when there is one camera) -> {camera name: path}."""
-    from lifting.errors import InputError
+    from platypose.lifting.errors import InputError
 
     videos: dict[str, Path] = {}
     for item in items:
@@ -69,7 +69,7 @@ def _video_map(items: list[str], camera_names: list[str]) -> dict[str, Path]:
 @app.command("info")
 def info(path: Path = typer.Argument(..., help="A platypose result file (OUT/<name>/<name>.npz).")) -> None:
     """Validate a result npz and print a summary: persons, hypotheses, frames, cameras, spread, meta."""
-    from exporters.npz import read_npz
+    from platypose.exporters.npz import read_npz
 
     result = read_npz(path)
     typer.echo("\n".join(_describe(path, result)))
@@ -89,8 +89,8 @@ def export_command(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
 ) -> None:  # fmt: skip
     """Re-export CSV, BVH and rerun files from a result npz (writing npz again only if asked)."""
-    from exporters import export
-    from exporters.npz import read_npz
+    from platypose.exporters import export
+    from platypose.exporters.npz import read_npz
 
     result = read_npz(path)
     videos = _video_map(video, [c.name for c in result.cameras])

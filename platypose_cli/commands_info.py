@@ -6,8 +6,8 @@ import platform
 
 import typer
 
-from platypose_cli import __version__
-from platypose_cli.app import app
+from platypose import __version__
+from platypose.cli.app import app
 
 
 @app.command("doctor")

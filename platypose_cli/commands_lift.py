@@ -6,8 +6,8 @@ from pathlib import Path
 
 import typer
 
-from platypose_cli.app import app
-from platypose_cli.detection import DetectOptions
+from platypose.cli.app import app
+from platypose.cli.detection import DetectOptions
 
 
 def lift_settings(
@@ -15,12 +15,12 @@ def lift_settings(
     formats: str, persons: str, root: str, root_file: Path | None, quiet: bool, arguments: dict, device: str = "cpu",
 ):  # fmt: skip
     """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
-    from detectors.tracking import persons_count
-    from exporters.export import parse_formats
-    from lifting.errors import InputError
-    from lifting.runtime import resolve_device
-    from platypose_cli.lift_run import ROOT_MODES, RunSettings
-    from platypose_cli.options import sampler_config
+    from platypose.detectors.tracking import persons_count
+    from platypose.exporters.export import parse_formats
+    from platypose.lifting.errors import InputError
+    from platypose.lifting.runtime import resolve_device
+    from platypose.cli.lift_run import ROOT_MODES, RunSettings
+    from platypose.cli.options import sampler_config
 
     persons_count(persons)
     sampler_config(**sampler)
@@ -110,9 +110,9 @@ def lift(
 ) -> None:
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
     arguments = {k: (str(v) if isinstance(v, Path) else v) for k, v in locals().items()}
-    from lifting.errors import InputError
-    from platypose_cli.lift_batch import run_batch
-    from platypose_cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
+    from platypose.lifting.errors import InputError
+    from platypose.cli.lift_batch import run_batch
+    from platypose.cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
 
     if keypoints is not None and detector is not None:
         raise InputError("--keypoints and --detector exclude each other: keypoints are read, not detected")
@@ -120,7 +120,7 @@ def lift(
         raise InputError("give INPUT videos or folders, or --keypoints")
     camera_names: tuple[str, ...] = ()
     if cams is not None:
-        from lifting.calibration import load_calibration
+        from platypose.lifting.calibration import load_calibration
 
         camera_names = load_calibration(cams).names
     paths = expand_inputs(inputs or [])

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from platypose_cli.app import app
+from platypose.cli.app import app
 
 motion_app = typer.Typer(help="Inspect real 3D motion files (BVH, ASF/AMC, holosoma, DeepMimic, H3.6M, npz, C3D).",
                          no_args_is_help=True)  # fmt: skip
@@ -18,7 +18,7 @@ SCALE_HELP = "BVH: metres per file unit (default: detected); DeepMimic: URDF sca
 
 
 def _name_map(path: Path | None) -> dict[str, str] | None:
-    from lifting.errors import InputError
+    from platypose.lifting.errors import InputError
 
     if path is None:
         return None
@@ -44,8 +44,8 @@ def info(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object per clip instead of text."),
 ) -> None:
     """Show clips, frames, fps, duration, licence, height and per-bone median lengths of motion files."""
-    from lifting.motion_io import load_motion_paths, supported_formats
-    from lifting.motion_io.summary import motion_summary
+    from platypose.lifting.motion_io import load_motion_paths, supported_formats
+    from platypose.lifting.motion_io.summary import motion_summary
 
     options = {k: v for k, v in {"name_map": _name_map(name_map), "scale": scale}.items() if v is not None}
     clips = load_motion_paths(paths, fps=fps, **options)

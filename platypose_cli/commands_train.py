@@ -9,8 +9,8 @@ from pathlib import Path
 
 import typer
 
-from lifting.errors import InputError
-from platypose_cli.app import app
+from platypose.lifting.errors import InputError
+from platypose.cli.app import app
 
 
 @app.command("train")
@@ -35,9 +35,9 @@ def train(
     quiet: bool = typer.Option(False, "--quiet", help="No progress output."),
 ) -> None:
     """Train a motion prior (x0-predicting transformer) on real 3D motion."""
-    from lifting.motion_io import load_motion_paths
-    from lifting.prior import PriorConfig, load_prior
-    from lifting.training import TrainConfig, train_prior
+    from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.training import TrainConfig, train_prior
 
     if iterations < 1 or batch_size < 1:
         raise InputError("train: iterations and batch size must be positive")
@@ -80,7 +80,7 @@ def prior_info(prior: Path = typer.Argument(None, help="Checkpoint (default: the
     """Print a prior's size, frame rate, training data and the licence of every clip."""
     from dataclasses import asdict
 
-    from lifting.prior import DEFAULT_PRIOR, load_prior
+    from platypose.lifting.prior import DEFAULT_PRIOR, load_prior
 
     bundle, _ = load_prior(prior)
     manifest = bundle.manifest

@@ -14,7 +14,7 @@ KEYPOINT_SUFFIXES = (".json", ".npz", ".csv")
 
 def image_size_option(value: str | None) -> tuple[int, int] | None:
     """``HEIGHTxWIDTH`` -> (height, width)."""
-    from lifting.errors import InputError
+    from platypose.lifting.errors import InputError
 
     if value is None:
         return None
@@ -63,13 +63,13 @@ class Detection:
         o = self.options
         started = time.perf_counter()
         if is_keypoint_source(source):
-            from detectors.sources import read_keypoints
+            from platypose.detectors.sources import read_keypoints
 
             tracks = read_keypoints(source, fps=o.fps, image_size=image_size_option(o.image_size))
             return tracks, time.perf_counter() - started, None
-        from detectors.contracts import load_detector
-        from detectors.pipeline import detect_video
-        from detectors.video import video_info
+        from platypose.detectors.contracts import load_detector
+        from platypose.detectors.pipeline import detect_video
+        from platypose.detectors.video import video_info
 
         info = video_info(source)
         if self.model is None:

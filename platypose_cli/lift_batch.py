@@ -16,8 +16,8 @@ from pathlib import Path
 
 import typer
 
-from platypose_cli.lift_jobs import Job
-from platypose_cli.lift_run import (
+from platypose.cli.lift_jobs import Job
+from platypose.cli.lift_run import (
     RunSettings,
     earlier_failure,
     fingerprint,
@@ -44,7 +44,7 @@ def limit_threads(threads: int) -> None:
 
 def write_summary(out: Path, entries: list[dict], started: str, arguments: dict) -> Path:
     """Write ``OUT/summary.json`` atomically: inputs in job order, counts per status, arguments."""
-    from exporters.atomic import write_text_atomic
+    from platypose.lifting.atomic import write_text_atomic
 
     counts = {s: sum(e["status"] == s for e in entries) for s in ("ok", "failed", "skipped")}
     summary = {"inputs": entries, "counts": counts, "started": started,

@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from lifting.errors import InputError
-from platypose_cli.detection import Detection, DetectOptions
-from platypose_cli.lift_jobs import Job
+from platypose.lifting.errors import InputError
+from platypose.cli.detection import Detection, DetectOptions
+from platypose.cli.lift_jobs import Job
 
 MANIFEST = "lift.json"
 FAILURE = "failed.json"
@@ -74,7 +74,7 @@ class JobLog:
 
     def write(self, path: Path) -> None:
         """Write the log atomically."""
-        from exporters.atomic import write_text_atomic
+        from platypose.lifting.atomic import write_text_atomic
 
         write_text_atomic(path, "\n".join(self.lines) + "\n")
 
@@ -84,7 +84,7 @@ _PRIORS: dict[str, object] = {}
 
 def _prior(path: Path | None, device: str = "cpu"):
     """The prior at ``path`` (default: the shipped one) on ``device``, loaded once per process."""
-    from lifting.runtime import load_for_runtime
+    from platypose.lifting.runtime import load_for_runtime
 
     key = f"{path}@{device}"
     if key not in _PRIORS:
@@ -106,8 +106,8 @@ def _check_size(camera, image_size: tuple[int, int], source: str, log: JobLog) -
 
 def calibrated_cameras(job: Job, cams: Path) -> list:
     """The camera of ``cams`` matching each view by name; InputError (calibration mismatch) when one has none."""
-    from lifting.calibration import load_calibration
-    from lifting.calibration.matching import match_views
+    from platypose.lifting.calibration import load_calibration
+    from platypose.lifting.calibration.matching import match_views
 
     calibration = load_calibration(cams)
     try:
@@ -126,7 +126,7 @@ def view_cameras(job: Job, views, calibrated: list | None, log: JobLog) -> list:
         return calibrated
     if len(views) > 1:
         raise InputError(f"{job.input}: {len(views)} views need --cams to place the cameras")
-    from lifting.calibration.defaults import default_camera
+    from platypose.lifting.calibration.defaults import default_camera
 
     log.warning("no --cams: a level camera at the origin with a 53 degree diagonal field of view is assumed")
     return [default_camera(job.views[0].name, *views[0].image_size)]
@@ -134,11 +134,11 @@ def view_cameras(job: Job, views, calibrated: list | None, log: JobLog) -> list:
 
 def gather_keypoints(job: Job, views, cameras, persons: str):
     """Keypoints (C, T, P, 17, 3) of the chosen persons on the first view's clock, frame times (T,), track IDs (P,)."""
-    from detectors.tracking import persons_to_keep
-    from lifting.calibration.matching import gather_views
+    from platypose.detectors.tracking import persons_to_keep
+    from platypose.lifting.calibration.matching import gather_views
 
     if len(views) > 1:
-        from detectors.multiview import match_across_views
+        from platypose.detectors.multiview import match_across_views
 
         views = match_across_views(views, cameras)
     keep = persons_to_keep(views, persons)
@@ -152,11 +152,11 @@ def gather_keypoints(job: Job, views, cameras, persons: str):
 
 def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) -> list[np.ndarray | None]:
     """Per person: a known root path (T, 3) (file or triangulation), or None to solve it per hypothesis."""
-    from lifting.root import fill_gaps, triangulated_root
+    from platypose.lifting.root import fill_gaps, triangulated_root
 
     P = keypoints.shape[2]
     if settings.root_file is not None:
-        from platypose_cli.root_file import read_root_trajectory
+        from platypose.cli.root_file import read_root_trajectory
 
         log(f"root trajectory from {settings.root_file}")
         return list(read_root_trajectory(settings.root_file, times, P))
@@ -182,9 +182,9 @@ def lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings: Ru
     Persons with a known root and the others are lifted apart; frames are written as
     lifting hands them out, with NaN where ``absent`` (P, T), so memory stays bounded.
     """
-    from exporters.frames import FrameArray
-    from lifting.lift import WindowSettings, lift_stream
-    from platypose_cli.options import sampler_config
+    from platypose.exporters.frames import FrameArray
+    from platypose.lifting.lift import WindowSettings, lift_stream
+    from platypose.cli.options import sampler_config
 
     config = sampler_config(**settings.sampler)
     windows = WindowSettings(window=settings.window, overlap=settings.overlap)
@@ -241,7 +241,7 @@ def report_reprojection(median, keypoints: np.ndarray, cameras: list, log: JobLo
     With one view guidance fits the keypoints exactly and nothing is reported. With several, a view far off
     the others usually has a wrong calibration (or a detector that lost the person there).
     """
-    from lifting.triangulation import view_median_errors
+    from platypose.lifting.triangulation import view_median_errors
 
     if len(cameras) < 2:
         return {}
@@ -259,9 +259,9 @@ def report_reprojection(median, keypoints: np.ndarray, cameras: list, log: JobLo
 
 def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     """The LiftResult of one job, its long arrays in files under ``staging``, and the videos of its cameras."""
-    from exporters.result import LiftResult
-    from lifting.root import presence
-    from platypose_cli import __version__
+    from platypose.exporters.result import LiftResult
+    from platypose.lifting.root import presence
+    from platypose import __version__
 
     timings: dict[str, float] = {}
     started = time.perf_counter()
@@ -325,7 +325,7 @@ def staging_folder(folder: Path, name: str) -> Iterator[Path]:
 
 def export_atomically(result, videos, staging: Path, folder: Path, name: str, formats, log: JobLog) -> list[Path]:
     """Export into ``staging``, then move every file written into ``folder``; returns the final paths."""
-    from exporters import export
+    from platypose.exporters import export
 
     written = export(result, staging, name, formats, videos, say=log)
     final = []
@@ -381,7 +381,7 @@ def job_entry(job: Job, status: str, outputs: list[str] | None = None, seconds: 
 
 def run_job(job: Job, settings: RunSettings) -> dict:
     """Lift one job; its summary entry (status ok or failed, outputs, seconds, one-line error)."""
-    from exporters.atomic import write_text_atomic
+    from platypose.lifting.atomic import write_text_atomic
 
     started = time.perf_counter()
     log = JobLog()

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from lifting.errors import InputError
+from platypose.lifting.errors import InputError
 
 
 def int_list(text: str, what: str) -> list[int]:
@@ -18,7 +18,7 @@ def int_list(text: str, what: str) -> list[int]:
 
 def sampler_config(**kwargs):
     """A SamplerConfig from CLI values, turning its validation errors into InputError."""
-    from lifting.sampler import SamplerConfig
+    from platypose.lifting.sampler import SamplerConfig
 
     try:
         return SamplerConfig(**kwargs)

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.errors import InputError
-from lifting.timebase import interpolate
+from platypose.lifting.errors import InputError
+from platypose.lifting.timebase import interpolate
 
 
 def _from_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:

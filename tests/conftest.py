@@ -19,7 +19,7 @@ def data_dir() -> Path:
 @pytest.fixture(scope="session")
 def real_clips(data_dir: Path):
     """Real full-body clips (holosoma climbing, DeepMimic) on our skeleton."""
-    from lifting.motion_io import load_motion_paths
+    from platypose.lifting.motion_io import load_motion_paths
 
     return load_motion_paths([data_dir / "motion" / "holosoma-climb", data_dir / "motion" / "deepmimic"])
 
@@ -29,8 +29,8 @@ def tiny_prior(real_clips, tmp_path_factory):
     """A small prior trained in seconds on real clips (16-frame windows, 30 fps)."""
     import torch
 
-    from lifting.prior import PriorConfig, load_prior
-    from lifting.training import TrainConfig, train_prior
+    from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.training import TrainConfig, train_prior
 
     path = tmp_path_factory.mktemp("prior") / "tiny.pt"
     torch.manual_seed(0)
@@ -44,7 +44,7 @@ def tiny_prior(real_clips, tmp_path_factory):
 @pytest.fixture(scope="session")
 def prior_file(tiny_prior, tmp_path_factory) -> str:
     """The session's tiny prior saved as a checkpoint file for ``--prior``."""
-    from lifting.prior import save_prior
+    from platypose.lifting.prior import save_prior
 
     path = tmp_path_factory.mktemp("prior_file") / "tiny.pt"
     save_prior(path, tiny_prior)
@@ -54,7 +54,7 @@ def prior_file(tiny_prior, tmp_path_factory) -> str:
 @pytest.fixture(scope="session")
 def heldout_window(real_clips):
     """A 16-frame, 30 fps window of real walking (DeepMimic), pelvis centred near (0, 0, 1) m."""
-    from lifting.timebase import resample
+    from platypose.lifting.timebase import resample
 
     walk = next(m for m in real_clips if "walk" in m.name)
     joints = resample(walk.joints, walk.fps, 30.0)[:16]
@@ -66,7 +66,7 @@ def run_cli(monkeypatch, capsys):
     """Run ``platypose *args`` in-process through the console entry; returns (exit code, stdout, stderr)."""
     import sys
 
-    from platypose_cli.app import main
+    from platypose.cli.app import main
 
     def run(*args: str) -> tuple[int, str, str]:
         monkeypatch.setattr(sys, "argv", ["platypose", *map(str, args)])

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from exporters.result import LiftResult
-from lifting.camera import Camera, project
-from lifting.motion_io import load_motion
+from platypose.exporters.result import LiftResult
+from platypose.lifting.camera import Camera, project
+from platypose.lifting.motion_io import load_motion
 
 CLIMB = "motion/holosoma-climb/mocap_climb_seq_0_joint_positions_f900-3700.npy"
 

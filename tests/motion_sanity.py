@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from lifting.motion import Motion
-from lifting.skeleton import BONES, JOINT_INDEX, bone_lengths
+from platypose.lifting.motion import Motion
+from platypose.lifting.skeleton import BONES, JOINT_INDEX, bone_lengths
 
 # (child, parent) joint names -> plausible adult length range in metres.
 LIMB_RANGES: dict[tuple[str, str], tuple[float, float]] = {

@@ -9,7 +9,7 @@ import stat
 import numpy as np
 import pytest
 
-from lifting.atomic import atomic_open, atomic_path, write_text_atomic
+from platypose.lifting.atomic import atomic_open, atomic_path, write_text_atomic
 
 
 def test_write_text_replaces_target_and_leaves_no_temp(tmp_path):

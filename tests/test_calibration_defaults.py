@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lifting.calibration import load_calibration
-from lifting.calibration.defaults import DIAGONAL_FOV_DEG, default_calibration, fov_prior_intrinsics
-from lifting.calibration.matching import align_frames, gather_views, match_views, normalise_view_name
-from lifting.calibration.world import unit_scale, up_rotation, up_vector
-from lifting.camera import Camera
-from lifting.errors import InputError
+from platypose.lifting.calibration import load_calibration
+from platypose.lifting.calibration.defaults import DIAGONAL_FOV_DEG, default_calibration, fov_prior_intrinsics
+from platypose.lifting.calibration.matching import align_frames, gather_views, match_views, normalise_view_name
+from platypose.lifting.calibration.world import unit_scale, up_rotation, up_vector
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
 
 CALIB = Path(__file__).parent / "data" / "calib"
 

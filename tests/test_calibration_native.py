@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from lifting.calibration import load_calibration, save_calibration
-from lifting.errors import InputError
+from platypose.lifting.calibration import load_calibration, save_calibration
+from platypose.lifting.errors import InputError
 
 
 @pytest.fixture()

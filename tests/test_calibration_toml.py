@@ -8,9 +8,9 @@ import cv2
 import numpy as np
 import pytest
 
-from lifting.calibration import load_calibration
-from lifting.camera import Camera, project
-from lifting.errors import InputError
+from platypose.lifting.calibration import load_calibration
+from platypose.lifting.camera import Camera, project
+from platypose.lifting.errors import InputError
 
 POSE2SIM = "video/pose2sim-balancing/calib_pose2sim.toml"
 SPORTS2D = "video/sports2d-demo/Calib_demo.toml"

@@ -8,9 +8,9 @@ import cv2
 import numpy as np
 import pytest
 
-from lifting.calibration import load_calibration
-from lifting.camera import project
-from lifting.errors import InputError
+from platypose.lifting.calibration import load_calibration
+from platypose.lifting.camera import project
+from platypose.lifting.errors import InputError
 
 CALIB = Path(__file__).parent / "data" / "calib"
 

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import torch
 
-from lifting.camera import Camera, CameraBatch, project, undistort_normalized
+from platypose.lifting.camera import Camera, CameraBatch, project, undistort_normalized
 
 
 def _random_camera(rng: np.random.Generator, name: str) -> Camera:

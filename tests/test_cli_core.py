@@ -10,9 +10,9 @@ import torch
 
 
 def test_version_and_help_in_a_fresh_process():
-    result = subprocess.run([sys.executable, "-m", "platypose_cli", "--version"], capture_output=True, text=True)
+    result = subprocess.run([sys.executable, "-m", "platypose", "--version"], capture_output=True, text=True)
     assert result.returncode == 0 and result.stdout.startswith("platypose ")
-    result = subprocess.run([sys.executable, "-m", "platypose_cli", "--help"], capture_output=True, text=True)
+    result = subprocess.run([sys.executable, "-m", "platypose", "--help"], capture_output=True, text=True)
     assert result.returncode == 0
     for command in ("lift", "train", "eval", "detect", "calib"):
         assert command in result.stdout
@@ -54,7 +54,7 @@ def test_train_writes_a_loadable_checkpoint(run_cli, data_dir, tmp_path):
     code, _, err = run_cli("train", clip, data_dir / "motion/deepmimic/humanoid3d_run.txt", "--out", out,
                            "--iterations", "6", "--checkpoint-every", "3", *common)  # fmt: skip
     assert code == 0, err
-    from lifting.prior import load_prior
+    from platypose.lifting.prior import load_prior
 
     bundle, extra = load_prior(out)
     assert bundle.config.width == 32 and bundle.manifest["iterations"] == 6 and extra == {}
@@ -62,9 +62,9 @@ def test_train_writes_a_loadable_checkpoint(run_cli, data_dir, tmp_path):
 
 
 def test_an_interrupted_training_resumes_from_its_last_checkpoint(run_cli, data_dir, tmp_path):
-    from lifting.motion_io import load_motion_paths
-    from lifting.prior import PriorConfig, load_prior
-    from lifting.training import TrainConfig, train_prior
+    from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.training import TrainConfig, train_prior
 
     out, log = tmp_path / "p.pt", tmp_path / "log.jsonl"
     clips = [data_dir / "motion/deepmimic/humanoid3d_walk.txt", data_dir / "motion/deepmimic/humanoid3d_run.txt"]

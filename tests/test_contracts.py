@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from onnx_models import constant_model
 
-from detectors.contracts import load_detector
-from detectors.persons import decode_yolox
-from detectors.session import ProviderFallbackWarning, open_session
-from detectors.video import iter_frames
-from lifting.errors import InputError
+from platypose.detectors.contracts import load_detector
+from platypose.detectors.persons import decode_yolox
+from platypose.detectors.session import ProviderFallbackWarning, open_session
+from platypose.detectors.video import iter_frames
+from platypose.lifting.errors import InputError
 
 
 @pytest.fixture(scope="module")

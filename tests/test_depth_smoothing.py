@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import torch
 
-from lifting.camera_rigs import ring_cameras
-from lifting.depth_smoothing import smooth_depth
-from lifting.timebase import resample
+from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.depth_smoothing import smooth_depth
+from platypose.lifting.timebase import resample
 
 
 def _in_camera(window: np.ndarray) -> torch.Tensor:

@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from detectors.contracts import load_detector
-from detectors.keypoints import to_our_joints
-from detectors.openpose import read_openpose_folder
-from detectors.pipeline import detect_frames, detect_video
-from detectors.video import iter_frames, video_info
-from lifting.errors import InputError
-from lifting.skeleton import JOINT_INDEX
+from platypose.detectors.contracts import load_detector
+from platypose.detectors.keypoints import to_our_joints
+from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.pipeline import detect_frames, detect_video
+from platypose.detectors.video import iter_frames, video_info
+from platypose.lifting.errors import InputError
+from platypose.lifting.skeleton import JOINT_INDEX
 
 POSE2SIM = "video/pose2sim-balancing"
 

@@ -7,8 +7,8 @@ import pytest
 from bvh import Bvh
 from export_helpers import climb_joints
 
-from exporters.bvh import write_bvh
-from lifting.skeleton import JOINT_NAMES
+from platypose.exporters.bvh import write_bvh
+from platypose.lifting.skeleton import JOINT_NAMES
 
 
 def _axis_rotation(axis: str, degrees: np.ndarray) -> np.ndarray:
@@ -132,7 +132,7 @@ def test_absent_frames_hold_the_nearest_pose(climb, tmp_path):
 
 
 def test_platypose_motion_importer_reads_the_bvh_back(climb, tmp_path):
-    from lifting.motion_io import load_motion
+    from platypose.lifting.motion_io import load_motion
 
     joints, fps = climb
     write_bvh(joints[:300], fps, tmp_path / "clip.bvh")

@@ -9,10 +9,10 @@ import pytest
 from export_helpers import two_person_result
 from test_export_rrd import read_entities
 
-from exporters import export, frames
-from exporters.frames import FrameArray, Lead
-from exporters.npz import read_npz
-from exporters.result import LiftResult
+from platypose.exporters import export, frames
+from platypose.exporters.frames import FrameArray, Lead
+from platypose.exporters.npz import read_npz
+from platypose.exporters.result import LiftResult
 
 FORMATS = ["npz", "csv", "bvh", "rrd"]
 

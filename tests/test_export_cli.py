@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from export_helpers import two_person_result
 
-from exporters import export
-from lifting.errors import InputError
+from platypose.exporters import export
+from platypose.lifting.errors import InputError
 
 
 @pytest.fixture(scope="module")

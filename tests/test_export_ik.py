@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from exporters.ik import euler_to_matrix, local_euler, rotation_between, two_vector_frame
-from lifting.skeleton import PARENTS
+from platypose.exporters.ik import euler_to_matrix, local_euler, rotation_between, two_vector_frame
+from platypose.lifting.skeleton import PARENTS
 
 
 def test_rotation_between_maps_a_onto_b_including_opposite_vectors():

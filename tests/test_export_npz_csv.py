@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from export_helpers import two_person_result
 
-from exporters.csv_export import write_long_csv, write_summary_csv
-from exporters.npz import read_npz, write_npz
-from exporters.result import LiftResult
-from lifting.errors import InputError
-from lifting.skeleton import JOINT_NAMES, PARENTS
+from platypose.exporters.csv_export import write_long_csv, write_summary_csv
+from platypose.exporters.npz import read_npz, write_npz
+from platypose.exporters.result import LiftResult
+from platypose.lifting.errors import InputError
+from platypose.lifting.skeleton import JOINT_NAMES, PARENTS
 
 
 @pytest.fixture(scope="module")
@@ -103,7 +103,7 @@ def test_summary_csv_has_median_and_quantiles(result, tmp_path):
 
 
 def test_cameras_are_the_native_calibration_json(result, tmp_path):
-    from lifting.calibration.native import read_native
+    from platypose.lifting.calibration.native import read_native
 
     path = write_npz(result, tmp_path / "clip.npz")
     with np.load(path) as raw:

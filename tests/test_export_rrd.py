@@ -13,9 +13,9 @@ import pytest
 from export_helpers import two_person_result
 from rerun.chunk import RrdReader
 
-from exporters.rrd import MEDIAN_CLASS, write_rrd
-from lifting.errors import InputError
-from lifting.skeleton import BONES, NUM_JOINTS
+from platypose.exporters.rrd import MEDIAN_CLASS, write_rrd
+from platypose.lifting.errors import InputError
+from platypose.lifting.skeleton import BONES, NUM_JOINTS
 
 CAM01 = "video/pose2sim-balancing/cam01.mp4"
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from export_helpers import two_person_result
 
-from exporters.rrd import KEYPOINTS_RGBA, write_rrd
+from platypose.exporters.rrd import KEYPOINTS_RGBA, write_rrd
 
 VENV_BIN = str(Path(sys.executable).parent)
 HAS_VULKAN = any(Path(d).is_dir() and any(Path(d).iterdir()) for d in ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d"))

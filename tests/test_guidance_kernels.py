@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import torch
 
-from lifting.camera_rigs import ring_cameras
-from lifting.energy import (
+from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.energy import (
     SYMMETRIC_PAIRS,
     Observations,
     add_to_diagonal_,
@@ -15,8 +15,8 @@ from lifting.energy import (
     reprojection_terms,
     solve_symmetric3,
 )
-from lifting.camera import CameraBatch
-from lifting.translation import solve_block_tridiagonal
+from platypose.lifting.camera import CameraBatch
+from platypose.lifting.translation import solve_block_tridiagonal
 
 
 def _unpack(packed: torch.Tensor) -> torch.Tensor:
@@ -107,8 +107,8 @@ def test_one_camera_terms_in_its_own_axes_rotate_into_the_world_terms() -> None:
 
 def test_torch_bone_lengths_equal_the_skeleton_definition() -> None:
     """The gathered bone lengths follow ``BONES`` (child - parent), as the numpy ``bone_lengths`` does."""
-    from lifting.energy import bone_lengths_torch
-    from lifting.skeleton import bone_lengths
+    from platypose.lifting.energy import bone_lengths_torch
+    from platypose.lifting.skeleton import bone_lengths
 
     joints = np.random.default_rng(2).normal(size=(2, 5, 17, 3))
     assert np.allclose(bone_lengths_torch(torch.as_tensor(joints)).numpy(), bone_lengths(joints), atol=1e-12)

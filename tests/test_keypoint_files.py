@@ -13,17 +13,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from detectors.keypoint_files import (
+from platypose.detectors.keypoint_files import (
     CSV_HEADER,
     read_keypoints_csv,
     read_keypoints_npz,
     write_keypoints_csv,
     write_keypoints_npz,
 )
-from detectors.openpose import read_openpose_folder
-from detectors.sources import read_keypoints
-from lifting.errors import InputError
-from lifting.skeleton import JOINT_INDEX, JOINT_NAMES
+from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.sources import read_keypoints
+from platypose.lifting.errors import InputError
+from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 
 SIZE = (1920, 1080)
 NOT_NECK = [j for j in range(17) if j != JOINT_INDEX["neck"]]  # BODY_25B has its own neck point

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from detectors.keypoints import model_layout, to_our_joints
-from lifting.joint_maps import BODY25B_NAMES, KEYPOINT_LAYOUTS
-from lifting.skeleton import JOINT_INDEX, JOINT_NAMES
+from platypose.detectors.keypoints import model_layout, to_our_joints
+from platypose.lifting.joint_maps import BODY25B_NAMES, KEYPOINT_LAYOUTS
+from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 
 
 @pytest.fixture(scope="module")

@@ -17,11 +17,11 @@ TAKE = "video/pose2sim-balancing"
 @pytest.fixture(scope="module")
 def triangulated(data_dir):
     """Plain DLT triangulation (T, 17, 3) of the athlete from the 4 views' OpenPose keypoints, and the cameras."""
-    from detectors.multiview import match_across_views
-    from detectors.sources import read_keypoints
-    from detectors.tracking import persons_to_keep
-    from lifting.calibration import load_calibration
-    from lifting.triangulation import triangulate
+    from platypose.detectors.multiview import match_across_views
+    from platypose.detectors.sources import read_keypoints
+    from platypose.detectors.tracking import persons_to_keep
+    from platypose.lifting.calibration import load_calibration
+    from platypose.lifting.triangulation import triangulate
 
     cameras = list(load_calibration(data_dir / TAKE / "calib_pose2sim.toml").cameras)
     views = [read_keypoints(data_dir / TAKE / f"openpose-body25b/cam0{i}_json") for i in range(1, 5)]
@@ -39,7 +39,7 @@ def lift_args(data_dir, prior_file, out, *extra: str) -> tuple[str, ...]:
 
 def test_four_views_match_triangulation_and_one_view_spreads(run_cli, data_dir, tmp_path, prior_file,
                                                              triangulated) -> None:  # fmt: skip
-    from exporters.npz import read_npz
+    from platypose.exporters.npz import read_npz
 
     keypoints = data_dir / TAKE / "openpose-body25b"
     code, out, err = run_cli(*lift_args(data_dir, prior_file, tmp_path, "--keypoints", str(keypoints),
@@ -77,7 +77,7 @@ def test_four_views_match_triangulation_and_one_view_spreads(run_cli, data_dir, 
     hyp = single.hypotheses[0]
     spread = np.linalg.norm(hyp - single.median[0], axis=-1).mean()
     assert spread > 0.01  # one view leaves depth open: the hypotheses differ
-    from lifting.camera import project
+    from platypose.lifting.camera import project
 
     # every hypothesis reprojects onto cam01's keypoints (image plane pinned, depth free)
     pixels = project(single.median[0], single.cameras[0])
@@ -87,7 +87,7 @@ def test_four_views_match_triangulation_and_one_view_spreads(run_cli, data_dir, 
 
 
 def test_given_root_trajectory_npz_and_csv(run_cli, data_dir, tmp_path, prior_file, triangulated) -> None:
-    from exporters.npz import read_npz
+    from platypose.exporters.npz import read_npz
 
     times = np.arange(100) / 60.0
     root = triangulated[:, 0]
@@ -115,7 +115,7 @@ def test_given_root_trajectory_npz_and_csv(run_cli, data_dir, tmp_path, prior_fi
 def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir, tmp_path, prior_file) -> None:
     """``--depth-smoothness``: with one view the hypotheses' depth paths accelerate less with it than without
     (0); a negative value is a one-line error."""
-    from exporters.npz import read_npz
+    from platypose.exporters.npz import read_npz
 
     keypoints = str(data_dir / TAKE / "openpose-body25b" / "cam01_json")
     acceleration = {}
@@ -161,7 +161,7 @@ def _write_clip(path: Path, frames: list[np.ndarray], fps: float) -> None:
 @pytest.fixture(scope="module")
 def batch_folder(data_dir, tmp_path_factory) -> Path:
     """good.mp4 (the first 12 frames of cam01, halved), corrupt.mp4 (a cut-off real MP4), empty.mp4 (a blank wall)."""
-    from detectors.video import iter_frames
+    from platypose.detectors.video import iter_frames
 
     folder = tmp_path_factory.mktemp("batch")
     frames = [f[::2, ::2].copy() for _, f in iter_frames(data_dir / TAKE / "cam01.mp4", max_frames=12)]
@@ -173,7 +173,7 @@ def batch_folder(data_dir, tmp_path_factory) -> Path:
 
 def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, prior_file,
                                                           batch_folder) -> None:  # fmt: skip
-    from exporters.npz import read_npz
+    from platypose.exporters.npz import read_npz
 
     args = ("lift", str(batch_folder), "--prior", prior_file, "--out", str(tmp_path), "--samples", "4",
             "--formats", "npz,bvh", "--persons", "largest", "--quiet", "--jobs", "2")  # fmt: skip
@@ -211,8 +211,8 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
 
 
 def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> None:
-    import exporters
-    from platypose_cli.lift_run import JobLog, export_atomically, staging_folder
+    import platypose.exporters as exporters
+    from platypose.cli.lift_run import JobLog, export_atomically, staging_folder
 
     folder = tmp_path / "take"
     folder.mkdir()
@@ -230,7 +230,7 @@ def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> Non
 
 
 def test_demo_lifts_the_bundled_take(run_cli, tmp_path, prior_file) -> None:
-    from exporters.npz import read_npz
+    from platypose.exporters.npz import read_npz
 
     args = ("demo", "--out", str(tmp_path), "--source", "keypoints", "--prior", prior_file, "--samples", "4",
             "--threads", "1", "--quiet")  # fmt: skip

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from lifting.errors import InputError
-from platypose_cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
+from platypose.lifting.errors import InputError
+from platypose.cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
 
 TAKE = "video/pose2sim-balancing"
 CAMERAS = ("cam_01", "cam_02", "cam_03", "cam_04")

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from lifting import lift as lift_module
-from lifting.lift import (
+from platypose.lifting import lift as lift_module
+from platypose.lifting.lift import (
     KeypointWindows,
     WindowSettings,
     WindowView,
@@ -13,9 +13,9 @@ from lifting.lift import (
     prior_clock,
     resample_keypoints,
 )
-from lifting.sampler import SamplerConfig
-from lifting.timebase import interpolate
-from lifting.windows import cut, plan_windows, stitch
+from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.timebase import interpolate
+from platypose.lifting.windows import cut, plan_windows, stitch
 
 TAKE = "video/pose2sim-balancing"
 
@@ -23,9 +23,9 @@ TAKE = "video/pose2sim-balancing"
 @pytest.fixture(scope="module")
 def real_track(data_dir):
     """The athlete's OpenPose keypoints seen by cam01 (C=1, T, P=1, 17, 3) at 60 fps, and the camera."""
-    from detectors.sources import read_keypoints
-    from detectors.tracking import persons_to_keep
-    from lifting.calibration import load_calibration
+    from platypose.detectors.sources import read_keypoints
+    from platypose.detectors.tracking import persons_to_keep
+    from platypose.lifting.calibration import load_calibration
 
     camera = load_calibration(data_dir / TAKE / "calib_pose2sim.toml").cameras[0]
     view = read_keypoints(data_dir / TAKE / "openpose-body25b/cam01_json", fps=60.0, image_size=(1080, 1920))

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from lifting.camera import project
-from lifting.camera_rigs import ring_cameras
-from lifting.lift import WindowSettings, lift_tracks
-from lifting.sampler import SamplerConfig
-from lifting.timebase import resample
-from lifting.windows import blend_weights, cut, plan_windows, stitch
+from platypose.lifting.camera import project
+from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.lift import WindowSettings, lift_tracks
+from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.timebase import resample
+from platypose.lifting.windows import blend_weights, cut, plan_windows, stitch
 
 
 def test_plan_covers_the_track_and_weights_sum_to_one():
@@ -33,8 +33,8 @@ def _lifted_climbing(data_dir, views: int, seconds: int, samples: int = 8, seed:
     Returns the fastest joint's step (m) per hypothesis and frame step ``(N, T-1)``, the truth's ``(T-1,)``, and
     the mask of steps at window seams (into, inside and out of each overlap).
     """
-    from lifting.motion_io import load_motion_paths
-    from lifting.prior import load_prior
+    from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.prior import load_prior
 
     prior, _ = load_prior()
     climb = load_motion_paths([data_dir / "motion" / "holosoma-climb"])[1]
@@ -89,8 +89,8 @@ def test_one_view_placement_does_not_drift_over_windows(data_dir):
     Windows that only continued their predecessor drifted towards the camera (5.5 m to
     0.3 m over 15 s); each window now returns to the rays' own placement by its end.
     """
-    from lifting.motion_io import load_motion_paths
-    from lifting.prior import load_prior
+    from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.prior import load_prior
 
     prior, _ = load_prior()
     climb = load_motion_paths([data_dir / "motion" / "holosoma-climb"])[1]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from lifting import metrics
+from platypose.lifting import metrics
 
 
 def _truth(frames: int = 2) -> np.ndarray:
@@ -99,7 +99,7 @@ def test_ece_pools_windows_whose_frames_share_one_error():
 
 def test_worst_clip_ece_shows_opposite_errors_that_pooling_hides():
     """Clip 0's hypotheses are too tight (truth drawn 3x wider), clip 1's too wide (truth 3x tighter)."""
-    from lifting.evaluation import score_windows
+    from platypose.lifting.evaluation import score_windows
 
     rng = np.random.default_rng(5)
     base = _truth(4)

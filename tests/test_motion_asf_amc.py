@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from motion_sanity import assert_plausible, facing_agrees_with_travel
 
-from lifting.errors import InputError
-from lifting.motion_io import load_motion
-from lifting.motion_io.asf_amc import pose_points, read_amc, read_asf
-from lifting.skeleton import JOINT_INDEX
+from platypose.lifting.errors import InputError
+from platypose.lifting.motion_io import load_motion
+from platypose.lifting.motion_io.asf_amc import pose_points, read_amc, read_asf
+from platypose.lifting.skeleton import JOINT_INDEX
 
 
 @pytest.fixture(scope="module")

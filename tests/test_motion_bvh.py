@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from motion_sanity import assert_plausible
 
-from lifting.errors import InputError
-from lifting.joint_maps import LIMB_JOINTS, MOTIONBUILDER_LIMBS
-from lifting.motion_io import load_motion
-from lifting.motion_io.bvh import local_transforms, parse_bvh
-from lifting.motion_io.kinematics import forward_kinematics, y_up_to_z_up
-from lifting.skeleton import JOINT_INDEX
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import LIMB_JOINTS, MOTIONBUILDER_LIMBS
+from platypose.lifting.motion_io import load_motion
+from platypose.lifting.motion_io.bvh import local_transforms, parse_bvh
+from platypose.lifting.motion_io.kinematics import forward_kinematics, y_up_to_z_up
+from platypose.lifting.skeleton import JOINT_INDEX
 
 INCH = 0.0254
 
@@ -245,7 +245,7 @@ def test_broken_bvh_files(tmp_path, written):
 
 
 def test_reads_back_our_own_exported_bvh(tmp_path, data_dir):
-    from exporters.bvh import write_bvh
+    from platypose.exporters.bvh import write_bvh
 
     (climb,) = load_motion(data_dir / "motion/holosoma-climb/mocap_climb_seq_1_joint_positions_f0-2422.npy")
     path = tmp_path / "ours.bvh"

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lifting.errors import InputError
-from lifting.motion_io import load_motion
-from lifting.skeleton import JOINT_INDEX, JOINT_NAMES
+from platypose.lifting.errors import InputError
+from platypose.lifting.motion_io import load_motion
+from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 
 UPPER = ["spine", "thorax", "neck", "head", "left_shoulder", "left_elbow", "left_wrist",
          "right_shoulder", "right_elbow", "right_wrist"]  # fmt: skip

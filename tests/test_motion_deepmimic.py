@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from motion_sanity import assert_plausible, facing_agrees_with_travel
 
-from lifting.errors import InputError
-from lifting.motion_io import load_motion
-from lifting.motion_io.deepmimic import read_urdf
-from lifting.skeleton import JOINT_INDEX
+from platypose.lifting.errors import InputError
+from platypose.lifting.motion_io import load_motion
+from platypose.lifting.motion_io.deepmimic import read_urdf
+from platypose.lifting.skeleton import JOINT_INDEX
 
 # Clips where the person stands or moves on their feet (not crawling, rolling, getting up, cartwheeling).
 UPRIGHT = ("walk", "run", "jump", "kick", "punch", "dance_a", "dance_b", "spin", "spinkick")

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from motion_sanity import assert_plausible
 
-from lifting.errors import InputError
-from lifting.joint_maps import HOLOSOMA_MOCAP_NAMES
-from lifting.motion_io import load_motion
-from lifting.skeleton import JOINT_INDEX
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import HOLOSOMA_MOCAP_NAMES
+from platypose.lifting.motion_io import load_motion
+from platypose.lifting.skeleton import JOINT_INDEX
 
 FRAMES = {"seq_0": 2801, "seq_1": 2423, "seq_2": 3011, "seq_3": 2401, "seq_4": 2303}
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from motion_sanity import assert_plausible
 
-from lifting.errors import InputError
-from lifting.joint_maps import H36M32_TO_OURS
-from lifting.motion_io import load_motion
-from lifting.skeleton import JOINT_NAMES
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import H36M32_TO_OURS
+from platypose.lifting.motion_io import load_motion
+from platypose.lifting.skeleton import JOINT_NAMES
 
 
 @pytest.fixture(scope="module")

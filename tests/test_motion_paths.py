@@ -9,8 +9,8 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from lifting.errors import InputError
-from lifting.motion_io import load_motion, load_motion_paths, supported_formats
+from platypose.lifting.errors import InputError
+from platypose.lifting.motion_io import load_motion, load_motion_paths, supported_formats
 
 
 def test_whole_bundled_motion_folder(data_dir):

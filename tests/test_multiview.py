@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from detectors.multiview import match_across_views
-from detectors.openpose import read_openpose_folder
-from detectors.types import PoseTrack2D
-from lifting.calibration import load_calibration
+from platypose.detectors.multiview import match_across_views
+from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.types import PoseTrack2D
+from platypose.lifting.calibration import load_calibration
 
 NAMES = ("cam01", "cam02", "cam03", "cam04")
 

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from detectors.openpose import missing_frames, read_openpose_folder
-from lifting.errors import InputError
-from lifting.joint_maps import BODY25_NAMES, BODY25B_NAMES
-from lifting.skeleton import JOINT_INDEX
+from platypose.detectors.openpose import missing_frames, read_openpose_folder
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import BODY25_NAMES, BODY25B_NAMES
+from platypose.lifting.skeleton import JOINT_INDEX
 
 
 @pytest.fixture(scope="module")

@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 import torch
 
-from lifting.errors import InputError
-from lifting.prior import MotionPrior, PriorBundle, PriorConfig
-from lifting.representation import Normalizer
-from lifting.runtime import BFloat16Denoiser, OnnxDenoiser, resolve_device, with_runtime
+from platypose.lifting.errors import InputError
+from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig
+from platypose.lifting.representation import Normalizer
+from platypose.lifting.runtime import BFloat16Denoiser, OnnxDenoiser, resolve_device, with_runtime
 
 TINY = PriorConfig(layers=2, width=64, heads=4, ff_width=128, max_frames=16, dropout=0.0)
 
@@ -36,11 +36,11 @@ def test_inference_path_equals_the_encoder_modules(network) -> None:
 
 def test_inference_path_runs_float32_only(network, monkeypatch) -> None:
     """bfloat16 keeps torch's encoder-layer kernel (faster there than the fused path's attention)."""
-    import lifting.prior
+    import platypose.lifting.prior as prior_module
 
-    fused = lifting.prior.encode_for_inference
+    fused = prior_module.encode_for_inference
     calls = []
-    monkeypatch.setattr(lifting.prior, "encode_for_inference", lambda *args: calls.append(args[1].dtype) or fused(*args))
+    monkeypatch.setattr(prior_module, "encode_for_inference", lambda *args: calls.append(args[1].dtype) or fused(*args))
     x = torch.randn(2, 8, TINY.features)
     with torch.inference_mode():
         network(x, torch.tensor(3))

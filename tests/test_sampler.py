@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 import torch
 
-from lifting import metrics
-from lifting.camera import project
-from lifting.camera_rigs import ring_cameras
-from lifting.sampler import DEPTH_RANGE, SamplerConfig, cameras_and_rays, limit_depth, sample, typical_size
-from lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_lengths
+from platypose.lifting import metrics
+from platypose.lifting.camera import project
+from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.sampler import DEPTH_RANGE, SamplerConfig, cameras_and_rays, limit_depth, sample, typical_size
+from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_lengths
 
 
 def _lift(prior, truth, views, noise_px=0.0, **config):
@@ -96,7 +96,7 @@ def test_sampling_is_reproducible_for_a_seed(tiny_prior, heldout_window):
 
 
 def test_structural_energies_lower_bone_length_variation(tiny_prior, heldout_window):
-    from lifting.skeleton import bone_lengths
+    from platypose.lifting.skeleton import bone_lengths
 
     plain, _ = _lift(tiny_prior, heldout_window, views=1, noise_px=3.0, samples=10)
     structured, _ = _lift(tiny_prior, heldout_window, views=1, noise_px=3.0, samples=10, bone_weight=10.0,
@@ -171,7 +171,7 @@ def test_noise_spread_covers_the_truth_as_often_as_it_claims(tiny_prior, heldout
 
 def test_noise_spread_ignores_frames_without_a_fit():
     """A track's padding frames (no keypoints, joints NaN) leave the other frames' spread finite."""
-    from lifting.noise_spread import unit_weight_variance
+    from platypose.lifting.noise_spread import unit_weight_variance
 
     energy = torch.tensor([[[1.0, 2.0, float("nan")], [3.0, 1.0, float("nan")]]])  # (B=1, N=2, F=3)
     confidence = torch.ones(2, 1, 3, 17)
@@ -189,7 +189,7 @@ def test_noise_free_views_get_no_spread(tiny_prior, heldout_window):
 
 def _problem(prior, truth, views, root=False, **config):
     """A guidance problem for ``truth`` seen by ``views`` ring cameras, and a network prediction ``x0`` for it."""
-    from lifting.sampler import GuidedProblem
+    from platypose.lifting.sampler import GuidedProblem
 
     cams = ring_cameras(4)[:views]
     pixels = np.stack([project(truth, c) for c in cams])[:, None]
@@ -214,7 +214,7 @@ def test_moving_joints_then_absorbing_the_move_decodes_to_the_moved_joints(tiny_
 
 
 def test_gradient_direction_moves_the_joints_as_a_step_down_the_feature_gradient(tiny_prior, heldout_window):
-    from lifting.energy import reprojection_energy
+    from platypose.lifting.energy import reprojection_energy
 
     problem, x0 = _problem(tiny_prior, heldout_window, views=2, direction="gradient")
     offset = problem.solve_offset(x0)
@@ -228,7 +228,7 @@ def test_gradient_direction_moves_the_joints_as_a_step_down_the_feature_gradient
 
 
 def test_guidance_stops_once_the_fit_gains_nothing_and_lands_where_k_steps_land(tiny_prior, heldout_window, monkeypatch):
-    from lifting.sampler import GuidedProblem
+    from platypose.lifting.sampler import GuidedProblem
 
     problem, x0 = _problem(tiny_prior, heldout_window, views=1)
     calls = []
@@ -243,7 +243,7 @@ def test_guidance_stops_once_the_fit_gains_nothing_and_lands_where_k_steps_land(
 
 
 def test_one_view_guidance_in_the_camera_frame_equals_guidance_in_the_world(tiny_prior, heldout_window, monkeypatch):
-    from lifting.sampler import Anchor, GuidedProblem
+    from platypose.lifting.sampler import Anchor, GuidedProblem
 
     problem, x0 = _problem(tiny_prior, heldout_window, views=1, guidance_tol=0.0, bone_weight=1.0)
     mask = (torch.arange(len(heldout_window)) < 4).float()[None]
@@ -257,7 +257,7 @@ def test_one_view_guidance_in_the_camera_frame_equals_guidance_in_the_world(tiny
 
 def test_straight_exact_paths_are_left_alone():
     """Keypoints of a straight 3D path without noise (second differences nearly zero) stay as they are."""
-    from lifting.temporal_fit import keypoint_noise, smooth_keypoints
+    from platypose.lifting.temporal_fit import keypoint_noise, smooth_keypoints
 
     cam = ring_cameras(4)[0]
     walk = np.zeros((16, 17, 3)) + np.linspace(0, 1, 17)[None, :, None] * [0, 0, 1.0] + [0, 0, 0.5]
@@ -269,7 +269,7 @@ def test_straight_exact_paths_are_left_alone():
 
 
 def test_keypoint_noise_is_measured_from_the_tracks_own_jitter(heldout_window):
-    from lifting.temporal_fit import keypoint_noise
+    from platypose.lifting.temporal_fit import keypoint_noise
 
     cams = ring_cameras(4)
     pixels = np.stack([project(heldout_window, c) for c in cams])[:, None]  # (C, B=1, F, 17, 2)
@@ -300,7 +300,7 @@ def test_noise_fit_follows_the_keypoints_only_as_far_as_their_noise(tiny_prior, 
 def test_padding_frames_are_held_for_the_noise_fit_and_stay_missing(tiny_prior, heldout_window):
     """A track's last window is padded with frames without joints (NaN): the noise fit holds the nearest frame
     there (a banded solve cannot take NaN), fits the rest, and gives the padding back as NaN."""
-    from lifting.temporal_fit import fit_to_noise, hold_nearest, keypoint_noise
+    from platypose.lifting.temporal_fit import fit_to_noise, hold_nearest, keypoint_noise
 
     values = torch.arange(5.0).reshape(1, 1, 5, 1, 1).expand(1, 1, 5, 17, 3).clone()
     valid = torch.tensor([False, True, True, True, False]).reshape(1, 1, 5, 1).expand(1, 1, 5, 17)
@@ -321,7 +321,7 @@ def test_padding_frames_are_held_for_the_noise_fit_and_stay_missing(tiny_prior, 
 def test_one_view_keypoint_paths_are_smoothed_to_their_noise(tiny_prior, heldout_window):
     """One camera, 3 px noise: the smoothed keypoint paths are nearer the true projections than the noisy ones,
     exact keypoints stay as they are, and the lift moves less jerkily than one fitting every frame exactly."""
-    from lifting.temporal_fit import keypoint_noise, smooth_keypoints
+    from platypose.lifting.temporal_fit import keypoint_noise, smooth_keypoints
 
     cam = ring_cameras(4)[0]
     clean = project(heldout_window, cam)[None, None]  # (C, B, F, 17, 2)

@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from detectors.cache import read_detections
-from detectors.id_repair import repair_id_switches
-from detectors.keypoints import to_our_joints
-from detectors.pose_metrics import person_size
-from detectors.tracking import TrackerConfig, select_persons, track_detections
-from lifting.errors import InputError
-from lifting.skeleton import MIRROR
+from platypose.detectors.cache import read_detections
+from platypose.detectors.id_repair import repair_id_switches
+from platypose.detectors.keypoints import to_our_joints
+from platypose.detectors.pose_metrics import person_size
+from platypose.detectors.tracking import TrackerConfig, select_persons, track_detections
+from platypose.lifting.errors import InputError
+from platypose.lifting.skeleton import MIRROR
 
 # A standing person (17 joints, our order) about 100 px tall, feet at y = 0.
 _BODY = np.array(
@@ -109,8 +109,8 @@ def test_spurious_short_detections_are_dropped() -> None:
 
 def test_stored_demo_detections_are_the_bundled_detector_output(data_dir: Path, demo_detections) -> None:
     """The stored detections are what the bundled MoveNet gives today (checked on 3 frames)."""
-    from detectors.contracts import load_detector
-    from detectors.video import iter_frames
+    from platypose.detectors.contracts import load_detector
+    from platypose.detectors.video import iter_frames
 
     detections, indices = demo_detections
     detector = load_detector(threads=1)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from lifting.skeleton import BONES, bone_lengths
-from lifting.timebase import resample
-from lifting.training import TrainConfig, WindowSampler, prepare_clips, scale_bones
+from platypose.lifting.skeleton import BONES, bone_lengths
+from platypose.lifting.timebase import resample
+from platypose.lifting.training import TrainConfig, WindowSampler, prepare_clips, scale_bones
 
 
 def _windows(real_clips, frames: int = 16) -> np.ndarray:

@@ -3,10 +3,10 @@
 import numpy as np
 import torch
 
-from lifting.camera_rigs import ring_cameras
-from lifting.sampler import cameras_and_rays
-from lifting.translation import solve_translation
-from lifting.camera import project
+from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.sampler import cameras_and_rays
+from platypose.lifting.translation import solve_translation
+from platypose.lifting.camera import project
 
 
 def _setup(heldout_window, views):
@@ -44,7 +44,7 @@ def test_windows_seen_once_or_never_are_solved_in_float32(real_clips):
     """One camera, 64 float32 frames of a person 9 m away seen in one frame or in none (a lost track): the
     frames without evidence leave only a tiny ridge and the acceleration penalty, whose straight lines are
     free; float32 Cholesky failed on this at smoothness 10 and 100."""
-    from lifting.timebase import resample
+    from platypose.lifting.timebase import resample
 
     climb = next(m for m in real_clips if "climb" in m.name)
     truth = resample(climb.joints, climb.fps, 30.0)[:64]

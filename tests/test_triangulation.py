@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lifting.calibration import load_calibration
-from lifting.camera import project
-from lifting.triangulation import (
+from platypose.lifting.calibration import load_calibration
+from platypose.lifting.camera import project
+from platypose.lifting.triangulation import (
     associate_single_person,
     median_reprojection_error,
     reprojection_errors,

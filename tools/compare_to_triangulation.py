@@ -22,15 +22,12 @@ by frame where the reference has all 17 joints, and printed as a Markdown table 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from exporters.npz import read_npz  # noqa: E402
-from lifting.triangulation import triangulate  # noqa: E402
+from platypose.exporters.npz import read_npz
+from platypose.lifting.triangulation import triangulate
 
 
 def reference_joints(path: Path) -> np.ndarray:

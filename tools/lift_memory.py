@@ -28,10 +28,10 @@ FPS = 60.0
 
 def looped_keypoints(seconds: float, folder: Path) -> list[Path]:
     """Per-camera npz files ``folder/cam0<i>.npz`` holding ``seconds`` of the take's keypoints played back and forth."""
-    from detectors.keypoint_files import write_keypoints_npz
-    from detectors.sources import read_keypoints
-    from detectors.types import PoseTrack2D
-    from detectors.video import video_info
+    from platypose.detectors.keypoint_files import write_keypoints_npz
+    from platypose.detectors.sources import read_keypoints
+    from platypose.detectors.types import PoseTrack2D
+    from platypose.detectors.video import video_info
 
     folder.mkdir(parents=True, exist_ok=True)
     frames = int(round(seconds * FPS))
@@ -53,7 +53,7 @@ def looped_keypoints(seconds: float, folder: Path) -> list[Path]:
 def run_lift(inputs: list[Path], out: Path, extra: list[str]) -> tuple[float, float]:
     """Run ``platypose lift`` on ``inputs`` in a new process; its peak RSS (MiB) and wall time (s)."""
     keypoints = str(inputs[0] if len(inputs) == 1 else inputs[0].parent)
-    command = [sys.executable, "-m", "platypose_cli", "lift", "--keypoints", keypoints,
+    command = [sys.executable, "-m", "platypose", "lift", "--keypoints", keypoints,
                "--cams", str(TAKE / "calib_pose2sim.toml"), "--out", str(out), "--samples", "20",
                "--persons", "largest", "--threads", "1", "--quiet", "--formats", "npz,csv,bvh,rrd", *extra]  # fmt: skip
     env = {**os.environ, "OMP_NUM_THREADS": "1"}

@@ -12,15 +12,15 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.calibration.h36m import is_h36m, read_h36m
-from lifting.calibration.intrinsics_only import read_intrinsics
-from lifting.calibration.model import Calibration
-from lifting.calibration.native import read_native, write_native
-from lifting.calibration.opencv_yml import is_easymocap, read_opencv_yml
-from lifting.calibration.toml_format import read_toml
-from lifting.calibration.validate import read_json
-from lifting.calibration.world import to_z_up_metres
-from lifting.errors import InputError
+from platypose.lifting.calibration.h36m import is_h36m, read_h36m
+from platypose.lifting.calibration.intrinsics_only import read_intrinsics
+from platypose.lifting.calibration.model import Calibration
+from platypose.lifting.calibration.native import read_native, write_native
+from platypose.lifting.calibration.opencv_yml import is_easymocap, read_opencv_yml
+from platypose.lifting.calibration.toml_format import read_toml
+from platypose.lifting.calibration.validate import read_json
+from platypose.lifting.calibration.world import to_z_up_metres
+from platypose.lifting.errors import InputError
 
 __all__ = ["Calibration", "load_calibration", "save_calibration"]
 

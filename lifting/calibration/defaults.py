@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from lifting.calibration.model import Calibration, new_meta
-from lifting.camera import Camera
+from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.camera import Camera
 
 DIAGONAL_FOV_DEG = math.degrees(2.0 * math.atan(0.5))
 

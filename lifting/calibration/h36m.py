@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from lifting.calibration import validate
-from lifting.calibration.defaults import complete_camera
-from lifting.calibration.model import Calibration, new_meta
-from lifting.errors import InputError
+from platypose.lifting.calibration import validate
+from platypose.lifting.calibration.defaults import complete_camera
+from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.errors import InputError
 
 INTRINSIC_FIELDS = ("id", "center", "focal_length", "radial_distortion", "tangential_distortion", "res_w", "res_h")
 

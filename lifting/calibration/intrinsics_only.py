@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.calibration import validate
-from lifting.calibration.defaults import SIZE_FROM_CENTRE_NOTE, complete_camera, size_from_principal_point
-from lifting.calibration.model import Calibration, new_meta
-from lifting.errors import InputError
+from platypose.lifting.calibration import validate
+from platypose.lifting.calibration.defaults import SIZE_FROM_CENTRE_NOTE, complete_camera, size_from_principal_point
+from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.errors import InputError
 
 
 def _is_number(token: str) -> bool:

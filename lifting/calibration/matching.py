@@ -7,8 +7,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lifting.camera import Camera
-from lifting.errors import InputError
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
 
 VIEW_SUFFIXES = ("json", "keypoints", "video")
 EXTENSIONS = re.compile(r"\.(mp4|avi|mov|mkv|webm|m4v|json|npz|csv|txt)$", re.IGNORECASE)

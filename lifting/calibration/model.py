@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from lifting.camera import Camera
+from platypose.lifting.camera import Camera
 
 
 @dataclass(frozen=True)

@@ -13,10 +13,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from lifting.calibration import validate
-from lifting.calibration.defaults import SIZE_FROM_CENTRE_NOTE, complete_camera, size_from_principal_point
-from lifting.calibration.model import Calibration, new_meta
-from lifting.errors import InputError
+from platypose.lifting.calibration import validate
+from platypose.lifting.calibration.defaults import SIZE_FROM_CENTRE_NOTE, complete_camera, size_from_principal_point
+from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.errors import InputError
 
 INTRI, EXTRI = "intri.yml", "extri.yml"
 ASSUMED_FRAME = "world frame not stated by the file: assumed Z up and metres (EasyMocap convention)"

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from lifting.camera import Camera
+from platypose.lifting.camera import Camera
 
 
 def viewing_direction(camera: Camera) -> np.ndarray:

@@ -10,10 +10,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from lifting.calibration import validate
-from lifting.calibration.defaults import complete_camera
-from lifting.calibration.model import Calibration, new_meta
-from lifting.errors import InputError
+from platypose.lifting.calibration import validate
+from platypose.lifting.calibration.defaults import complete_camera
+from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.errors import InputError
 
 if sys.version_info >= (3, 11):
     import tomllib

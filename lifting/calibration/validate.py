@@ -10,8 +10,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from lifting.camera import Camera
-from lifting.errors import InputError
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
 
 ROTATION_TOLERANCE = 1e-5
 

@@ -6,9 +6,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from lifting.calibration.model import Calibration, with_note
-from lifting.camera import Camera
-from lifting.errors import InputError
+from platypose.lifting.calibration.model import Calibration, with_note
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
 
 UNIT_METRES: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 AXES: dict[str, np.ndarray] = {"x": np.eye(3)[0], "y": np.eye(3)[1], "z": np.eye(3)[2]}

@@ -12,16 +12,16 @@ import dataclasses
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
-from lifting.errors import InputError
-from lifting.motion import Motion
-from lifting.motion_io.asf_amc import load_amc
-from lifting.motion_io.bvh import load_bvh
-from lifting.motion_io.c3d import load_c3d
-from lifting.motion_io.deepmimic import is_deepmimic, load_deepmimic
-from lifting.motion_io.h36m import is_h36m_npz, load_h36m
-from lifting.motion_io.holosoma import load_holosoma
-from lifting.motion_io.plain_npz import is_plain_npz, load_plain_npz
-from lifting.motion_io.provenance import find_provenance
+from platypose.lifting.errors import InputError
+from platypose.lifting.motion import Motion
+from platypose.lifting.motion_io.asf_amc import load_amc
+from platypose.lifting.motion_io.bvh import load_bvh
+from platypose.lifting.motion_io.c3d import load_c3d
+from platypose.lifting.motion_io.deepmimic import is_deepmimic, load_deepmimic
+from platypose.lifting.motion_io.h36m import is_h36m_npz, load_h36m
+from platypose.lifting.motion_io.holosoma import load_holosoma
+from platypose.lifting.motion_io.plain_npz import is_plain_npz, load_plain_npz
+from platypose.lifting.motion_io.provenance import find_provenance
 
 Loader = Callable[..., list[Motion]]
 

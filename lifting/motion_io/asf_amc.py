@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from lifting.errors import InputError
-from lifting.joint_maps import CMU_ASF_RECIPE, apply_recipe
-from lifting.motion import Motion
-from lifting.motion_io.kinematics import forward_kinematics, y_up_to_z_up
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import CMU_ASF_RECIPE, apply_recipe
+from platypose.lifting.motion import Motion
+from platypose.lifting.motion_io.kinematics import forward_kinematics, y_up_to_z_up
 
 DEFAULT_FPS = 120.0
 INCH_M = 0.0254

@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from lifting.errors import InputError
-from lifting.joint_maps import BVH_NAMING, LIMB_JOINTS, Recipe, apply_recipe, head_between, head_beyond, mocap_recipe
-from lifting.motion import Motion
-from lifting.motion_io.kinematics import (
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import BVH_NAMING, LIMB_JOINTS, Recipe, apply_recipe, head_between, head_beyond, mocap_recipe
+from platypose.lifting.motion import Motion
+from platypose.lifting.motion_io.kinematics import (
     LENGTH_UNITS,
     detect_length_unit,
     forward_kinematics,

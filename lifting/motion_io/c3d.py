@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.errors import InputError
-from lifting.joint_maps import C3D_MARKER_RECIPES
-from lifting.motion import Motion
-from lifting.motion_io.kinematics import LENGTH_UNITS, y_up_to_z_up
-from lifting.skeleton import JOINT_INDEX, JOINT_NAMES, NUM_JOINTS
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import C3D_MARKER_RECIPES
+from platypose.lifting.motion import Motion
+from platypose.lifting.motion_io.kinematics import LENGTH_UNITS, y_up_to_z_up
+from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES, NUM_JOINTS
 
 
 def header_frames(path: Path) -> int | None:

@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from lifting.errors import InputError
-from lifting.joint_maps import DEEPMIMIC_RECIPE, apply_recipe
-from lifting.motion import Motion
-from lifting.motion_io.kinematics import forward_kinematics, rate_from_step, y_up_to_z_up
-from lifting.timebase import interpolate
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import DEEPMIMIC_RECIPE, apply_recipe
+from platypose.lifting.motion import Motion
+from platypose.lifting.motion_io.kinematics import forward_kinematics, rate_from_step, y_up_to_z_up
+from platypose.lifting.timebase import interpolate
 
 URDF_NAME = "humanoid.urdf"
 URDF_SCALE = 0.25

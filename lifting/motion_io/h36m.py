@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.errors import InputError
-from lifting.joint_maps import H36M32_TO_OURS
-from lifting.motion import Motion
-from lifting.motion_io.plain_npz import npz_keys
-from lifting.motion_io.safe_unpickle import load_object_member
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import H36M32_TO_OURS
+from platypose.lifting.motion import Motion
+from platypose.lifting.motion_io.plain_npz import npz_keys
+from platypose.lifting.motion_io.safe_unpickle import load_object_member
 
 H36M_FPS = 50.0
 H36M_JOINTS = 32

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.errors import InputError
-from lifting.joint_maps import HOLOSOMA_MOCAP_NAMES, HOLOSOMA_MOCAP_RECIPE, apply_recipe
-from lifting.motion import Motion
+from platypose.lifting.errors import InputError
+from platypose.lifting.joint_maps import HOLOSOMA_MOCAP_NAMES, HOLOSOMA_MOCAP_RECIPE, apply_recipe
+from platypose.lifting.motion import Motion
 
 # The files store no rate; hand (~1.9 m/s) and foot (~3.2 m/s) peak speeds are
 # plausible for climbing only at 120 frames per second.

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from lifting.errors import InputError
-from lifting.motion import Motion
-from lifting.skeleton import JOINT_NAMES, NUM_JOINTS
+from platypose.lifting.errors import InputError
+from platypose.lifting.motion import Motion
+from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
 
 
 def npz_keys(path: Path) -> set[str]:

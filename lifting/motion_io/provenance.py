@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from lifting.errors import InputError
+from platypose.lifting.errors import InputError
 
 SOURCE_FILE = "SOURCE.json"
 UNKNOWN = "unknown"

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from lifting.errors import InputError
+from platypose.lifting.errors import InputError
 
 # The callables numpy's pickles of arrays, dtypes and scalars name, taken from numpy itself so that
 # both the numpy 1 (numpy.core) and numpy 2 (numpy._core) module names resolve to them.

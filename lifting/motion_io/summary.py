@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from lifting.motion import Motion
-from lifting.skeleton import BONES, JOINT_INDEX, JOINT_NAMES, bone_lengths
+from platypose.lifting.motion import Motion
+from platypose.lifting.skeleton import BONES, JOINT_INDEX, JOINT_NAMES, bone_lengths
 
 # Bones from ankle to head centre whose summed median lengths give the upright
 # ankle-to-head-centre height; a tuple of several is averaged (left/right legs).

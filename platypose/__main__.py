@@ -1,0 +1,5 @@
+"""``python -m platypose`` runs the ``platypose`` command."""
+
+from platypose.cli.app import main
+
+main()
