@@ -38,6 +38,7 @@ def _shape(node) -> tuple:
 
 def signature(session) -> str:
     """A one-line description of a session's inputs and outputs, for error messages."""
+
     def describe(nodes) -> str:
         return ", ".join(f"{n.name}{list(_shape(n))}" for n in nodes)
 
@@ -58,8 +59,10 @@ def recognise(session) -> str:
     ranks = sorted(len(o) for o in outputs)
     if len(outputs) == 1 and ranks == [3] and outputs[0][1] is not None and (outputs[0][1] - 5) % 3 == 0:
         return "yolo-pose"
-    if ranks == [3, 4] and any(len(o) == 3 and o[2] == 5 for o in outputs) and any(
-        len(o) == 4 and o[3] == 3 for o in outputs
+    if (
+        ranks == [3, 4]
+        and any(len(o) == 3 and o[2] == 5 for o in outputs)
+        and any(len(o) == 4 and o[3] == 3 for o in outputs)
     ):
         return "rtmo"
     if ranks == [3, 3] and outputs[0][1] == outputs[1][1]:

@@ -26,12 +26,19 @@ from platypose.detectors.pose_metrics import person_size, pose_distance
 from platypose.lifting.skeleton import JOINT_INDEX
 
 _SEGMENT_NAMES = (
-    ("right_hip", "left_hip"), ("left_shoulder", "right_shoulder"),
-    ("right_hip", "right_knee"), ("right_knee", "right_ankle"), ("left_hip", "left_knee"), ("left_knee", "left_ankle"),
-    ("right_shoulder", "right_elbow"), ("right_elbow", "right_wrist"),
-    ("left_shoulder", "left_elbow"), ("left_elbow", "left_wrist"),
-    ("right_hip", "right_shoulder"), ("left_hip", "left_shoulder"),
-)  # fmt: skip
+    ("right_hip", "left_hip"),
+    ("left_shoulder", "right_shoulder"),
+    ("right_hip", "right_knee"),
+    ("right_knee", "right_ankle"),
+    ("left_hip", "left_knee"),
+    ("left_knee", "left_ankle"),
+    ("right_shoulder", "right_elbow"),
+    ("right_elbow", "right_wrist"),
+    ("left_shoulder", "left_elbow"),
+    ("left_elbow", "left_wrist"),
+    ("right_hip", "right_shoulder"),
+    ("left_hip", "left_shoulder"),
+)
 _SEGMENTS = np.array([[JOINT_INDEX[a], JOINT_INDEX[b]] for a, b in _SEGMENT_NAMES])
 _MAX_LOG_RATIO = np.log(2.0)  # a segment twice as long (a limb swap, a bad detection) counts no more than that
 _MAX_JUMP = 2.0  # a pose jump counts at most this many person sizes (a partial pose may share no joints)
@@ -142,9 +149,14 @@ def _column_medians(values: np.ndarray) -> np.ndarray:
 
 
 def _pairing_cost(
-    keypoints: np.ndarray, features: _Features, times: np.ndarray, s: int, before: int, after: int,
+    keypoints: np.ndarray,
+    features: _Features,
+    times: np.ndarray,
+    s: int,
+    before: int,
+    after: int,
     config: SwitchRepairConfig,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """Cost of track ``before`` up to frame s continuing as track ``after`` from s: (shape + motion, pose jump), (2,);
     NaN if either side has too few observed frames."""
     frames_before = _evidence_frames(features.observed[:, before], times, s, False, config)

@@ -85,9 +85,16 @@ def write_keypoints_csv(tracks: PoseTrack2D, path: str | Path) -> Path:
                     x, y, c = tracks.keypoints[t, p, j].tolist()
                     seen = c > 0
                     writer.writerow(
-                        (track_id, t, f"{time:.6f}", name, f"{x:.3f}" if seen else "", f"{y:.3f}" if seen else "",
-                         f"{c:.4f}")
-                    )  # fmt: skip
+                        (
+                            track_id,
+                            t,
+                            f"{time:.6f}",
+                            name,
+                            f"{x:.3f}" if seen else "",
+                            f"{y:.3f}" if seen else "",
+                            f"{c:.4f}",
+                        )
+                    )
     return path
 
 

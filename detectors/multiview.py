@@ -38,9 +38,12 @@ def group_cost(tracks: Sequence[np.ndarray], cameras: Sequence[Camera]) -> float
         return np.inf
     confidence = np.where(shared, keypoints[..., 2], 0.0)
     errors = np.concatenate(
-        [_errors(keypoints[:, t : t + FRAME_BLOCK], confidence[:, t : t + FRAME_BLOCK], cameras)
-         for t in range(0, keypoints.shape[1], FRAME_BLOCK)], axis=1,
-    )  # fmt: skip
+        [
+            _errors(keypoints[:, t : t + FRAME_BLOCK], confidence[:, t : t + FRAME_BLOCK], cameras)
+            for t in range(0, keypoints.shape[1], FRAME_BLOCK)
+        ],
+        axis=1,
+    )
     usable = seen & shared & np.isfinite(errors)
     if usable.sum() < MIN_SHARED:
         return np.inf

@@ -64,8 +64,14 @@ class _Track:
         return predicted
 
 
-def _assign(tracks: list[_Track], detections: np.ndarray, time: float, times: np.ndarray, gates: np.ndarray,
-            min_confidence: float) -> list[tuple[int, int]]:
+def _assign(
+    tracks: list[_Track],
+    detections: np.ndarray,
+    time: float,
+    times: np.ndarray,
+    gates: np.ndarray,
+    min_confidence: float,
+) -> list[tuple[int, int]]:
     """Hungarian assignment of live tracks to detections (N, 17, 3) under per-track gates; (track, detection) pairs."""
     if not tracks or len(detections) == 0:
         return []

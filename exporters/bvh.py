@@ -30,11 +30,26 @@ DECIMALS = 6
 _LEFT, _RIGHT, _UP, _DOWN, _FORWARD = (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)
 REST_DIRECTIONS = np.array(
     [
-        (0, 0, 0), _RIGHT, _DOWN, _DOWN, _LEFT, _DOWN, _DOWN, _UP, _UP, _UP, _UP,
-        _LEFT, _LEFT, _LEFT, _RIGHT, _RIGHT, _RIGHT,
+        (0, 0, 0),
+        _RIGHT,
+        _DOWN,
+        _DOWN,
+        _LEFT,
+        _DOWN,
+        _DOWN,
+        _UP,
+        _UP,
+        _UP,
+        _UP,
+        _LEFT,
+        _LEFT,
+        _LEFT,
+        _RIGHT,
+        _RIGHT,
+        _RIGHT,
     ],
     dtype=np.float64,
-)  # fmt: skip
+)
 
 # End sites of the leaf joints: direction and length as a fraction of the leaf's own bone.
 END_SITES: dict[int, tuple[tuple[int, int, int], float]] = {
@@ -44,6 +59,7 @@ END_SITES: dict[int, tuple[tuple[int, int, int], float]] = {
     JOINT_NAMES.index("left_wrist"): (_LEFT, 0.75),
     JOINT_NAMES.index("right_wrist"): (_RIGHT, 0.75),
 }
+
 
 @dataclass(frozen=True)
 class BvhFit:

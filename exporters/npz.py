@@ -19,9 +19,19 @@ from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import JOINT_NAMES, PARENTS
 
 REQUIRED = (
-    "hypotheses", "median", "keypoints2d", "frame_times", "fps", "joint_names", "parents",
-    "track_ids", "cameras", "units", "up_axis", "meta",
-)  # fmt: skip
+    "hypotheses",
+    "median",
+    "keypoints2d",
+    "frame_times",
+    "fps",
+    "joint_names",
+    "parents",
+    "track_ids",
+    "cameras",
+    "units",
+    "up_axis",
+    "meta",
+)
 
 
 FRAME_AXES = {"hypotheses": 2, "median": 1, "keypoints2d": 2, "energy": 2}  # written a chunk of frames at a time

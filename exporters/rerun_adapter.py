@@ -80,9 +80,12 @@ def log_world(rec: rr.RecordingStream, entity: str) -> None:
 
 
 def log_annotations(
-    rec: rr.RecordingStream, entity: str, classes: Sequence[ClassStyle], keypoint_names: Sequence[str],
+    rec: rr.RecordingStream,
+    entity: str,
+    classes: Sequence[ClassStyle],
+    keypoint_names: Sequence[str],
     connections: Sequence[tuple[int, int]],
-) -> None:  # fmt: skip
+) -> None:
     """Annotation classes under ``entity``, each with the skeleton's keypoints and bones."""
     keypoints = [rr.AnnotationInfo(id=i, label=n) for i, n in enumerate(keypoint_names)]
     descriptions = [
@@ -109,9 +112,16 @@ def log_camera(
 
 
 def send_skeletons_3d(
-    rec: rr.RecordingStream, entity: str, times: np.ndarray, frames: np.ndarray, points: np.ndarray,
-    counts: np.ndarray, class_ids: np.ndarray, keypoint_ids: np.ndarray, radius: float,
-) -> None:  # fmt: skip
+    rec: rr.RecordingStream,
+    entity: str,
+    times: np.ndarray,
+    frames: np.ndarray,
+    points: np.ndarray,
+    counts: np.ndarray,
+    class_ids: np.ndarray,
+    keypoint_ids: np.ndarray,
+    radius: float,
+) -> None:
     """Per-frame 3D points (sum(counts), 3) in ``counts`` per frame; class and keypoint ids (M,) static per slot."""
     rec.log(
         entity,
@@ -123,9 +133,15 @@ def send_skeletons_3d(
 
 
 def send_bones_3d(
-    rec: rr.RecordingStream, entity: str, times: np.ndarray, frames: np.ndarray, segments: np.ndarray,
-    counts: np.ndarray, radius: float, rgba: tuple[int, int, int, int],
-) -> None:  # fmt: skip
+    rec: rr.RecordingStream,
+    entity: str,
+    times: np.ndarray,
+    frames: np.ndarray,
+    segments: np.ndarray,
+    counts: np.ndarray,
+    radius: float,
+    rgba: tuple[int, int, int, int],
+) -> None:
     """Per-frame thick line segments (M, 2, 3) split into frames by ``counts``, one colour."""
     rec.log(entity, rr.LineStrips3D.from_fields(radii=radius, colors=[rgba]), static=True)
     columns = rr.LineStrips3D.columns(strips=np.asarray(segments, dtype=np.float32)).partition(counts)
@@ -133,9 +149,15 @@ def send_bones_3d(
 
 
 def send_spheres_3d(
-    rec: rr.RecordingStream, entity: str, times: np.ndarray, frames: np.ndarray, centres: np.ndarray,
-    radii: np.ndarray, counts: np.ndarray, rgba: tuple[int, int, int, int],
-) -> None:  # fmt: skip
+    rec: rr.RecordingStream,
+    entity: str,
+    times: np.ndarray,
+    frames: np.ndarray,
+    centres: np.ndarray,
+    radii: np.ndarray,
+    counts: np.ndarray,
+    rgba: tuple[int, int, int, int],
+) -> None:
     """Per-frame wireframe spheres: centres (M, 3) and radii (M,) split into frames by ``counts``."""
     rec.log(
         entity,
@@ -148,9 +170,16 @@ def send_spheres_3d(
 
 
 def send_keypoints_2d(
-    rec: rr.RecordingStream, entity: str, times: np.ndarray, frames: np.ndarray, points: np.ndarray,
-    keypoint_ids: np.ndarray, counts: np.ndarray, class_id: int, radius: float,
-) -> None:  # fmt: skip
+    rec: rr.RecordingStream,
+    entity: str,
+    times: np.ndarray,
+    frames: np.ndarray,
+    points: np.ndarray,
+    keypoint_ids: np.ndarray,
+    counts: np.ndarray,
+    class_id: int,
+    radius: float,
+) -> None:
     """Per-frame 2D keypoints (M, 2) pixels with their keypoint ids (M,), split by ``counts``."""
     rec.log(entity, rr.Points2D.from_fields(class_ids=[class_id], radii=radius, show_labels=False), static=True)
     columns = rr.Points2D.columns(
@@ -160,9 +189,14 @@ def send_keypoints_2d(
 
 
 def send_series(
-    rec: rr.RecordingStream, entity: str, times: np.ndarray, frames: np.ndarray, values: np.ndarray,
-    names: Sequence[str], rgba: Sequence[tuple[int, int, int, int]],
-) -> None:  # fmt: skip
+    rec: rr.RecordingStream,
+    entity: str,
+    times: np.ndarray,
+    frames: np.ndarray,
+    values: np.ndarray,
+    names: Sequence[str],
+    rgba: Sequence[tuple[int, int, int, int]],
+) -> None:
     """Time series: ``values`` (T, K), one line per column with its name and colour."""
     rec.log(entity, rr.SeriesLines(names=list(names), colors=list(rgba)), static=True)
     rr.send_columns(entity, indexes=_indexes(times, frames), columns=rr.Scalars.columns(scalars=values), recording=rec)

@@ -84,27 +84,58 @@ def _log_person_frames(rec, result: LiftResult, p: int, idx: np.ndarray, hypothe
     joint_ids = np.arange(NUM_JOINTS, dtype=np.uint16)
     hyp = np.moveaxis(hypotheses, 0, 1)  # (T_on, N, 17, 3)
     rra.send_skeletons_3d(
-        rec, f"{base}/hypotheses", times, idx, hyp.reshape(-1, 3), np.full(T_on, N * NUM_JOINTS),
-        np.repeat(np.arange(N, dtype=np.uint16), NUM_JOINTS), np.tile(joint_ids, N), radius=0.008,
-    )  # fmt: skip
+        rec,
+        f"{base}/hypotheses",
+        times,
+        idx,
+        hyp.reshape(-1, 3),
+        np.full(T_on, N * NUM_JOINTS),
+        np.repeat(np.arange(N, dtype=np.uint16), NUM_JOINTS),
+        np.tile(joint_ids, N),
+        radius=0.008,
+    )
     median = result.median[p, idx[0] : idx[-1] + 1][idx - idx[0]]
     rra.send_skeletons_3d(
-        rec, f"{base}/median", times, idx, median.reshape(-1, 3), np.full(T_on, NUM_JOINTS),
-        np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16), joint_ids, radius=0.02,
-    )  # fmt: skip
+        rec,
+        f"{base}/median",
+        times,
+        idx,
+        median.reshape(-1, 3),
+        np.full(T_on, NUM_JOINTS),
+        np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16),
+        joint_ids,
+        radius=0.02,
+    )
     rra.send_bones_3d(
-        rec, f"{base}/median/bones", times, idx, bone_segments(median).reshape(-1, 2, 3),
-        np.full(T_on, len(BONES)), radius=0.018, rgba=MEDIAN_RGBA,
-    )  # fmt: skip
+        rec,
+        f"{base}/median/bones",
+        times,
+        idx,
+        bone_segments(median).reshape(-1, 2, 3),
+        np.full(T_on, len(BONES)),
+        radius=0.018,
+        rgba=MEDIAN_RGBA,
+    )
     spread = per_joint_spread(hypotheses, median)
     rra.send_spheres_3d(
-        rec, f"{base}/spread", times, idx, median.reshape(-1, 3), spread.reshape(-1), np.full(T_on, NUM_JOINTS),
+        rec,
+        f"{base}/spread",
+        times,
+        idx,
+        median.reshape(-1, 3),
+        spread.reshape(-1),
+        np.full(T_on, NUM_JOINTS),
         SPREAD_RGBA,
-    )  # fmt: skip
+    )
     rra.send_series(
-        rec, f"plots/spread/p{track}", times, idx, 1000.0 * spread.mean(axis=1, keepdims=True),
-        [f"p{track} mean joint spread"], [MEDIAN_RGBA],
-    )  # fmt: skip
+        rec,
+        f"plots/spread/p{track}",
+        times,
+        idx,
+        1000.0 * spread.mean(axis=1, keepdims=True),
+        [f"p{track} mean joint spread"],
+        [MEDIAN_RGBA],
+    )
     if result.energy is not None:
         energy = result.energy[p, :, idx[0] : idx[-1] + 1][:, idx - idx[0]]
         energy = np.quantile(energy, [0.05, 0.5, 0.95], axis=0).T
@@ -121,10 +152,16 @@ def _log_keypoints(rec, result: LiftResult, c: int) -> None:
             valid = (kp[..., 2] > 0) & np.isfinite(kp[..., :2]).all(axis=-1)  # (t, 17)
             t_idx, j_idx = np.nonzero(valid)
             rra.send_keypoints_2d(
-                rec, f"world/cameras/{camera.name}/keypoints/p{track}", result.frame_times[t],
-                np.arange(t.start, t.stop), kp[t_idx, j_idx, :2], j_idx, valid.sum(axis=1), KEYPOINTS_CLASS,
+                rec,
+                f"world/cameras/{camera.name}/keypoints/p{track}",
+                result.frame_times[t],
+                np.arange(t.start, t.stop),
+                kp[t_idx, j_idx, :2],
+                j_idx,
+                valid.sum(axis=1),
+                KEYPOINTS_CLASS,
                 radius=4.0,
-            )  # fmt: skip
+            )
             rra.flush(rec)
 
 
@@ -157,9 +194,13 @@ def check_videos(result: LiftResult, video_paths: Mapping[str, Path], mode: str)
 
 
 def write_rrd(
-    result: LiftResult, path: Path | str, name: str, video_paths: Mapping[str, Path] | None = None,
-    video_mode: str = "asset", say: Callable[[str], None] = lambda _: None,
-) -> Path:  # fmt: skip
+    result: LiftResult,
+    path: Path | str,
+    name: str,
+    video_paths: Mapping[str, Path] | None = None,
+    video_mode: str = "asset",
+    say: Callable[[str], None] = lambda _: None,
+) -> Path:
     """Write the rerun recording of ``result`` to ``path`` atomically; videos are matched to cameras by name."""
     path = Path(path)
     video_paths = {k: Path(v) for k, v in (video_paths or {}).items()}

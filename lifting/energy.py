@@ -70,9 +70,7 @@ def robust_penalty(squared: torch.Tensor, loss: str, scale: float) -> torch.Tens
     raise ValueError(f"unknown robust loss {loss!r}; choose one of {', '.join(ROBUST_LOSSES)}")
 
 
-def reprojection_energy(
-    joints: torch.Tensor, obs: Observations, loss: str = "l2", scale: float = 0.05
-) -> torch.Tensor:
+def reprojection_energy(joints: torch.Tensor, obs: Observations, loss: str = "l2", scale: float = 0.05) -> torch.Tensor:
     """Per-frame energy ``(B, N, F)`` of world joints ``(B, N, F, 17, 3)`` against the observations.
 
     Sum over cameras and joints of confidence times the robust penalty of the

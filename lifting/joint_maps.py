@@ -26,11 +26,24 @@ def _mid(a: str, b: str) -> dict[str, float]:
 
 
 COCO17_NAMES: tuple[str, ...] = (
-    "nose", "left_eye", "right_eye", "left_ear", "right_ear",
-    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
-    "left_wrist", "right_wrist", "left_hip", "right_hip",
-    "left_knee", "right_knee", "left_ankle", "right_ankle",
-)  # fmt: skip
+    "nose",
+    "left_eye",
+    "right_eye",
+    "left_ear",
+    "right_ear",
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
+    "left_hip",
+    "right_hip",
+    "left_knee",
+    "right_knee",
+    "left_ankle",
+    "right_ankle",
+)
 
 # COCO-17 (MoveNet, YOLO-pose, RTMPose, MMPose body models) -> ours.
 # head (centre of the head) is the ear midpoint; neck (base of the skull) lies
@@ -86,9 +99,7 @@ def apply_recipe_with_confidence(
     weights = recipe_matrix(recipe, source_names)
     mapped = np.einsum("js,...sd->...jd", weights, points)
     used = weights > 0
-    conf = np.stack(
-        [confidence[..., used[j]].min(axis=-1) for j in range(len(JOINT_NAMES))], axis=-1
-    )
+    conf = np.stack([confidence[..., used[j]].min(axis=-1) for j in range(len(JOINT_NAMES))], axis=-1)
     return mapped, conf
 
 
@@ -99,30 +110,75 @@ def apply_recipe_with_confidence(
 # BODY_25B, which observes the base of the skull directly ("upper_neck").
 
 _FEET: tuple[str, ...] = (
-    "left_big_toe", "left_small_toe", "left_heel", "right_big_toe", "right_small_toe", "right_heel",
-)  # fmt: skip
+    "left_big_toe",
+    "left_small_toe",
+    "left_heel",
+    "right_big_toe",
+    "right_small_toe",
+    "right_heel",
+)
 
 # OpenPose COCO-18 (and the first 18 points of BODY_25 before its mid-hip).
 COCO18_NAMES: tuple[str, ...] = (
-    "nose", "openpose_neck", "right_shoulder", "right_elbow", "right_wrist",
-    "left_shoulder", "left_elbow", "left_wrist", "right_hip", "right_knee", "right_ankle",
-    "left_hip", "left_knee", "left_ankle", "right_eye", "left_eye", "right_ear", "left_ear",
-)  # fmt: skip
+    "nose",
+    "openpose_neck",
+    "right_shoulder",
+    "right_elbow",
+    "right_wrist",
+    "left_shoulder",
+    "left_elbow",
+    "left_wrist",
+    "right_hip",
+    "right_knee",
+    "right_ankle",
+    "left_hip",
+    "left_knee",
+    "left_ankle",
+    "right_eye",
+    "left_eye",
+    "right_ear",
+    "left_ear",
+)
 
 # OpenPose BODY_25 (default OpenPose model).
 BODY25_NAMES: tuple[str, ...] = (
-    "nose", "openpose_neck", "right_shoulder", "right_elbow", "right_wrist",
-    "left_shoulder", "left_elbow", "left_wrist", "mid_hip", "right_hip", "right_knee", "right_ankle",
-    "left_hip", "left_knee", "left_ankle", "right_eye", "left_eye", "right_ear", "left_ear",
-) + _FEET  # fmt: skip
+    "nose",
+    "openpose_neck",
+    "right_shoulder",
+    "right_elbow",
+    "right_wrist",
+    "left_shoulder",
+    "left_elbow",
+    "left_wrist",
+    "mid_hip",
+    "right_hip",
+    "right_knee",
+    "right_ankle",
+    "left_hip",
+    "left_knee",
+    "left_ankle",
+    "right_eye",
+    "left_eye",
+    "right_ear",
+    "left_ear",
+) + _FEET
 
 # OpenPose experimental BODY_25B: COCO-17 order, then upper neck, head top, feet.
 BODY25B_NAMES: tuple[str, ...] = COCO17_NAMES + ("upper_neck", "head_top") + _FEET
 
 # Halpe-26 (AlphaPose, RTMPose body7 Halpe models): COCO-17, head top, neck, mid-hip, feet.
-HALPE26_NAMES: tuple[str, ...] = COCO17_NAMES + ("head_top", "openpose_neck", "mid_hip") + (
-    "left_big_toe", "right_big_toe", "left_small_toe", "right_small_toe", "left_heel", "right_heel",
-)  # fmt: skip
+HALPE26_NAMES: tuple[str, ...] = (
+    COCO17_NAMES
+    + ("head_top", "openpose_neck", "mid_hip")
+    + (
+        "left_big_toe",
+        "right_big_toe",
+        "left_small_toe",
+        "right_small_toe",
+        "left_heel",
+        "right_heel",
+    )
+)
 
 # COCO-WholeBody-133 (RTMW, DWPose): COCO-17, 6 foot points, 68 face points, 2 x 21 hand points.
 WHOLEBODY133_NAMES: tuple[str, ...] = (
@@ -161,9 +217,19 @@ KEYPOINT_LAYOUTS: dict[str, tuple[tuple[str, ...], Recipe]] = {
 # the neck by HEAD_EXTRAPOLATION of the neck length (holosoma: 0.5 x 0.14 m = 7 cm).
 
 LIMB_JOINTS: tuple[str, ...] = (
-    "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee", "left_ankle",
-    "left_shoulder", "left_elbow", "left_wrist", "right_shoulder", "right_elbow", "right_wrist",
-)  # fmt: skip
+    "right_hip",
+    "right_knee",
+    "right_ankle",
+    "left_hip",
+    "left_knee",
+    "left_ankle",
+    "left_shoulder",
+    "left_elbow",
+    "left_wrist",
+    "right_shoulder",
+    "right_elbow",
+    "right_wrist",
+)
 
 HEAD_EXTRAPOLATION = 0.5
 
@@ -206,22 +272,38 @@ HOLOSOMA_MOCAP_NAMES: tuple[str, ...] = (
 
 # Limb names shared by Vicon/MotionBuilder/Mixamo/LaFAN style skeletons (holosoma, many BVH files).
 MOTIONBUILDER_LIMBS: dict[str, str] = {
-    "right_hip": "RightUpLeg", "right_knee": "RightLeg", "right_ankle": "RightFoot",
-    "left_hip": "LeftUpLeg", "left_knee": "LeftLeg", "left_ankle": "LeftFoot",
-    "left_shoulder": "LeftArm", "left_elbow": "LeftForeArm", "left_wrist": "LeftHand",
-    "right_shoulder": "RightArm", "right_elbow": "RightForeArm", "right_wrist": "RightHand",
-}  # fmt: skip
+    "right_hip": "RightUpLeg",
+    "right_knee": "RightLeg",
+    "right_ankle": "RightFoot",
+    "left_hip": "LeftUpLeg",
+    "left_knee": "LeftLeg",
+    "left_ankle": "LeftFoot",
+    "left_shoulder": "LeftArm",
+    "left_elbow": "LeftForeArm",
+    "left_wrist": "LeftHand",
+    "right_shoulder": "RightArm",
+    "right_elbow": "RightForeArm",
+    "right_wrist": "RightHand",
+}
 
 HOLOSOMA_MOCAP_RECIPE: Recipe = mocap_recipe(MOTIONBUILDER_LIMBS, {"Head": 1.0}, head_beyond("Head", "Neck"))
 
 # CMU ASF/AMC: each bone's point is its END (lhipjoint ends at the hip joint centre,
 # lfemur at the knee, ...); upperneck ends at the skull base, head at the head top.
 CMU_ASF_LIMBS: dict[str, str] = {
-    "right_hip": "rhipjoint", "right_knee": "rfemur", "right_ankle": "rtibia",
-    "left_hip": "lhipjoint", "left_knee": "lfemur", "left_ankle": "ltibia",
-    "left_shoulder": "lclavicle", "left_elbow": "lhumerus", "left_wrist": "lradius",
-    "right_shoulder": "rclavicle", "right_elbow": "rhumerus", "right_wrist": "rradius",
-}  # fmt: skip
+    "right_hip": "rhipjoint",
+    "right_knee": "rfemur",
+    "right_ankle": "rtibia",
+    "left_hip": "lhipjoint",
+    "left_knee": "lfemur",
+    "left_ankle": "ltibia",
+    "left_shoulder": "lclavicle",
+    "left_elbow": "lhumerus",
+    "left_wrist": "lradius",
+    "right_shoulder": "rclavicle",
+    "right_elbow": "rhumerus",
+    "right_wrist": "rradius",
+}
 
 CMU_ASF_RECIPE: Recipe = mocap_recipe(CMU_ASF_LIMBS, {"upperneck": 1.0}, head_between("upperneck", "head"))
 
@@ -252,20 +334,29 @@ BVH_NAMING: dict[str, tuple[dict[str, str], str, str | None]] = {
     "motionbuilder": (MOTIONBUILDER_LIMBS, "Head", None),
     "mocapbank": (
         {
-            "right_hip": "RightHip", "right_knee": "RightKnee", "right_ankle": "RightAnkle",
-            "left_hip": "LeftHip", "left_knee": "LeftKnee", "left_ankle": "LeftAnkle",
-            "left_shoulder": "LeftShoulder", "left_elbow": "LeftElbow", "left_wrist": "LeftWrist",
-            "right_shoulder": "RightShoulder", "right_elbow": "RightElbow", "right_wrist": "RightWrist",
+            "right_hip": "RightHip",
+            "right_knee": "RightKnee",
+            "right_ankle": "RightAnkle",
+            "left_hip": "LeftHip",
+            "left_knee": "LeftKnee",
+            "left_ankle": "LeftAnkle",
+            "left_shoulder": "LeftShoulder",
+            "left_elbow": "LeftElbow",
+            "left_wrist": "LeftWrist",
+            "right_shoulder": "RightShoulder",
+            "right_elbow": "RightElbow",
+            "right_wrist": "RightWrist",
         },
         "Head",
         None,
-    ),  # fmt: skip
+    ),
 }
 
 # Human3.6M 32-joint mocap (VideoPose3D data_3d_h36m.npz) -> ours: index of each
 # of our joints among the 32. H36M's own definitions apply (its "neck/nose" and
 # "head" points; its pelvis is the root joint, close to the hips' midpoint).
 H36M32_TO_OURS: tuple[int, ...] = (0, 1, 2, 3, 6, 7, 8, 12, 13, 14, 15, 17, 18, 19, 25, 26, 27)
+
 
 # C3D marker trials (clinical gait labs): for each joint, alternative weightings
 # of named points, most direct first: joint centres exported by the lab's model

@@ -18,7 +18,7 @@ import torch
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.prior import PriorBundle
-from platypose.lifting.sampler import Anchor, SampleResult, SamplerConfig, cameras_and_rays, sample
+from platypose.lifting.sampler import Anchor, SamplerConfig, SampleResult, cameras_and_rays, sample
 from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights
 from platypose.lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
 

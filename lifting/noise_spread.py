@@ -38,7 +38,10 @@ def unit_weight_variance(energy: torch.Tensor, confidence: torch.Tensor) -> torc
 
 
 def noise_spread(
-    curvature: torch.Tensor, confidence: torch.Tensor, draws: torch.Tensor, variance: torch.Tensor,
+    curvature: torch.Tensor,
+    confidence: torch.Tensor,
+    draws: torch.Tensor,
+    variance: torch.Tensor,
     smoothed: tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> torch.Tensor:
     """Offsets ``(B, N, F, 17, 3)`` that spread fitted world joints by their 2D noise, from the fit's packed

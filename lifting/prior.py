@@ -108,7 +108,9 @@ def encode_for_inference(encoder: nn.TransformerEncoder, tokens: torch.Tensor) -
         heads = attention.num_heads
         h = nn.functional.layer_norm(x, (width,), layer.norm1.weight, layer.norm1.bias, layer.norm1.eps)
         qkv = torch.addmm(attention.in_proj_bias, h, attention.in_proj_weight.T)
-        q, k, v = qkv.view(batch, length, 3, heads, width // heads).permute(2, 0, 3, 1, 4)  # each (B, heads, L, d/heads)
+        q, k, v = qkv.view(batch, length, 3, heads, width // heads).permute(
+            2, 0, 3, 1, 4
+        )  # each (B, heads, L, d/heads)
         mixed = nn.functional.scaled_dot_product_attention(q, k, v).transpose(1, 2).reshape(batch * length, width)
         x = torch.addmm(x, mixed, attention.out_proj.weight.T).add_(attention.out_proj.bias)
         h = nn.functional.layer_norm(x, (width,), layer.norm2.weight, layer.norm2.bias, layer.norm2.eps)

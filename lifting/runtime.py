@@ -96,10 +96,15 @@ def export_onnx(model: MotionPrior, frames: int) -> bytes:
             warnings.simplefilter("ignore", torch.jit.TracerWarning)  # shape checks traced as constants: intended
             warnings.simplefilter("ignore", DeprecationWarning)  # the legacy exporter: the new one needs onnxscript
             torch.onnx.export(
-                model.eval(), (example, steps), buffer, input_names=["x_t", "t"], output_names=["x0"],
-                dynamic_axes={"x_t": {0: "batch"}, "t": {0: "batch"}, "x0": {0: "batch"}}, opset_version=17,
+                model.eval(),
+                (example, steps),
+                buffer,
+                input_names=["x_t", "t"],
+                output_names=["x0"],
+                dynamic_axes={"x_t": {0: "batch"}, "t": {0: "batch"}, "x0": {0: "batch"}},
+                opset_version=17,
                 dynamo=False,
-            )  # fmt: skip
+            )
     except ImportError as err:
         raise InputError(f"--runtime onnx needs the onnx package to export the prior ({err})") from None
     finally:

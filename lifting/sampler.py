@@ -24,8 +24,8 @@ from platypose.lifting.depth_smoothing import smooth_depth
 from platypose.lifting.energy import (
     ROBUST_LOSSES,
     Observations,
-    bone_constancy_energy,
     add_to_diagonal_,
+    bone_constancy_energy,
     bone_lengths_torch,
     reprojection_energy,
     reprojection_terms,
@@ -33,11 +33,17 @@ from platypose.lifting.energy import (
     symmetry_energy,
 )
 from platypose.lifting.noise_spread import noise_spread, unit_weight_variance
-from platypose.lifting.temporal_fit import acceleration_weight, fit_to_noise, keypoint_noise, posterior_shrink, smooth_keypoints
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.representation import features_to_joints, joints_to_features
 from platypose.lifting.schedule import DiffusionSchedule, sampling_steps
 from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
+from platypose.lifting.temporal_fit import (
+    acceleration_weight,
+    fit_to_noise,
+    keypoint_noise,
+    posterior_shrink,
+    smooth_keypoints,
+)
 from platypose.lifting.translation import RayConstraints, ray_constraints, solve_translation
 
 STEP_RULES = ("backtrack", "paper")
@@ -446,6 +452,7 @@ def _select_rows(accept: torch.Tensor, new: torch.Tensor, old: torch.Tensor, row
         return old
     return torch.where(accept.reshape(rows), new, old)
 
+
 def sample(
     prior: PriorBundle,
     obs: Observations,
@@ -470,7 +477,11 @@ def sample(
     generator = torch.Generator(device="cpu").manual_seed(config.seed)
     shape = (obs.keypoints.shape[1] * config.samples, frames, prior.config.features)
     noise = torch.randn(shape, generator=generator, dtype=torch.float32).to(device=device, dtype=dtype)
-    sizes = torch.exp(config.size_spread * torch.randn(config.samples, generator=generator)) if config.size_spread > 0 else None
+    sizes = (
+        torch.exp(config.size_spread * torch.randn(config.samples, generator=generator))
+        if config.size_spread > 0
+        else None
+    )
     draws = antithetic_normal(config.samples, generator)  # the noise spread's, one (17, 3) per hypothesis
     raw = obs  # the reported energy is against the keypoints as given
     if config.noise_fit and len(obs.cameras) == 1:  # guidance fits the keypoints' most likely paths

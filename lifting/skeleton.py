@@ -53,9 +53,7 @@ MIRROR: tuple[int, ...] = (0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12,
 
 # Pairs of bone indices (into BONES) that are left/right mirror images.
 SYMMETRIC_BONES: tuple[tuple[int, int], ...] = tuple(
-    (b, BONES.index((MIRROR[c], MIRROR[p])))
-    for b, (c, p) in enumerate(BONES)
-    if MIRROR[c] > c
+    (b, BONES.index((MIRROR[c], MIRROR[p]))) for b, (c, p) in enumerate(BONES) if MIRROR[c] > c
 )
 
 ROOT = 0
@@ -63,15 +61,45 @@ ROOT = 0
 # Median adult bone lengths (m) of the bundled real mocap (holosoma, DeepMimic, CMU,
 # mocapbank; medians per clip, then across clips), in BONES order.
 TYPICAL_BONE_LENGTHS: tuple[float, ...] = (
-    0.085, 0.422, 0.410, 0.085, 0.422, 0.410, 0.240, 0.240, 0.116, 0.050, 0.183, 0.275, 0.259, 0.183, 0.275, 0.259,
-)  # fmt: skip
+    0.085,
+    0.422,
+    0.410,
+    0.085,
+    0.422,
+    0.410,
+    0.240,
+    0.240,
+    0.116,
+    0.050,
+    0.183,
+    0.275,
+    0.259,
+    0.183,
+    0.275,
+    0.259,
+)
 
 # Root-mean-square acceleration of every joint (m per frame squared at 30 fps, per axis) over the bundled
 # real mocap resampled to 30 fps (holosoma, DeepMimic, CMU, mocapbank), in JOINT_NAMES order.
 TYPICAL_ACCELERATIONS: tuple[float, ...] = (
-    0.0039, 0.0039, 0.0064, 0.0103, 0.0040, 0.0060, 0.0086, 0.0036, 0.0044, 0.0050, 0.0053, 0.0048, 0.0068, 0.0100,
-    0.0048, 0.0071, 0.0106,
-)  # fmt: skip
+    0.0039,
+    0.0039,
+    0.0064,
+    0.0103,
+    0.0040,
+    0.0060,
+    0.0086,
+    0.0036,
+    0.0044,
+    0.0050,
+    0.0053,
+    0.0048,
+    0.0068,
+    0.0100,
+    0.0048,
+    0.0071,
+    0.0106,
+)
 
 # Bones whose lengths measure a person's size the same way in every source (legs,
 # arms, trunk); the neck and head segments depend on how each source places them.

@@ -50,7 +50,9 @@ def _seen_second_differences(coords: torch.Tensor, seen: torch.Tensor) -> tuple[
     return second_difference(coords), valid
 
 
-def fit_to_noise(joints: torch.Tensor, obs: Observations, noise: torch.Tensor, fps: float, iterations: int = 2) -> torch.Tensor:
+def fit_to_noise(
+    joints: torch.Tensor, obs: Observations, noise: torch.Tensor, fps: float, iterations: int = 2
+) -> torch.Tensor:
     """Joints ``(B, N, F, 17, 3)`` moved to the most likely motion under keypoint ``noise`` ``(B,)`` (see the module).
 
     Gauss-Newton on the data and acceleration energies together, each joint's path one banded

@@ -135,8 +135,14 @@ def manifest_of(train: list[Clip], validation: list[Clip], config: TrainConfig, 
     """The data manifest stored in the checkpoint: every clip's source, frames and licence."""
 
     def entry(c: Clip, split: str) -> dict:
-        return {"name": c.name, "source": c.source, "licence": c.licence, "frames": len(c.joints),
-                "original_fps": float(c.original_fps), "split": split}  # fmt: skip
+        return {
+            "name": c.name,
+            "source": c.source,
+            "licence": c.licence,
+            "frames": len(c.joints),
+            "original_fps": float(c.original_fps),
+            "split": split,
+        }
 
     clips = [entry(c, "train") for c in train] + [entry(c, "validation") for c in validation]
     return {
@@ -185,7 +191,9 @@ def train_prior(
         normalizer = fit_normalizer(sampler, F)
     bundle = PriorBundle(model, normalizer, manifest_of(train, validation, config, prior_config))
     schedule = DiffusionSchedule(prior_config.diffusion_steps)
-    val_batch = torch.as_tensor(normalizer.normalize(joints_to_features(val_sampler.batch(256, F))), dtype=torch.float32)
+    val_batch = torch.as_tensor(
+        normalizer.normalize(joints_to_features(val_sampler.batch(256, F))), dtype=torch.float32
+    )
     val_gen = torch.Generator().manual_seed(config.seed)
     val_t = torch.randint(0, prior_config.diffusion_steps, (len(val_batch),), generator=val_gen)
     val_noise = torch.randn(val_batch.shape, generator=val_gen)
@@ -195,9 +203,14 @@ def train_prior(
         return config.learning_rate * warmup * 0.5 * (1 + np.cos(np.pi * min(it / config.iterations, 1.0)))
 
     def checkpoint(it: int) -> None:
-        extra = {"iteration": it, "model": model.state_dict(), "optimiser": optimiser.state_dict(),
-                 "normalizer_mean": normalizer.mean.tolist(), "normalizer_std": normalizer.std.tolist(),
-                 "rng": rng.bit_generator.state}  # fmt: skip
+        extra = {
+            "iteration": it,
+            "model": model.state_dict(),
+            "optimiser": optimiser.state_dict(),
+            "normalizer_mean": normalizer.mean.tolist(),
+            "normalizer_std": normalizer.std.tolist(),
+            "rng": rng.bit_generator.state,
+        }
         bundle.manifest["iterations"] = it
         save_prior(out_path, bundle, extra=extra if it < config.iterations else None)
 
@@ -225,8 +238,14 @@ def train_prior(
             with torch.no_grad():
                 val_loss = ((model(schedule.add_noise(val_batch, val_t, val_noise), val_t) - val_batch) ** 2).mean()
             if log:
-                log({"iteration": done, "train_loss": running, "val_loss": float(val_loss),
-                     "seconds": time.time() - began})  # fmt: skip
+                log(
+                    {
+                        "iteration": done,
+                        "train_loss": running,
+                        "val_loss": float(val_loss),
+                        "seconds": time.time() - began,
+                    }
+                )
         if done % config.checkpoint_every == 0 or done == config.iterations:
             checkpoint(done)
     model.eval()

@@ -48,9 +48,11 @@ def ray_constraints(obs: Observations) -> RayConstraints:
     offsets = [uv[..., i] * t[..., 2] - t[..., i] for i in (0, 1)]
     focal = (cameras.K[:, 0, 0] + cameras.K[:, 1, 1]) / 2
     return RayConstraints(
-        A=torch.stack(rows, dim=-2), b=torch.stack(offsets, dim=-1), confidence=obs.confidence,
+        A=torch.stack(rows, dim=-2),
+        b=torch.stack(offsets, dim=-1),
+        confidence=obs.confidence,
         focal_scale=focal * obs.pixel_scale,
-    )  # fmt: skip
+    )
 
 
 BLOCK_FRAMES = 8  # frames per block of the block-tridiagonal solve (at least COUPLED_FRAMES)
@@ -161,4 +163,3 @@ def solve_block_tridiagonal(diag: torch.Tensor, corner: torch.Tensor, rhs: torch
             right = right - pad(couplings[k + 1] @ solution[k + 1][:, :w], (0, 0, n - w, 0))
         solution[k] = torch.linalg.solve_triangular(factors[k].mT, right, upper=True)
     return torch.cat(solution, dim=-1).mT.reshape(rhs.shape)
-

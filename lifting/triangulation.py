@@ -27,7 +27,9 @@ def triangulate(
     conf = np.asarray(confidences, dtype=np.float64)
     C = len(cameras)
     if pixels.shape[0] != C or conf.shape != pixels.shape[:-1] or pixels.shape[-1] != 2:
-        raise ValueError(f"expected pixels (C={C}, ..., J, 2) and confidences (C, ..., J), got {pixels.shape}, {conf.shape}")
+        raise ValueError(
+            f"expected pixels (C={C}, ..., J, 2) and confidences (C, ..., J), got {pixels.shape}, {conf.shape}"
+        )
     batch = pixels.shape[1:-1]
     flat, weights = pixels.reshape(C, -1, 2), conf.reshape(C, -1)
     blocks = range(0, max(flat.shape[1], 1), BLOCK)  # memory bounded for long tracks; one block when empty

@@ -107,12 +107,12 @@ def stitch(windows: np.ndarray, plan: WindowPlan) -> np.ndarray:
 def continuation_anchor(previous: np.ndarray, plan: WindowPlan) -> tuple[np.ndarray, np.ndarray]:
     """Anchor joints ``(..., F, 17, 3)`` and mask ``(F,)`` continuing the previous window ``(..., F, 17, 3)``.
 
-    The previous window's last O frames become the new window's first O frames; the
+    The previous window's last ``overlap`` frames become the new window's first ones; the
     mask holds the first :func:`anchored_frames` of them.
     """
-    O, F = plan.overlap, plan.length
+    overlap, length = plan.overlap, plan.length
     anchor = np.zeros_like(previous)
-    anchor[..., :O, :, :] = previous[..., F - O :, :, :]
-    mask = np.zeros(F)
+    anchor[..., :overlap, :, :] = previous[..., length - overlap :, :, :]
+    mask = np.zeros(length)
     mask[: anchored_frames(plan)] = 1.0
     return anchor, mask

@@ -6,8 +6,8 @@ import sys
 
 import typer
 
-from platypose.lifting.errors import InputError
 from platypose import __version__
+from platypose.lifting.errors import InputError
 
 app = typer.Typer(
     name="platypose",
@@ -36,15 +36,15 @@ def _root(
 def _register() -> None:
     """Import the sub-command modules, each of which adds its commands to ``app``."""
     # Sub-command modules register themselves on import; keep this list sorted.
-    import platypose.cli.commands_bench  # noqa: F401
-    import platypose.cli.commands_calib  # noqa: F401
-    import platypose.cli.commands_demo  # noqa: F401
-    import platypose.cli.commands_detect  # noqa: F401
-    import platypose.cli.commands_eval  # noqa: F401
-    import platypose.cli.commands_export  # noqa: F401
-    import platypose.cli.commands_info  # noqa: F401
-    import platypose.cli.commands_lift  # noqa: F401
-    import platypose.cli.commands_motion  # noqa: F401
+    import platypose.cli.commands_bench
+    import platypose.cli.commands_calib
+    import platypose.cli.commands_demo
+    import platypose.cli.commands_detect
+    import platypose.cli.commands_eval
+    import platypose.cli.commands_export
+    import platypose.cli.commands_info
+    import platypose.cli.commands_lift
+    import platypose.cli.commands_motion
     import platypose.cli.commands_train  # noqa: F401
 
 

@@ -22,8 +22,8 @@ CLIP_HYPOTHESES = 50
 
 def sampler_settings(prior, samples: int, frames: int, steps: int, k: int, repeats: int, matmul_size: int):
     """The SamplerConfig of ``steps`` network calls; InputError for sizes the prior or the bench cannot run."""
-    from platypose.lifting.errors import InputError
     from platypose.cli.options import sampler_config
+    from platypose.lifting.errors import InputError
 
     if not 1 <= frames <= prior.config.max_frames:
         raise InputError(f"--frames {frames}: the prior's windows hold 1..{prior.config.max_frames} frames")
@@ -168,11 +168,11 @@ def bench(
     """Time the guided sampler and a whole single-view clip on this machine (docs/bench.md)."""
     import torch
 
+    from platypose.cli.bench_clip import peak_rss_mb
     from platypose.lifting.atomic import write_text_atomic
     from platypose.lifting.errors import InputError
     from platypose.lifting.prior import DEFAULT_PRIOR
     from platypose.lifting.runtime import load_for_runtime
-    from platypose.cli.bench_clip import peak_rss_mb
 
     def say(message: str) -> None:
         if not quiet:

@@ -19,7 +19,8 @@ SUBJECT_HELP = "Human3.6M subject whose extrinsics to use (e.g. S9) when the fil
 @calib_app.command("convert")
 def convert(
     source: Path = typer.Argument(
-        ..., help="Calibration (.toml, .yml, intri/extri folder, Human3.6M .json, .txt, calib.json) or a video (FOV prior)."
+        ...,
+        help="Calibration (.toml, .yml, intri/extri folder, Human3.6M .json, .txt, calib.json) or a video (FOV prior).",
     ),
     out: Path = typer.Option(..., "--out", "-o", help="Native calib.json to write."),
     world_up: str = typer.Option(None, "--world-up", help=WORLD_UP_HELP),
@@ -63,7 +64,12 @@ def _check_keypoints(calibration, folder: Path, fps: float | None) -> None:
     from platypose.detectors.openpose import read_openpose_folder
     from platypose.lifting.calibration.matching import gather_views, match_views
     from platypose.lifting.errors import InputError
-    from platypose.lifting.triangulation import associate_single_person, median_reprojection_error, triangulate, view_median_errors
+    from platypose.lifting.triangulation import (
+        associate_single_person,
+        median_reprojection_error,
+        triangulate,
+        view_median_errors,
+    )
 
     views = {d.name: d for d in sorted(folder.iterdir()) if d.is_dir()} if folder.is_dir() else {}
     if not views:
@@ -98,7 +104,9 @@ def check(
     from platypose.lifting.calibration.report import describe_camera
 
     calibration = load_calibration(calib, world_up=world_up, units=units, subject=subject)
-    typer.echo(f"{calib}: {len(calibration.cameras)} camera(s), format {calibration.meta['format']}, world Z up, metres")
+    typer.echo(
+        f"{calib}: {len(calibration.cameras)} camera(s), format {calibration.meta['format']}, world Z up, metres"
+    )
     for camera in calibration.cameras:
         typer.echo(f"  {describe_camera(camera)}")
     for note in calibration.meta["assumptions"] + calibration.meta["conversions"]:

@@ -20,9 +20,9 @@ def demo_take() -> Path:
 
 def demo_job(take: Path, source: str):
     """The demo's job: cam01 + cam02 videos (bundled detector) or the OpenPose keypoints of all 4 views."""
+    from platypose.cli.lift_jobs import discover_jobs, keypoints_job
     from platypose.lifting.calibration import load_calibration
     from platypose.lifting.errors import InputError
-    from platypose.cli.lift_jobs import discover_jobs, keypoints_job
 
     if not (take / "calib_pose2sim.toml").is_file():
         raise InputError(f"{take}: the demo take is not there; reinstall platypose (it ships as package data)")
@@ -47,8 +47,10 @@ def describe(npz: Path) -> list[str]:
         on = result.present()[p]
         spread = np.linalg.norm(result.hypotheses[p][:, on] - result.median[p][on], axis=-1).mean() * 1000
         pelvis = np.median(result.median[p][on, 0, 2])
-        lines.append(f"  person {track}: present in {on.sum()} frames, pelvis {pelvis:.2f} m above the floor, "
-                     f"hypotheses within {spread:.0f} mm of the median on average")  # fmt: skip
+        lines.append(
+            f"  person {track}: present in {on.sum()} frames, pelvis {pelvis:.2f} m above the floor, "
+            f"hypotheses within {spread:.0f} mm of the median on average"
+        )
     return lines
 
 
@@ -75,8 +77,21 @@ def demo(
     typer.echo(f"demo: {job.input} with {take / 'calib_pose2sim.toml'}")
     sampler = {"samples": samples, "steps": 10, "skip": 2, "guidance_iters": 10, "seed": 0}
     arguments = {"command": "demo", "source": source, "samples": samples, "prior": str(prior) if prior else None}
-    settings = lift_settings(out, take / "calib_pose2sim.toml", prior, DetectOptions(threads=threads), sampler,
-                             64, 16, "npz,csv,bvh,rrd", "largest", "auto", None, quiet, arguments)  # fmt: skip
+    settings = lift_settings(
+        out,
+        take / "calib_pose2sim.toml",
+        prior,
+        DetectOptions(threads=threads),
+        sampler,
+        64,
+        16,
+        "npz,csv,bvh,rrd",
+        "largest",
+        "auto",
+        None,
+        quiet,
+        arguments,
+    )
     entries = run_batch([job], settings, 1, False, lambda m: None if quiet else typer.echo(m, err=True))
     if entries[0]["status"] == "ok":
         typer.echo("\n".join(describe(out / job.name / f"{job.name}.npz")))

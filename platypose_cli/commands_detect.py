@@ -127,9 +127,18 @@ def detect(
 
         raise InputError(f"two sources share the output name {names}; give them different names")
     options = DetectOptions(
-        detector, detector_format, person_detector, movenet_size, threads, provider, stride, max_frames, fps,
-        image_size, cache,
-    )  # fmt: skip
+        detector,
+        detector_format,
+        person_detector,
+        movenet_size,
+        threads,
+        provider,
+        stride,
+        max_frames,
+        fps,
+        image_size,
+        cache,
+    )
     detection = Detection(options)
     results = [detection.tracks(source, out / name, quiet) for source, name in zip(sources, names)]
     views = [tracks for tracks, _, _ in results]

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import typer
 
-from platypose.lifting.atomic import write_text_atomic
-from platypose.lifting.errors import InputError
 from platypose.cli.app import app
 from platypose.cli.options import int_list, sampler_config
+from platypose.lifting.atomic import write_text_atomic
+from platypose.lifting.errors import InputError
 
 
 @app.command("eval")
@@ -33,7 +33,9 @@ def evaluate_command(
     energy_scale: float = typer.Option(1.0, "--lambda", help="Guidance scale."),
     robust: str = typer.Option("l2", help="Reprojection loss: l2 or geman-mcclure."),
     size_prior: bool = typer.Option(True, help="Place each prediction as a person of median adult size."),
-    size_spread: float = typer.Option(0.1, help="Log-normal spread of the hypotheses' sizes about adult size (0: all typical)."),
+    size_spread: float = typer.Option(
+        0.1, help="Log-normal spread of the hypotheses' sizes about adult size (0: all typical)."
+    ),
     noise_fit: bool = typer.Option(True, help="Follow the 2D only as far as its measured jitter allows."),
     noise_spread: bool = typer.Option(True, help="2+ views: spread hypotheses by the 2D noise."),
     bone_weight: float = typer.Option(0.0, help="Weight of the constant-bone-length energy (0: off)."),
@@ -53,10 +55,22 @@ def evaluate_command(
 
     frames_list = int_list(frames, "--frames")
     samples_list = int_list(samples, "--samples")
-    config = sampler_config(steps=steps, skip=skip, eta=eta, guidance_iters=guidance_iters, energy_scale=energy_scale,
-                            robust=robust, bone_weight=bone_weight, symmetry_weight=symmetry_weight, size_prior=size_prior,
-                            size_spread=size_spread, noise_fit=noise_fit, noise_spread=noise_spread,
-                            depth_smoothness=depth_smoothness, seed=seed)  # fmt: skip
+    config = sampler_config(
+        steps=steps,
+        skip=skip,
+        eta=eta,
+        guidance_iters=guidance_iters,
+        energy_scale=energy_scale,
+        robust=robust,
+        bone_weight=bone_weight,
+        symmetry_weight=symmetry_weight,
+        size_prior=size_prior,
+        size_spread=size_spread,
+        noise_fit=noise_fit,
+        noise_spread=noise_spread,
+        depth_smoothness=depth_smoothness,
+        seed=seed,
+    )
     bundle = load_for_runtime(prior, device, runtime)
     if max(frames_list) > bundle.config.max_frames:
         raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")
@@ -78,12 +92,20 @@ def evaluate_command(
     clips = [c for c in clips if len(c) and not (c != c).any()]
     if not clips:
         raise InputError(f"{', '.join(map(str, motion))}: no complete (full-body) clips to evaluate")
-    typer.echo(f"{len(clips)} clips, prior {bundle.checksum[:12]}, {len(cameras)} cameras, noise {noise_px} px, "
-               f"{os.cpu_count()} CPUs")  # fmt: skip
+    typer.echo(
+        f"{len(clips)} clips, prior {bundle.checksum[:12]}, {len(cameras)} cameras, noise {noise_px} px, "
+        f"{os.cpu_count()} CPUs"
+    )
     typer.echo(format_header())
-    rows = evaluate(bundle, clips, cameras, frames_list, samples_list, config, windows, noise_px, baseline,
-                    progress=typer.echo)  # fmt: skip
+    rows = evaluate(
+        bundle, clips, cameras, frames_list, samples_list, config, windows, noise_px, baseline, progress=typer.echo
+    )
     if json_out:
-        payload = {"prior": bundle.checksum, "cameras": len(cameras), "noise_px": noise_px,
-                   "config": config.__dict__, "rows": [r.as_dict() for r in rows]}  # fmt: skip
+        payload = {
+            "prior": bundle.checksum,
+            "cameras": len(cameras),
+            "noise_px": noise_px,
+            "config": config.__dict__,
+            "rows": [r.as_dict() for r in rows],
+        }
         write_text_atomic(json_out, json.dumps(payload, indent=2))

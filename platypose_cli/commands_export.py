@@ -87,7 +87,7 @@ def export_command(
     ),
     video: list[str] = typer.Option([], "--video", help="CAMERA=VIDEO for the rerun recording; repeat per camera."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
-) -> None:  # fmt: skip
+) -> None:
     """Re-export CSV, BVH and rerun files from a result npz (writing npz again only if asked)."""
     from platypose.exporters import export
     from platypose.exporters.npz import read_npz

@@ -20,6 +20,12 @@ def doctor() -> None:
     import torch
 
     typer.echo(f"platypose {__version__} on Python {platform.python_version()} ({platform.machine()})")
-    for name, mod in (("torch", torch), ("numpy", numpy), ("opencv", cv2), ("onnxruntime", onnxruntime), ("rerun-sdk", rerun)):
+    for name, mod in (
+        ("torch", torch),
+        ("numpy", numpy),
+        ("opencv", cv2),
+        ("onnxruntime", onnxruntime),
+        ("rerun-sdk", rerun),
+    ):
         typer.echo(f"  {name:12s} {mod.__version__}")
     typer.echo(f"  torch threads {torch.get_num_threads()}, cuda available: {torch.cuda.is_available()}")

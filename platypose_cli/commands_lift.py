@@ -11,16 +11,28 @@ from platypose.cli.detection import DetectOptions
 
 
 def lift_settings(
-    out: Path, cams: Path | None, prior: Path | None, detect: DetectOptions, sampler: dict, window: int, overlap: int,
-    formats: str, persons: str, root: str, root_file: Path | None, quiet: bool, arguments: dict, device: str = "cpu",
-):  # fmt: skip
+    out: Path,
+    cams: Path | None,
+    prior: Path | None,
+    detect: DetectOptions,
+    sampler: dict,
+    window: int,
+    overlap: int,
+    formats: str,
+    persons: str,
+    root: str,
+    root_file: Path | None,
+    quiet: bool,
+    arguments: dict,
+    device: str = "cpu",
+):
     """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
+    from platypose.cli.lift_run import ROOT_MODES, RunSettings
+    from platypose.cli.options import sampler_config
     from platypose.detectors.tracking import persons_count
     from platypose.exporters.export import parse_formats
     from platypose.lifting.errors import InputError
     from platypose.lifting.runtime import resolve_device
-    from platypose.cli.lift_run import ROOT_MODES, RunSettings
-    from platypose.cli.options import sampler_config
 
     persons_count(persons)
     sampler_config(**sampler)
@@ -30,10 +42,21 @@ def lift_settings(
     if window < 2 or not 0 <= overlap <= window // 2:
         raise InputError(f"--window must be >= 2 and --overlap in 0..window/2, got {window} and {overlap}")
     return RunSettings(
-        out=out, cams=cams, prior=prior, detect=detect, sampler=sampler, window=window, overlap=overlap,
-        formats=parse_formats(formats), persons=persons, root=root, root_file=root_file, quiet=quiet,
-        arguments=arguments, device=device,
-    )  # fmt: skip
+        out=out,
+        cams=cams,
+        prior=prior,
+        detect=detect,
+        sampler=sampler,
+        window=window,
+        overlap=overlap,
+        formats=parse_formats(formats),
+        persons=persons,
+        root=root,
+        root_file=root_file,
+        quiet=quiet,
+        arguments=arguments,
+        device=device,
+    )
 
 
 def finish(entries: list[dict], out: Path) -> None:
@@ -110,9 +133,9 @@ def lift(
 ) -> None:
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
     arguments = {k: (str(v) if isinstance(v, Path) else v) for k, v in locals().items()}
-    from platypose.lifting.errors import InputError
     from platypose.cli.lift_batch import run_batch
     from platypose.cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
+    from platypose.lifting.errors import InputError
 
     if keypoints is not None and detector is not None:
         raise InputError("--keypoints and --detector exclude each other: keypoints are read, not detected")
@@ -128,15 +151,40 @@ def lift(
         job_list = [keypoints_job(keypoints, paths, camera_names)]
     else:
         job_list = discover_jobs(paths, camera_names)
-    given = {"samples": samples, "steps": steps, "skip": skip, "eta": eta, "guidance_iters": guidance_iters,
-             "robust": robust, "bone_weight": bone_weight, "symmetry_weight": symmetry_weight,
-             "depth_smoothness": depth_smoothness,
-             "noise_fit": noise_fit, "noise_spread": noise_spread, "seed": seed}  # fmt: skip
+    given = {
+        "samples": samples,
+        "steps": steps,
+        "skip": skip,
+        "eta": eta,
+        "guidance_iters": guidance_iters,
+        "robust": robust,
+        "bone_weight": bone_weight,
+        "symmetry_weight": symmetry_weight,
+        "depth_smoothness": depth_smoothness,
+        "noise_fit": noise_fit,
+        "noise_spread": noise_spread,
+        "seed": seed,
+    }
     sampler = {k: v for k, v in given.items() if v is not None}  # the rest: SamplerConfig's defaults
-    detect = DetectOptions(detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps,
-                           image_size=image_size)  # fmt: skip
-    settings = lift_settings(out, cams, prior, detect, sampler, window, overlap, formats, persons, root,
-                             root_trajectory, quiet, arguments, device)  # fmt: skip
+    detect = DetectOptions(
+        detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps, image_size=image_size
+    )
+    settings = lift_settings(
+        out,
+        cams,
+        prior,
+        detect,
+        sampler,
+        window,
+        overlap,
+        formats,
+        persons,
+        root,
+        root_trajectory,
+        quiet,
+        arguments,
+        device,
+    )
     if root_trajectory is not None and len(job_list) > 1:
         raise InputError(f"--root-trajectory {root_trajectory}: give it for one input, not {len(job_list)}")
 

@@ -9,8 +9,9 @@ import typer
 
 from platypose.cli.app import app
 
-motion_app = typer.Typer(help="Inspect real 3D motion files (BVH, ASF/AMC, holosoma, DeepMimic, H3.6M, npz, C3D).",
-                         no_args_is_help=True)  # fmt: skip
+motion_app = typer.Typer(
+    help="Inspect real 3D motion files (BVH, ASF/AMC, holosoma, DeepMimic, H3.6M, npz, C3D).", no_args_is_help=True
+)
 app.add_typer(motion_app, name="motion")
 
 NAME_MAP_HELP = "BVH only: JSON {our joint: BVH joint} for the 12 limb joints, 'neck' (skull base), optional 'head'."
@@ -57,9 +58,11 @@ def info(
         if as_json:
             typer.echo(json.dumps(summary))
             continue
-        typer.echo(f"{summary['name']} [{summary['format']}]: {summary['frames']} frames at {summary['fps']:g} fps "
-                   f"= {summary['duration_s']:.2f} s; ankle-to-head {_metres(summary['ankle_to_head_m'])}, "
-                   f"head above pelvis {_metres(summary['head_above_pelvis_m'])}")  # fmt: skip
+        typer.echo(
+            f"{summary['name']} [{summary['format']}]: {summary['frames']} frames at {summary['fps']:g} fps "
+            f"= {summary['duration_s']:.2f} s; ankle-to-head {_metres(summary['ankle_to_head_m'])}, "
+            f"head above pelvis {_metres(summary['head_above_pelvis_m'])}"
+        )
         typer.echo(f"  source: {summary['source']}; licence: {summary['licence']}")
         if summary["missing_joints"]:
             typer.echo(f"  missing joints (NaN): {', '.join(summary['missing_joints'])}")

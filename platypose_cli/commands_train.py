@@ -9,8 +9,8 @@ from pathlib import Path
 
 import typer
 
-from platypose.lifting.errors import InputError
 from platypose.cli.app import app
+from platypose.lifting.errors import InputError
 
 
 @app.command("train")
@@ -45,7 +45,9 @@ def train(
     if not motions:
         raise InputError(f"{', '.join(map(str, data))}: no motion files found")
     resume_state = None
-    prior_config = PriorConfig(layers=layers, width=width, heads=heads, ff_width=ff_width, max_frames=max_frames, fps=fps)
+    prior_config = PriorConfig(
+        layers=layers, width=width, heads=heads, ff_width=ff_width, max_frames=max_frames, fps=fps
+    )
     if resume:
         bundle, resume_state = load_prior(out)
         if not resume_state:
@@ -53,8 +55,14 @@ def train(
         prior_config = bundle.config
         if not quiet:
             typer.echo(f"resuming {out} at iteration {resume_state['iteration']} of {iterations}", err=True)
-    config = TrainConfig(iterations=iterations, batch_size=batch_size, learning_rate=learning_rate,
-                         bone_scale=bone_scale, checkpoint_every=checkpoint_every, seed=seed)  # fmt: skip
+    config = TrainConfig(
+        iterations=iterations,
+        batch_size=batch_size,
+        learning_rate=learning_rate,
+        bone_scale=bone_scale,
+        checkpoint_every=checkpoint_every,
+        seed=seed,
+    )
     if not quiet:
         seconds = sum(m.duration_s for m in motions)
         typer.echo(f"training on {len(motions)} clips, {seconds / 60:.1f} min of motion", err=True)
@@ -66,8 +74,12 @@ def train(
         if not quiet:
             done = entry["iteration"]
             eta = entry["seconds"] / max(done - (resume_state or {}).get("iteration", 0), 1) * (iterations - done)
-            print(f"[{done}/{iterations}] train {entry['train_loss']:.4f} val {entry['val_loss']:.4f} "
-                  f"elapsed {entry['seconds'] / 60:.1f} min, left ~{eta / 60:.1f} min", file=sys.stderr, flush=True)  # fmt: skip
+            print(
+                f"[{done}/{iterations}] train {entry['train_loss']:.4f} val {entry['val_loss']:.4f} "
+                f"elapsed {entry['seconds'] / 60:.1f} min, left ~{eta / 60:.1f} min",
+                file=sys.stderr,
+                flush=True,
+            )
 
     began = time.time()
     train_prior(motions, str(out), prior_config, config, resume=resume_state, log=log, threads=threads or None)
@@ -87,8 +99,10 @@ def prior_info(prior: Path = typer.Argument(None, help="Checkpoint (default: the
     typer.echo(f"prior {prior or DEFAULT_PRIOR} (sha256 {bundle.checksum[:16]})")
     typer.echo("config: " + ", ".join(f"{k}={v}" for k, v in asdict(bundle.config).items()))
     params = sum(p.numel() for p in bundle.model.parameters())
-    typer.echo(f"parameters: {params:,}; trained {manifest.get('iterations', '?')} iterations on "
-               f"{manifest.get('train_seconds', 0) / 60:.1f} min of motion")  # fmt: skip
+    typer.echo(
+        f"parameters: {params:,}; trained {manifest.get('iterations', '?')} iterations on "
+        f"{manifest.get('train_seconds', 0) / 60:.1f} min of motion"
+    )
     typer.echo("licences: " + ", ".join(manifest.get("licences", [])))
     for clip in manifest.get("clips", []):
         typer.echo(f"  {clip['split']:10s} {clip['frames']:6d} frames  {clip['licence']:20s} {clip['name']}")

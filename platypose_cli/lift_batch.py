@@ -47,8 +47,13 @@ def write_summary(out: Path, entries: list[dict], started: str, arguments: dict)
     from platypose.lifting.atomic import write_text_atomic
 
     counts = {s: sum(e["status"] == s for e in entries) for s in ("ok", "failed", "skipped")}
-    summary = {"inputs": entries, "counts": counts, "started": started,
-               "updated": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "arguments": arguments}  # fmt: skip
+    summary = {
+        "inputs": entries,
+        "counts": counts,
+        "started": started,
+        "updated": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "arguments": arguments,
+    }
     return write_text_atomic(out / SUMMARY, json.dumps(summary, indent=1) + "\n")
 
 
@@ -118,7 +123,7 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
                 index = futures[future]
                 try:
                     entry = future.result()
-                except Exception as err:  # noqa: BLE001 -- a worker that died (e.g. out of memory) fails its input only
+                except Exception as err:
                     error = f"worker process failed: {type(err).__name__}: {err}"
                     entry = job_entry(jobs[index], "failed", error=error)
                 record(index, entry)

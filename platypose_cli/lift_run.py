@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from platypose.lifting.errors import InputError
 from platypose.cli.detection import Detection, DetectOptions
 from platypose.cli.lift_jobs import Job
+from platypose.lifting.errors import InputError
 
 MANIFEST = "lift.json"
 FAILURE = "failed.json"
@@ -97,8 +97,10 @@ def _check_size(camera, image_size: tuple[int, int], source: str, log: JobLog) -
     if tuple(camera.size) == tuple(image_size):
         return
     relative = max(abs(a - b) / b for a, b in zip(camera.size, image_size))
-    said = (f"calibration says {camera.width}x{camera.height} px for camera {camera.name}, "
-            f"{source} is {image_size[1]}x{image_size[0]}")  # fmt: skip
+    said = (
+        f"calibration says {camera.width}x{camera.height} px for camera {camera.name}, "
+        f"{source} is {image_size[1]}x{image_size[0]}"
+    )
     if relative > SIZE_TOLERANCE:
         raise InputError(f"{source}: calibration mismatch: {said}")
     log.warning(f"{said}; pixels used as they are (the principal point is what matters)")
@@ -170,8 +172,10 @@ def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) ->
     for p in range(P):
         covered = np.isfinite(roots[p]).all(-1).mean()
         usable = covered >= 0.5
-        log(f"root of person {p}: pelvis triangulated in {covered:.0%} of frames; "
-            + ("gaps interpolated" if usable else "too few, solved per hypothesis instead"))  # fmt: skip
+        log(
+            f"root of person {p}: pelvis triangulated in {covered:.0%} of frames; "
+            + ("gaps interpolated" if usable else "too few, solved per hypothesis instead")
+        )
         paths.append(fill_gaps(roots[p], times) if usable else None)
     return paths
 
@@ -182,9 +186,9 @@ def lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings: Ru
     Persons with a known root and the others are lifted apart; frames are written as
     lifting hands them out, with NaN where ``absent`` (P, T), so memory stays bounded.
     """
+    from platypose.cli.options import sampler_config
     from platypose.exporters.frames import FrameArray
     from platypose.lifting.lift import WindowSettings, lift_stream
-    from platypose.cli.options import sampler_config
 
     config = sampler_config(**settings.sampler)
     windows = WindowSettings(window=settings.window, overlap=settings.overlap)
@@ -230,7 +234,9 @@ class _LazyBar:
             self.bar.__exit__(None, None, None)
 
 
-REPROJECTION_WARNING_SHARE = 0.02  # of the image width: a view whose keypoints the median motion misses by more is suspect
+REPROJECTION_WARNING_SHARE = (
+    0.02  # of the image width: a view whose keypoints the median motion misses by more is suspect
+)
 
 
 def report_reprojection(median, keypoints: np.ndarray, cameras: list, log: JobLog) -> dict[str, float]:
@@ -248,20 +254,24 @@ def report_reprojection(median, keypoints: np.ndarray, cameras: list, log: JobLo
     per_person = [view_median_errors(median[p], keypoints[:, :, p], cameras) for p in range(keypoints.shape[2])]
     errors = np.nanmax(np.stack(per_person), axis=0) if per_person else np.full(len(cameras), np.nan)
     report = {cam.name: round(float(e), 2) for cam, e in zip(cameras, errors)}
-    log("median motion against the keypoints (median px per view): "
-        + ", ".join(f"{name} {value:.1f}" for name, value in report.items()))  # fmt: skip
+    log(
+        "median motion against the keypoints (median px per view): "
+        + ", ".join(f"{name} {value:.1f}" for name, value in report.items())
+    )
     for cam, value in zip(cameras, report.values()):
         if value > REPROJECTION_WARNING_SHARE * cam.width:
-            log.warning(f"view {cam.name}: the median motion lies {value:.1f} px (median) from its keypoints, "
-                        f"{value / cam.width:.0%} of the image width; check its calibration and its detections")  # fmt: skip
+            log.warning(
+                f"view {cam.name}: the median motion lies {value:.1f} px (median) from its keypoints, "
+                f"{value / cam.width:.0%} of the image width; check its calibration and its detections"
+            )
     return report
 
 
 def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     """The LiftResult of one job, its long arrays in files under ``staging``, and the videos of its cameras."""
+    from platypose import __version__
     from platypose.exporters.result import LiftResult
     from platypose.lifting.root import presence
-    from platypose import __version__
 
     timings: dict[str, float] = {}
     started = time.perf_counter()
@@ -271,8 +281,10 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     for view in job.views:
         tracks, seconds, frames = detection.tracks(view.source, settings.out / job.name, settings.quiet)
         how = "read" if frames is None else ("from the cache" if frames == 0 else f"detected in {frames} frames")
-        log(f"view {view.name}: {view.source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), "
-            f"{how}, {seconds:.1f} s")  # fmt: skip
+        log(
+            f"view {view.name}: {view.source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), "
+            f"{how}, {seconds:.1f} s"
+        )
         views.append(tracks)
     timings["keypoints_s"] = time.perf_counter() - started
     cameras = view_cameras(job, views, calibrated, log)
@@ -358,8 +370,15 @@ def _stamp(path: Path) -> list:
 def fingerprint(job: Job, settings: RunSettings) -> str:
     """A digest of the job's input files and the settings that decide whether it can succeed."""
     files = [v.source for v in job.views] + [p for p in (settings.cams, settings.root_file, settings.prior) if p]
-    decisive = [str(replace(settings.detect, threads=None)), settings.persons, settings.root, settings.sampler, settings.window,
-                settings.overlap, [_stamp(Path(f)) for f in files]]  # fmt: skip
+    decisive = [
+        str(replace(settings.detect, threads=None)),
+        settings.persons,
+        settings.root,
+        settings.sampler,
+        settings.window,
+        settings.overlap,
+        [_stamp(Path(f)) for f in files],
+    ]
     return hashlib.sha256(json.dumps(decisive, sort_keys=True, default=str).encode()).hexdigest()
 
 
@@ -372,11 +391,18 @@ def earlier_failure(folder: Path, digest: str) -> str | None:
     return failure.get("error") if isinstance(failure, dict) and failure.get("fingerprint") == digest else None
 
 
-def job_entry(job: Job, status: str, outputs: list[str] | None = None, seconds: float = 0.0,
-              error: str | None = None) -> dict:  # fmt: skip
+def job_entry(
+    job: Job, status: str, outputs: list[str] | None = None, seconds: float = 0.0, error: str | None = None
+) -> dict:
     """A summary.json entry for ``job``."""
-    return {"input": job.input, "name": job.name, "status": status, "outputs": outputs or [], "seconds": seconds,
-            "error": error}  # fmt: skip
+    return {
+        "input": job.input,
+        "name": job.name,
+        "status": status,
+        "outputs": outputs or [],
+        "seconds": seconds,
+        "error": error,
+    }
 
 
 def run_job(job: Job, settings: RunSettings) -> dict:
@@ -397,7 +423,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
         (folder / FAILURE).unlink(missing_ok=True)
         entry.update(status="ok", outputs=outputs)
-    except Exception as err:  # noqa: BLE001 -- one input failing must not stop the batch; the log keeps the traceback
+    except Exception as err:
         message = str(err) if isinstance(err, InputError) else f"{type(err).__name__}: {err}"
         entry["error"] = " ".join(message.split())
         log(f"failed: {entry['error']}")
@@ -409,4 +435,3 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     log(f"{entry['status']} in {entry['seconds']} s")
     log.write(folder / "log.txt")
     return entry
-

@@ -62,6 +62,8 @@ def read_root_trajectory(path: Path, frame_times: np.ndarray, persons: int) -> n
     if root.shape[0] != persons:
         raise InputError(f"{path}: root trajectory has {root.shape[0]} person(s), {persons} are lifted (see --persons)")
     if frame_times[0] < times[0] - 0.5 or frame_times[-1] > times[-1] + 0.5:
-        raise InputError(f"{path}: root trajectory covers {times[0]:.2f}-{times[-1]:.2f} s, the video "
-                         f"{frame_times[0]:.2f}-{frame_times[-1]:.2f} s")  # fmt: skip
+        raise InputError(
+            f"{path}: root trajectory covers {times[0]:.2f}-{times[-1]:.2f} s, the video "
+            f"{frame_times[0]:.2f}-{frame_times[-1]:.2f} s"
+        )
     return np.moveaxis(interpolate(np.moveaxis(root, 1, 0), times, frame_times), 0, 1)

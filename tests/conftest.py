@@ -36,8 +36,12 @@ def tiny_prior(real_clips, tmp_path_factory):
     torch.manual_seed(0)
     torch.set_num_threads(1)  # small batches: one thread is faster, and far faster on a busy machine
     config = PriorConfig(layers=2, width=64, heads=4, ff_width=128, max_frames=16, dropout=0.0)
-    train_prior(real_clips, str(path), config, TrainConfig(iterations=300, batch_size=32, checkpoint_every=300,
-                                                           validate_every=300, learning_rate=1e-3))  # fmt: skip
+    train_prior(
+        real_clips,
+        str(path),
+        config,
+        TrainConfig(iterations=300, batch_size=32, checkpoint_every=300, validate_every=300, learning_rate=1e-3),
+    )
     return load_prior(path)[0]
 
 

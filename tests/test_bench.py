@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import torch
 
+from platypose.cli.bench_clip import loop_video
 from platypose.lifting.benchmark import network_flops, timed_forward, walking_view
 from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
-from platypose.cli.bench_clip import loop_video
 
 TINY = PriorConfig(layers=2, width=64, heads=4, ff_width=128, max_frames=16, dropout=0.0)
 QUICK = ["--samples", "2", "--frames", "4", "--steps", "1", "--k", "1", "--repeats", "1", "--matmul-size", "64"]
@@ -106,15 +106,44 @@ def test_loop_video_repeats_the_source(data_dir, tmp_path) -> None:
 def test_bench_cli_reports_consistent_positive_figures(run_cli, tiny_prior_path, tmp_path) -> None:
     """Tiny sampler bench without the clip: every figure positive, JSON and table agree, parts add up."""
     out = tmp_path / "bench.json"
-    code, stdout, _ = run_cli("bench", "--prior", tiny_prior_path, "--samples", "4", "--frames", "8", "--steps", "2",
-                              "--k", "2", "--repeats", "2", "--matmul-size", "128", "--threads", "1",
-                              "--no-end-to-end", "--json", out, "-q")  # fmt: skip
+    code, stdout, _ = run_cli(
+        "bench",
+        "--prior",
+        tiny_prior_path,
+        "--samples",
+        "4",
+        "--frames",
+        "8",
+        "--steps",
+        "2",
+        "--k",
+        "2",
+        "--repeats",
+        "2",
+        "--matmul-size",
+        "128",
+        "--threads",
+        "1",
+        "--no-end-to-end",
+        "--json",
+        out,
+        "-q",
+    )
     assert code == 0
     report = json.loads(out.read_text())
     s = report["sampler"]
     assert (s["samples"], s["frames"], s["steps"], s["guidance_iters"], s["repeats"]) == (4, 8, 2, 2, 2)
-    for key in ("run_s", "step_s", "network_step_s", "guidance_step_s", "hypothesis_frames_per_s",
-                "network_gflop_per_step", "network_gflops", "matmul_gflops", "utilisation"):  # fmt: skip
+    for key in (
+        "run_s",
+        "step_s",
+        "network_step_s",
+        "guidance_step_s",
+        "hypothesis_frames_per_s",
+        "network_gflop_per_step",
+        "network_gflops",
+        "matmul_gflops",
+        "utilisation",
+    ):
         assert s[key] > 0, key
     assert s["network_gflop_per_step"] * 1e9 == network_flops(TINY, 8, 4)
     assert s["hypothesis_frames_per_s"] == pytest.approx(4 * 8 / s["run_s"])

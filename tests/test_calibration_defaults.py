@@ -29,7 +29,9 @@ def test_intrinsics_only_file():
     assert sum("no extrinsics" in n for n in notes) == 2
 
 
-@pytest.mark.parametrize("line", ["front 1400 1400 960", "1400 1400 960 540 1920", "cam -1400 1400 960 540", "a b c d e"])
+@pytest.mark.parametrize(
+    "line", ["front 1400 1400 960", "1400 1400 960 540 1920", "cam -1400 1400 960 540", "a b c d e"]
+)
 def test_broken_intrinsics_line(tmp_path: Path, line: str):
     path = tmp_path / "k.txt"
     path.write_text(line + "\n")
@@ -67,10 +69,15 @@ def test_units():
 
 
 def test_match_views_by_normalised_name():
-    assert {normalise_view_name(n) for n in ("cam_01", "cam01", "cam01_json", "cam01.mp4", "CAM-1", "x/cam01_json/")} == {"cam1"}
+    assert {
+        normalise_view_name(n) for n in ("cam_01", "cam01", "cam01_json", "cam01.mp4", "CAM-1", "x/cam01_json/")
+    } == {"cam1"}
     cams = ["cam_01", "cam_02", "cam_03"]
     assert match_views(cams, ["cam03.mp4", "cam01.mp4", "cam02.mp4"]) == {
-        "cam_01": "cam01.mp4", "cam_02": "cam02.mp4", "cam_03": "cam03.mp4"}
+        "cam_01": "cam01.mp4",
+        "cam_02": "cam02.mp4",
+        "cam_03": "cam03.mp4",
+    }
     assert match_views(["demo"], ["my_clip.mp4"]) == {"demo": "my_clip.mp4"}
     with pytest.raises(InputError, match="no view for camera.s. cam_03"):
         match_views(cams, ["cam01.mp4", "cam02.mp4"])

@@ -29,7 +29,9 @@ def random_points_in_front(camera: Camera, n: int = 200, seed: int = 0) -> np.nd
 def assert_matches_opencv(camera: Camera, rvec, tvec, K, dist) -> None:
     """Our projection of random points equals cv2.projectPoints with the file's own parameters."""
     points = random_points_in_front(camera)
-    expected = cv2.projectPoints(points, np.asarray(rvec, float), np.asarray(tvec, float), np.asarray(K, float), np.asarray(dist, float))[0]
+    expected = cv2.projectPoints(
+        points, np.asarray(rvec, float), np.asarray(tvec, float), np.asarray(K, float), np.asarray(dist, float)
+    )[0]
     assert np.abs(project(points, camera) - expected.reshape(-1, 2)).max() < 1e-6
 
 
@@ -61,8 +63,13 @@ def test_sports2d_demo(data_dir: Path):
     (cam,) = cal.cameras
     assert cam.name == "demo" and cam.size == (994, 1768)
     assert cam.K[0, 0] == pytest.approx(2520.0897058227038)
-    assert_matches_opencv(cam, [1.2082126924727719, 1.2098328575850605, -1.2082126924727719],
-                          [-3.510103521992233, 1.7079310029359385, 10.0], cam.K, np.zeros(4))
+    assert_matches_opencv(
+        cam,
+        [1.2082126924727719, 1.2098328575850605, -1.2082126924727719],
+        [-3.510103521992233, 1.7079310029359385, 10.0],
+        cam.K,
+        np.zeros(4),
+    )
 
 
 def test_world_up_override_rotates_world(data_dir: Path):
@@ -109,8 +116,11 @@ def test_missing_intrinsics_and_extrinsics_use_defaults(data_dir: Path, tmp_path
         ("fisheye = false", "fisheye = true", "fisheye model"),
         ("size = [ 1088.0, 1920.0]", "", "missing size"),
         ("[ 0.0, 0.0, 1.0]]", "[ 0.0, 0.0, 1.0], [1, 2, 3]]", "matrix has 12 values"),
-        ("rotation = [ 1.6882754799999993, 1.0483220499999997, -0.41955852000000016]",
-         "rotation = [ [1, 0, 0], [0, 1, 0], [0, 0, 3]]", "not a rotation"),
+        (
+            "rotation = [ 1.6882754799999993, 1.0483220499999997, -0.41955852000000016]",
+            "rotation = [ [1, 0, 0], [0, 1, 0], [0, 0, 3]]",
+            "not a rotation",
+        ),
         ("translation = [ 0.3211048899999996, 0.9563320600000009, 2.8907130499999996]", "", "only one of rotation"),
         ("[cam_01]", "[cam_01", "not valid TOML"),
     ],

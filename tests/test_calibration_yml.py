@@ -39,8 +39,13 @@ def test_easymocap_projection_equals_opencv():
     points = np.random.default_rng(2).uniform([-1, -1, 0], [1, 1, 2], size=(50, 3))
     for cam in cal.cameras:
         n = cam.name
-        expected = cv2.projectPoints(points, _fs_matrix(extri, f"R_{n}"), _fs_matrix(extri, f"T_{n}"),
-                                     _fs_matrix(intri, f"K_{n}"), _fs_matrix(intri, f"dist_{n}"))[0].reshape(-1, 2)
+        expected = cv2.projectPoints(
+            points,
+            _fs_matrix(extri, f"R_{n}"),
+            _fs_matrix(extri, f"T_{n}"),
+            _fs_matrix(intri, f"K_{n}"),
+            _fs_matrix(intri, f"dist_{n}"),
+        )[0].reshape(-1, 2)
         assert np.abs(project(points, cam) - expected).max() < 1e-6
 
 

@@ -8,7 +8,6 @@ import pytest
 import torch
 
 
-
 def test_version_and_help_in_a_fresh_process():
     result = subprocess.run([sys.executable, "-m", "platypose", "--version"], capture_output=True, text=True)
     assert result.returncode == 0 and result.stdout.startswith("platypose ")
@@ -27,9 +26,22 @@ def _one_line_error(code, err):
 
 def test_eval_prints_the_table_and_writes_json(run_cli, prior_file, data_dir, tmp_path):
     out_json = tmp_path / "eval.json"
-    code, out, err = run_cli("eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", prior_file,
-                             "--frames", "1,16", "--samples", "8", "--windows", "1", "--views", "4",
-                             "--json", out_json)  # fmt: skip
+    code, out, err = run_cli(
+        "eval",
+        data_dir / "motion/deepmimic/humanoid3d_walk.txt",
+        "--prior",
+        prior_file,
+        "--frames",
+        "1,16",
+        "--samples",
+        "8",
+        "--windows",
+        "1",
+        "--views",
+        "4",
+        "--json",
+        out_json,
+    )
     assert code == 0, err
     assert "minMPSPE" in out and "frame-by-frame" in out
     rows = json.loads(out_json.read_text())["rows"]
@@ -49,10 +61,33 @@ def test_prior_info_lists_licences(run_cli, prior_file):
 def test_train_writes_a_loadable_checkpoint(run_cli, data_dir, tmp_path):
     out = tmp_path / "p.pt"
     clip = data_dir / "motion/deepmimic/humanoid3d_walk.txt"
-    common = ("--layers", "1", "--width", "32", "--heads", "2", "--ff-width", "32", "--max-frames", "8",
-              "--batch-size", "4", "--quiet")  # fmt: skip
-    code, _, err = run_cli("train", clip, data_dir / "motion/deepmimic/humanoid3d_run.txt", "--out", out,
-                           "--iterations", "6", "--checkpoint-every", "3", *common)  # fmt: skip
+    common = (
+        "--layers",
+        "1",
+        "--width",
+        "32",
+        "--heads",
+        "2",
+        "--ff-width",
+        "32",
+        "--max-frames",
+        "8",
+        "--batch-size",
+        "4",
+        "--quiet",
+    )
+    code, _, err = run_cli(
+        "train",
+        clip,
+        data_dir / "motion/deepmimic/humanoid3d_run.txt",
+        "--out",
+        out,
+        "--iterations",
+        "6",
+        "--checkpoint-every",
+        "3",
+        *common,
+    )
     assert code == 0, err
     from platypose.lifting.prior import load_prior
 
@@ -75,12 +110,30 @@ def test_an_interrupted_training_resumes_from_its_last_checkpoint(run_cli, data_
             raise KeyboardInterrupt  # the user's Ctrl-C, one step after the checkpoint at 3
 
     with pytest.raises(KeyboardInterrupt):
-        train_prior(load_motion_paths(clips), str(out), prior_config,
-                    TrainConfig(iterations=8, batch_size=4, checkpoint_every=3, validate_every=1), log=stop_after_four)  # fmt: skip
+        train_prior(
+            load_motion_paths(clips),
+            str(out),
+            prior_config,
+            TrainConfig(iterations=8, batch_size=4, checkpoint_every=3, validate_every=1),
+            log=stop_after_four,
+        )
     bundle, extra = load_prior(out)  # the periodic checkpoint is complete and loadable
     assert bundle.manifest["iterations"] == 3 and extra["iteration"] == 3
-    code, _, err = run_cli("train", *clips, "--out", out, "--resume", "--iterations", "8", "--batch-size", "4",
-                           "--checkpoint-every", "3", "--log-file", log)  # fmt: skip
+    code, _, err = run_cli(
+        "train",
+        *clips,
+        "--out",
+        out,
+        "--resume",
+        "--iterations",
+        "8",
+        "--batch-size",
+        "4",
+        "--checkpoint-every",
+        "3",
+        "--log-file",
+        log,
+    )
     assert code == 0, err
     assert f"resuming {out} at iteration 3 of 8" in err
     bundle, extra = load_prior(out)

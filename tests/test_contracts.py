@@ -55,8 +55,10 @@ def test_yolo_pose(tmp_path: Path, frame: np.ndarray) -> None:
 
 
 def test_rtmo(tmp_path: Path, frame: np.ndarray) -> None:
-    dets = np.array([[[100, 100, 200, 400, 0.9], [102, 101, 201, 399, 0.8], [300, 50, 350, 250, 0.5],
-                      [0, 0, 10, 10, 0.1]]], np.float32)  # fmt: skip
+    dets = np.array(
+        [[[100, 100, 200, 400, 0.9], [102, 101, 201, 399, 0.8], [300, 50, 350, 250, 0.5], [0, 0, 10, 10, 0.1]]],
+        np.float32,
+    )
     keypoints = np.zeros((1, 4, 17, 3), np.float32)
     keypoints[0, 0] = [150, 250, 0.9]
     keypoints[0, 2] = [320, 150, 0.7]
@@ -134,8 +136,9 @@ def test_models_that_match_no_contract(tmp_path: Path) -> None:
     yolo = constant_model(tmp_path / "yolo.onnx", [1, 3, 640, 640], {"output0": _yolo_pose_output()}, "images")
     with pytest.raises(InputError, match="does not fit the movenet contract"):
         load_detector(yolo, format="movenet")
-    ten = constant_model(tmp_path / "ten.onnx", [1, 3, 640, 640],
-                         {"dets": np.zeros((1, 2, 5)), "keypoints": np.zeros((1, 2, 10, 3))})  # fmt: skip
+    ten = constant_model(
+        tmp_path / "ten.onnx", [1, 3, 640, 640], {"dets": np.zeros((1, 2, 5)), "keypoints": np.zeros((1, 2, 10, 3))}
+    )
     with pytest.raises(InputError, match="10 keypoints per person match no known layout"):
         load_detector(ten)
     with pytest.raises(InputError, match="model file not found"):
@@ -165,5 +168,7 @@ def test_session_threads_and_providers(tmp_path: Path, monkeypatch) -> None:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         open_session(model, provider="CUDAExecutionProvider")
-    assert any(issubclass(w.category, ProviderFallbackWarning) and "runs on CPUExecutionProvider" in str(w.message)
-               for w in caught)  # fmt: skip
+    assert any(
+        issubclass(w.category, ProviderFallbackWarning) and "runs on CPUExecutionProvider" in str(w.message)
+        for w in caught
+    )

@@ -40,7 +40,9 @@ def test_a_depth_switch_is_spread_over_frames_and_the_image_does_not_move(window
         switched[:, ..., middle:, 7:] *= (depth + 0.3) / depth  # slid back along their rays
         smoothed = smooth_depth(switched, smoothness=10.0)
         assert (_projection(smoothed) - _projection(switched)).abs().max() < 1e-9  # every joint stays on its ray
-        assert _depth_steps(smoothed).max() < 0.05 + _depth_steps(truth).max(), _depth_steps(smoothed).max()  # 0.3 m before
+        assert _depth_steps(smoothed).max() < 0.05 + _depth_steps(truth).max(), _depth_steps(
+            smoothed
+        ).max()  # 0.3 m before
         # depth the switch adds, smoothed against given; away from it (12 frames and more) the two agree
         left = ((smoothed[2] - smooth_depth(truth, smoothness=10.0)[2]) - (switched[2] - truth[2]))[0, 0]  # (F, 17)
         away = torch.cat([left[: middle - 12], left[middle + 12 :]])

@@ -112,6 +112,7 @@ def test_bvh_imports_upright_and_facing_forward(climb, tmp_path):
         lr = j[:, idx("left_hip")] - j[:, idx("right_hip")]
         f = np.cross(lr, [0.0, 0.0, 1.0])
         return f / np.linalg.norm(f, axis=-1, keepdims=True)
+
     assert (np.sum(facing_of(world) * facing_of(joints), axis=-1) > 0.999).all()
 
 

@@ -51,9 +51,15 @@ def test_info_and_export_commands(result, data_dir, tmp_path, run_cli):
     assert "2 person(s) x 6 hypotheses x 30 frames at 120.000 fps" in out
     assert "person 7: present in 25/30 frames" in out and "camera cam02: 1080x1920 px" in out
     code, out, err = run_cli(
-        "export", str(tmp_path / "clip.npz"), "--formats", "csv,rrd", "--out",
-        str(tmp_path / "re"), "--video", f"cam01={data_dir / 'video/pose2sim-balancing/cam01.mp4'}",
-    )  # fmt: skip
+        "export",
+        str(tmp_path / "clip.npz"),
+        "--formats",
+        "csv,rrd",
+        "--out",
+        str(tmp_path / "re"),
+        "--video",
+        f"cam01={data_dir / 'video/pose2sim-balancing/cam01.mp4'}",
+    )
     assert code == 0, err
     assert sorted(p.name for p in (tmp_path / "re").iterdir()) == ["clip.csv", "clip.rrd", "clip_summary.csv"]
     with open(tmp_path / "re" / "clip_summary.csv", newline="") as f:

@@ -24,8 +24,21 @@ def result(data_dir):
 def test_npz_has_every_field_and_reads_back(result, tmp_path):
     path = write_npz(result.with_meta(bvh_fit_error={"0": {"mean_m": 0.004}}), tmp_path / "clip.npz")
     with np.load(path, allow_pickle=False) as raw:
-        assert {"hypotheses", "median", "keypoints2d", "frame_times", "fps", "joint_names", "parents", "track_ids",
-                "cameras", "units", "up_axis", "meta", "energy"} <= set(raw.files)  # fmt: skip
+        assert {
+            "hypotheses",
+            "median",
+            "keypoints2d",
+            "frame_times",
+            "fps",
+            "joint_names",
+            "parents",
+            "track_ids",
+            "cameras",
+            "units",
+            "up_axis",
+            "meta",
+            "energy",
+        } <= set(raw.files)
         assert raw["hypotheses"].dtype == np.float32 and raw["hypotheses"].shape == (2, 6, 30, 17, 3)
         np.testing.assert_array_equal(raw["hypotheses"], result.hypotheses)
         np.testing.assert_array_equal(raw["keypoints2d"], result.keypoints2d)
@@ -115,5 +128,12 @@ def test_cameras_are_the_native_calibration_json(result, tmp_path):
 
 def test_a_result_needs_a_camera(result):
     with pytest.raises(ValueError, match="at least one camera"):
-        LiftResult(result.hypotheses, result.median, result.keypoints2d[:0], result.frame_times, result.fps,
-                   result.track_ids, cameras=())  # fmt: skip
+        LiftResult(
+            result.hypotheses,
+            result.median,
+            result.keypoints2d[:0],
+            result.frame_times,
+            result.fps,
+            result.track_ids,
+            cameras=(),
+        )

@@ -110,9 +110,12 @@ def test_default_blueprint_has_3d_camera_and_plot_views(recording):
         if "ViewBlueprint:class_identifier" in cols
     }
     assert views == {
-        ("3D", "world"), ("2D", "world/cameras/cam01"), ("2D", "world/cameras/cam02"),
-        ("TimeSeries", "plots/energy"), ("TimeSeries", "plots/spread"),
-    }  # fmt: skip
+        ("3D", "world"),
+        ("2D", "world/cameras/cam01"),
+        ("2D", "world/cameras/cam02"),
+        ("TimeSeries", "plots/energy"),
+        ("TimeSeries", "plots/spread"),
+    }
 
 
 def test_rerun_verifies_the_file(recording):

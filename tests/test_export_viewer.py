@@ -53,9 +53,12 @@ def test_recording_opens_with_video_skeletons_and_plots(data_dir, tmp_path, monk
             time.sleep(2)
             views = {(v.view_class, v.origin): v for v in viewer.get_state().views}
             assert set(views) == {
-                ("3D", "/world"), ("2D", "/world/cameras/cam01"), ("2D", "/world/cameras/cam02"),
-                ("TimeSeries", "/plots/energy"), ("TimeSeries", "/plots/spread"),
-            }  # fmt: skip
+                ("3D", "/world"),
+                ("2D", "/world/cameras/cam01"),
+                ("2D", "/world/cameras/cam02"),
+                ("TimeSeries", "/plots/energy"),
+                ("TimeSeries", "/plots/spread"),
+            }
             assert all(v.visible and not v.reports for v in views.values())
             shot_3d = viewer.take_screenshot(views[("3D", "/world")].view_id)
             shot_cam = viewer.take_screenshot(views[("2D", "/world/cameras/cam01")].view_id)

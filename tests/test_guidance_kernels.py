@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import torch
 
+from platypose.lifting.camera import CameraBatch
 from platypose.lifting.camera_rigs import ring_cameras
 from platypose.lifting.energy import (
     SYMMETRIC_PAIRS,
@@ -15,7 +16,6 @@ from platypose.lifting.energy import (
     reprojection_terms,
     solve_symmetric3,
 )
-from platypose.lifting.camera import CameraBatch
 from platypose.lifting.translation import solve_block_tridiagonal
 
 
@@ -67,7 +67,9 @@ def test_packed_symmetric_solve_matches_linalg() -> None:
     packed = torch.stack([matrices[:, k, m] for k, m in SYMMETRIC_PAIRS])
     solution = solve_symmetric3(packed, rhs.T.contiguous())
     assert torch.allclose(solution.T, torch.linalg.solve(matrices, rhs), rtol=1e-10)
-    damped = solve_symmetric3(add_to_diagonal_(packed.clone(), torch.full((50,), 0.5, dtype=torch.float64)), rhs.T, -2.0)
+    damped = solve_symmetric3(
+        add_to_diagonal_(packed.clone(), torch.full((50,), 0.5, dtype=torch.float64)), rhs.T, -2.0
+    )
     expected = -2.0 * torch.linalg.solve(matrices + 0.5 * torch.eye(3, dtype=torch.float64), rhs)
     assert torch.allclose(damped.T, expected, rtol=1e-10)
 

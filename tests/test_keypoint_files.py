@@ -83,14 +83,24 @@ def test_csv_round_trip_read_independently(tracks, tmp_path: Path) -> None:
 def test_minimal_schema_with_and_without_ids(tracks, raw_frames, tmp_path: Path) -> None:
     def write(with_ids: bool) -> Path:
         frames = [
-            {"frame": n, "people": [
-                {**({"id": 10 + i} if with_ids else {}), "keypoints": np.reshape(flat, (25, 3)).tolist()}
-                for i, flat in enumerate(people)
-            ]}
-            for n, people in enumerate(raw_frames) if n != 50  # frame 50 left out: a stated gap
-        ]  # fmt: skip
-        content = {"format": "platypose-keypoints2d", "version": 1, "fps": 60, "image_size": list(SIZE),
-                   "layout": "body25b", "frames": frames}  # fmt: skip
+            {
+                "frame": n,
+                "people": [
+                    {**({"id": 10 + i} if with_ids else {}), "keypoints": np.reshape(flat, (25, 3)).tolist()}
+                    for i, flat in enumerate(people)
+                ],
+            }
+            for n, people in enumerate(raw_frames)
+            if n != 50  # frame 50 left out: a stated gap
+        ]
+        content = {
+            "format": "platypose-keypoints2d",
+            "version": 1,
+            "fps": 60,
+            "image_size": list(SIZE),
+            "layout": "body25b",
+            "frames": frames,
+        }
         path = tmp_path / f"mine_{with_ids}.json"
         path.write_text(json.dumps(content))
         return path
@@ -112,14 +122,24 @@ def test_mmpose_predictions_and_coco_style(tracks, raw_frames, tmp_path: Path) -
         instances = []
         for flat in people:
             points = np.reshape(flat, (25, 3))[:17]
-            instances.append({"keypoints": points[:, :2].tolist(), "keypoint_scores": points[:, 2].tolist(),
-                              "bbox": [[0, 0, 10, 10]], "bbox_score": 0.9})  # fmt: skip
+            instances.append(
+                {
+                    "keypoints": points[:, :2].tolist(),
+                    "keypoint_scores": points[:, 2].tolist(),
+                    "bbox": [[0, 0, 10, 10]],
+                    "bbox_score": 0.9,
+                }
+            )
         instances_per_frame.append(instances)
     predictions = tmp_path / "cam01.json"
-    predictions.write_text(json.dumps({
-        "meta_info": {"dataset_name": "coco"},
-        "instance_info": [{"frame_id": n + 1, "instances": inst} for n, inst in enumerate(instances_per_frame)],
-    }))  # fmt: skip
+    predictions.write_text(
+        json.dumps(
+            {
+                "meta_info": {"dataset_name": "coco"},
+                "instance_info": [{"frame_id": n + 1, "instances": inst} for n, inst in enumerate(instances_per_frame)],
+            }
+        )
+    )
     mm = read_keypoints(predictions, fps=60, image_size=SIZE)
     assert mm.frame_times[0] == 0 and mm.frame_times[1] == pytest.approx(1 / 60)
     np.testing.assert_allclose(
@@ -128,12 +148,20 @@ def test_mmpose_predictions_and_coco_style(tracks, raw_frames, tmp_path: Path) -
     coco = {
         "images": [{"id": 100 + n, "frame_id": n, "width": SIZE[1], "height": SIZE[0]} for n in range(100)],
         "annotations": [
-            {"image_id": 100 + n, "track_id": i, "num_keypoints": 17,
-             "keypoints": np.column_stack([np.reshape(flat, (25, 3))[:17, :2],
-                                           2 * (np.reshape(flat, (25, 3))[:17, 2] > 0)]).ravel().tolist()}
-            for n, people in enumerate(raw_frames) for i, flat in enumerate(people)
+            {
+                "image_id": 100 + n,
+                "track_id": i,
+                "num_keypoints": 17,
+                "keypoints": np.column_stack(
+                    [np.reshape(flat, (25, 3))[:17, :2], 2 * (np.reshape(flat, (25, 3))[:17, 2] > 0)]
+                )
+                .ravel()
+                .tolist(),
+            }
+            for n, people in enumerate(raw_frames)
+            for i, flat in enumerate(people)
         ],
-    }  # fmt: skip
+    }
     coco_path = tmp_path / "posetrack.json"
     coco_path.write_text(json.dumps(coco))
     posetrack = read_keypoints(coco_path, fps=60)
@@ -157,15 +185,33 @@ def test_bad_files(tmp_path: Path) -> None:
     with pytest.raises(InputError, match=r"odd\.json: not MMPose or COCO-style"):
         read_keypoints(odd, fps=30, image_size=SIZE)
     mixed = tmp_path / "mixed.json"
-    mixed.write_text(json.dumps({"format": "platypose-keypoints2d", "fps": 30, "image_size": [10, 10],
-                                 "layout": "platypose17", "frames": [{"frame": 0, "people": [
-                                     {"id": 1, "keypoints": [[1, 1, 1]] * 17}, {"keypoints": [[5, 5, 1]] * 17}]}]}))
+    mixed.write_text(
+        json.dumps(
+            {
+                "format": "platypose-keypoints2d",
+                "fps": 30,
+                "image_size": [10, 10],
+                "layout": "platypose17",
+                "frames": [
+                    {"frame": 0, "people": [{"id": 1, "keypoints": [[1, 1, 1]] * 17}, {"keypoints": [[5, 5, 1]] * 17}]}
+                ],
+            }
+        )
+    )
     with pytest.raises(InputError, match="id for every person or for none"):
         read_keypoints(mixed)
     wrong_count = tmp_path / "short.json"
-    wrong_count.write_text(json.dumps({"format": "platypose-keypoints2d", "fps": 30, "image_size": [10, 10],
-                                       "layout": "coco17", "frames": [{"frame": 0, "people": [
-                                           {"keypoints": [[1, 1, 1]] * 12}]}]}))  # fmt: skip
+    wrong_count.write_text(
+        json.dumps(
+            {
+                "format": "platypose-keypoints2d",
+                "fps": 30,
+                "image_size": [10, 10],
+                "layout": "coco17",
+                "frames": [{"frame": 0, "people": [{"keypoints": [[1, 1, 1]] * 12}]}],
+            }
+        )
+    )
     with pytest.raises(InputError, match="layout coco17 has 17 points per person"):
         read_keypoints(wrong_count)
     with pytest.raises(InputError, match="unknown keypoint file type"):

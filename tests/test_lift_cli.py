@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-
 TAKE = "video/pose2sim-balancing"
 
 
@@ -37,13 +36,25 @@ def lift_args(data_dir, prior_file, out, *extra: str) -> tuple[str, ...]:
     return ("lift", "--cams", calib, *common, *extra)
 
 
-def test_four_views_match_triangulation_and_one_view_spreads(run_cli, data_dir, tmp_path, prior_file,
-                                                             triangulated) -> None:  # fmt: skip
+def test_four_views_match_triangulation_and_one_view_spreads(
+    run_cli, data_dir, tmp_path, prior_file, triangulated
+) -> None:
     from platypose.exporters.npz import read_npz
 
     keypoints = data_dir / TAKE / "openpose-body25b"
-    code, out, err = run_cli(*lift_args(data_dir, prior_file, tmp_path, "--keypoints", str(keypoints),
-                                                         "--persons", "largest", "--formats", "npz,csv"))  # fmt: skip
+    code, out, err = run_cli(
+        *lift_args(
+            data_dir,
+            prior_file,
+            tmp_path,
+            "--keypoints",
+            str(keypoints),
+            "--persons",
+            "largest",
+            "--formats",
+            "npz,csv",
+        )
+    )
     assert code == 0, err
     assert "1 ok, 0 failed" in out
     folder = tmp_path / "openpose-body25b"
@@ -65,12 +76,25 @@ def test_four_views_match_triangulation_and_one_view_spreads(run_cli, data_dir, 
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["inputs"][0]["status"] == "ok" and summary["inputs"][0]["error"] is None
     assert sorted(Path(p).name for p in summary["inputs"][0]["outputs"]) == [
-        "openpose-body25b.csv", "openpose-body25b.npz", "openpose-body25b_summary.csv"]  # fmt: skip
+        "openpose-body25b.csv",
+        "openpose-body25b.npz",
+        "openpose-body25b_summary.csv",
+    ]
 
     one = tmp_path / "one"
-    code, _, err = run_cli(*lift_args(data_dir, prior_file, one, "--keypoints",
-                                                       str(keypoints / "cam01_json"), "--persons", "largest",
-                                                       "--formats", "npz"))  # fmt: skip
+    code, _, err = run_cli(
+        *lift_args(
+            data_dir,
+            prior_file,
+            one,
+            "--keypoints",
+            str(keypoints / "cam01_json"),
+            "--persons",
+            "largest",
+            "--formats",
+            "npz",
+        )
+    )
     assert code == 0, err
     single = read_npz(one / "cam01" / "cam01.npz")
     assert [c.name for c in single.cameras] == ["cam_01"] and single.meta["root"] == ["solved"]
@@ -100,8 +124,19 @@ def test_given_root_trajectory_npz_and_csv(run_cli, data_dir, tmp_path, prior_fi
     keypoints = str(data_dir / TAKE / "openpose-body25b" / "cam01_json")
     for name in ("root.npz", "root.csv"):
         out = tmp_path / name.replace(".", "_")
-        args = lift_args(data_dir, prior_file, out, "--keypoints", keypoints, "--persons", "largest", "--formats",
-                         "npz", "--root-trajectory", str(tmp_path / name))  # fmt: skip
+        args = lift_args(
+            data_dir,
+            prior_file,
+            out,
+            "--keypoints",
+            keypoints,
+            "--persons",
+            "largest",
+            "--formats",
+            "npz",
+            "--root-trajectory",
+            str(tmp_path / name),
+        )
         code, _, err = run_cli(*args)
         assert code == 0, err
         result = read_npz(out / "cam01" / "cam01.npz")
@@ -121,16 +156,30 @@ def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir,
     acceleration = {}
     for value in ("0", "10"):
         out = tmp_path / value
-        code, _, err = run_cli(*lift_args(data_dir, prior_file, out, "--keypoints", keypoints, "--persons", "largest",
-                                          "--formats", "npz", "--depth-smoothness", value))  # fmt: skip
+        code, _, err = run_cli(
+            *lift_args(
+                data_dir,
+                prior_file,
+                out,
+                "--keypoints",
+                keypoints,
+                "--persons",
+                "largest",
+                "--formats",
+                "npz",
+                "--depth-smoothness",
+                value,
+            )
+        )
         assert code == 0, err
         result = read_npz(out / "cam01" / "cam01.npz")
         cam = result.cameras[0]
         depth = (result.hypotheses[0] @ cam.R.T + cam.t)[..., 2]  # (N, T, 17)
         acceleration[value] = np.nanpercentile(np.abs(np.diff(depth, 2, axis=1)), 99)
     assert acceleration["10"] < 0.7 * acceleration["0"], acceleration
-    code, _, err = run_cli(*lift_args(data_dir, prior_file, tmp_path / "bad", "--keypoints", keypoints,
-                                      "--depth-smoothness", "-1"))  # fmt: skip
+    code, _, err = run_cli(
+        *lift_args(data_dir, prior_file, tmp_path / "bad", "--keypoints", keypoints, "--depth-smoothness", "-1")
+    )
     assert code == 2 and "depth smoothness must be >= 0" in err and len(err.strip().splitlines()) == 1, err
 
 
@@ -171,12 +220,26 @@ def batch_folder(data_dir, tmp_path_factory) -> Path:
     return folder
 
 
-def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, prior_file,
-                                                          batch_folder) -> None:  # fmt: skip
+def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, prior_file, batch_folder) -> None:
     from platypose.exporters.npz import read_npz
 
-    args = ("lift", str(batch_folder), "--prior", prior_file, "--out", str(tmp_path), "--samples", "4",
-            "--formats", "npz,bvh", "--persons", "largest", "--quiet", "--jobs", "2")  # fmt: skip
+    args = (
+        "lift",
+        str(batch_folder),
+        "--prior",
+        prior_file,
+        "--out",
+        str(tmp_path),
+        "--samples",
+        "4",
+        "--formats",
+        "npz,bvh",
+        "--persons",
+        "largest",
+        "--quiet",
+        "--jobs",
+        "2",
+    )
     code, out, _ = run_cli(*args)
     assert code == 1
     assert "3 input(s): 1 ok, 2 failed, 0 skipped" in out
@@ -232,8 +295,20 @@ def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> Non
 def test_demo_lifts_the_bundled_take(run_cli, tmp_path, prior_file) -> None:
     from platypose.exporters.npz import read_npz
 
-    args = ("demo", "--out", str(tmp_path), "--source", "keypoints", "--prior", prior_file, "--samples", "4",
-            "--threads", "1", "--quiet")  # fmt: skip
+    args = (
+        "demo",
+        "--out",
+        str(tmp_path),
+        "--source",
+        "keypoints",
+        "--prior",
+        prior_file,
+        "--samples",
+        "4",
+        "--threads",
+        "1",
+        "--quiet",
+    )
     code, out, err = run_cli(*args)
     assert code == 0, err
     folder = tmp_path / "openpose-body25b"
@@ -245,8 +320,7 @@ def test_demo_lifts_the_bundled_take(run_cli, tmp_path, prior_file) -> None:
     assert {p.suffix for p in folder.iterdir()} >= {".npz", ".csv", ".bvh", ".rrd"}
 
 
-def test_calibration_mismatches_fail_their_input(run_cli, data_dir, tmp_path, prior_file,
-                                                 batch_folder) -> None:  # fmt: skip
+def test_calibration_mismatches_fail_their_input(run_cli, data_dir, tmp_path, prior_file, batch_folder) -> None:
     folder = tmp_path / "in"
     folder.mkdir()
     (folder / "cam01.mp4").symlink_to(batch_folder / "good.mp4")  # cam01 at half the calibrated size

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from platypose.lifting.errors import InputError
 from platypose.cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
+from platypose.lifting.errors import InputError
 
 TAKE = "video/pose2sim-balancing"
 CAMERAS = ("cam_01", "cam_02", "cam_03", "cam_04")
@@ -56,7 +56,8 @@ def test_pose2sim_keypoint_layout(data_dir, tmp_path) -> None:
     job = keypoints_job(keypoints, [], CAMERAS)
     assert job.name == "openpose-body25b"
     assert [(v.name, v.source.name, v.video.name) for v in job.views] == [
-        (f"cam0{i}", f"cam0{i}_json", f"cam0{i}.mp4") for i in range(1, 5)]  # fmt: skip
+        (f"cam0{i}", f"cam0{i}_json", f"cam0{i}.mp4") for i in range(1, 5)
+    ]
     single = keypoints_job(keypoints / "cam02_json", [], CAMERAS)
     assert single.name == "cam02" and single.views[0].video.name == "cam02.mp4"
     with pytest.raises(InputError, match="match none of its views"):
@@ -69,8 +70,10 @@ def test_per_view_keypoint_files_match_cameras(tmp_path) -> None:
     for name in ("cam01_keypoints2d.npz", "cam03_keypoints2d.npz"):  # as written by platypose detect
         (tmp_path / name).touch()
     job = keypoints_job(tmp_path, [], CAMERAS)
-    assert [(v.name, v.source.name) for v in job.views] == [("cam01", "cam01_keypoints2d.npz"),
-                                                           ("cam03", "cam03_keypoints2d.npz")]  # fmt: skip
+    assert [(v.name, v.source.name) for v in job.views] == [
+        ("cam01", "cam01_keypoints2d.npz"),
+        ("cam03", "cam03_keypoints2d.npz"),
+    ]
     # files that do not all name cameras are one view's source, not several views
     (tmp_path / "notes.json").touch()
     assert len(keypoints_job(tmp_path, [], CAMERAS).views) == 1

@@ -114,8 +114,10 @@ def test_worst_clip_ece_shows_opposite_errors_that_pooling_hides():
             truths.append(base + truth_offset)
             clips.append(clip)
     values = score_windows(np.stack(hyps), np.stack(truths), np.array(clips))
-    each = [score_windows(np.stack(hyps[i : i + 60]), np.stack(truths[i : i + 60]), np.zeros(60, dtype=int))
-            for i in (0, 60)]  # fmt: skip
+    each = [
+        score_windows(np.stack(hyps[i : i + 60]), np.stack(truths[i : i + 60]), np.zeros(60, dtype=int))
+        for i in (0, 60)
+    ]
     assert all(e["ECE worst"] == e["ECE"] for e in each)  # one clip: nothing to hide
     assert values["ECE worst"] == pytest.approx(max(e["ECE"] for e in each))
     assert min(e["ECE"] for e in each) > 0.25  # both clips are badly calibrated

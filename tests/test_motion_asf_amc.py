@@ -43,7 +43,9 @@ def test_units_are_inches_over_length(folder, trial):
     skeleton = read_asf(folder / "test.asf")
     assert skeleton.metres_per_unit == pytest.approx(0.0254 / 0.45)
     femur = skeleton.bones["lfemur"].length * skeleton.metres_per_unit
-    thigh = np.linalg.norm(trial.joints[:, JOINT_INDEX["left_knee"]] - trial.joints[:, JOINT_INDEX["left_hip"]], axis=-1)
+    thigh = np.linalg.norm(
+        trial.joints[:, JOINT_INDEX["left_knee"]] - trial.joints[:, JOINT_INDEX["left_hip"]], axis=-1
+    )
     np.testing.assert_allclose(thigh, femur, atol=1e-6)
 
 

@@ -131,7 +131,9 @@ ROOT Hips
 JOINTS = [line.split()[1] for line in HIERARCHY.splitlines() if line.strip().startswith(("ROOT", "JOINT"))]
 
 
-def write_bvh(path, frames: list[dict[str, list[float]]], hierarchy: str = HIERARCHY, frame_time: float = 1 / 60) -> None:
+def write_bvh(
+    path, frames: list[dict[str, list[float]]], hierarchy: str = HIERARCHY, frame_time: float = 1 / 60
+) -> None:
     """Write a BVH; each frame maps joint names to channel values (missing joints are zero)."""
     rows = []
     for frame in frames:
@@ -139,7 +141,9 @@ def write_bvh(path, frames: list[dict[str, list[float]]], hierarchy: str = HIERA
         for name in JOINTS:
             values += frame.get(name, [0.0] * (6 if name == "Hips" else 3))
         rows.append(" ".join(f"{v:g}" for v in values))
-    path.write_text(hierarchy + f"MOTION\nFrames: {len(frames)}\nFrame Time: {frame_time:.6f}\n" + "\n".join(rows) + "\n")
+    path.write_text(
+        hierarchy + f"MOTION\nFrames: {len(frames)}\nFrame Time: {frame_time:.6f}\n" + "\n".join(rows) + "\n"
+    )
 
 
 def z_up(bvh_point, scale=INCH):

@@ -9,8 +9,18 @@ from platypose.lifting.errors import InputError
 from platypose.lifting.motion_io import load_motion
 from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 
-UPPER = ["spine", "thorax", "neck", "head", "left_shoulder", "left_elbow", "left_wrist",
-         "right_shoulder", "right_elbow", "right_wrist"]  # fmt: skip
+UPPER = [
+    "spine",
+    "thorax",
+    "neck",
+    "head",
+    "left_shoulder",
+    "left_elbow",
+    "left_wrist",
+    "right_shoulder",
+    "right_elbow",
+    "right_wrist",
+]
 
 
 @pytest.fixture(scope="module")

@@ -60,14 +60,19 @@ def to_32(joints17: np.ndarray) -> np.ndarray:
 
 def test_h36m_layout_gives_one_clip_per_subject_action(tmp_path, cmu):
     path = tmp_path / "data_3d_h36m.npz"
-    write_h36m(path, {
-        "S9": {"Walking": to_32(cmu.joints[:200])},
-        "S1": {"Walking 1": to_32(cmu.joints[200:300]), "Directions": to_32(cmu.joints[300:350])},
-    })  # fmt: skip
+    write_h36m(
+        path,
+        {
+            "S9": {"Walking": to_32(cmu.joints[:200])},
+            "S1": {"Walking 1": to_32(cmu.joints[200:300]), "Directions": to_32(cmu.joints[300:350])},
+        },
+    )
     clips = load_motion(path)
     assert [c.name for c in clips] == [
-        "data_3d_h36m/S1/Directions", "data_3d_h36m/S1/Walking 1", "data_3d_h36m/S9/Walking",
-    ]  # fmt: skip
+        "data_3d_h36m/S1/Directions",
+        "data_3d_h36m/S1/Walking 1",
+        "data_3d_h36m/S9/Walking",
+    ]
     assert [c.num_frames for c in clips] == [50, 100, 200]
     assert all(c.fps == 50.0 for c in clips)
     np.testing.assert_array_equal(clips[2].joints, cmu.joints[:200])
@@ -88,7 +93,6 @@ def test_h36m_bad_clip_named(tmp_path):
     write_h36m(path, {"S1": {"Eating": np.zeros((5, 17, 3))}})
     with pytest.raises(InputError, match="bad_h36m.npz.*S1/Eating.*32"):
         load_motion(path)
-
 
 
 class _RunsCode:

@@ -24,7 +24,9 @@ def bare_imports(path: Path) -> list[str]:
 
 
 def test_no_code_imports_a_folder_by_its_bare_name() -> None:
-    offenders = [hit for folder in FOLDERS for path in sorted((REPO / folder).rglob("*.py")) for hit in bare_imports(path)]
+    offenders = [
+        hit for folder in FOLDERS for path in sorted((REPO / folder).rglob("*.py")) for hit in bare_imports(path)
+    ]
     assert offenders == []
 
 

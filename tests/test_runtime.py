@@ -97,8 +97,27 @@ def test_device_choice() -> None:
 def test_eval_cli_runs_with_a_runtime_and_device(run_cli, prior_file, data_dir) -> None:
     """``platypose eval --runtime onnx --device cpu`` prints its table; a bad runtime is a one-line error."""
     motion = data_dir / "motion" / "deepmimic"
-    args = ["eval", motion, "--prior", prior_file, "--frames", "4", "--samples", "2", "--windows", "1",
-            "--no-baseline", "--steps", "3", "--skip", "1", "--k", "1", "--device", "cpu"]  # fmt: skip
+    args = [
+        "eval",
+        motion,
+        "--prior",
+        prior_file,
+        "--frames",
+        "4",
+        "--samples",
+        "2",
+        "--windows",
+        "1",
+        "--no-baseline",
+        "--steps",
+        "3",
+        "--skip",
+        "1",
+        "--k",
+        "1",
+        "--device",
+        "cpu",
+    ]
     code, stdout, _ = run_cli(*args, "--runtime", "onnx")
     assert code == 0 and "platypose" in stdout
     code, _, stderr = run_cli(*args, "--runtime", "int8")
@@ -108,9 +127,32 @@ def test_eval_cli_runs_with_a_runtime_and_device(run_cli, prior_file, data_dir) 
 def test_lift_cli_device_option(run_cli, prior_file, data_dir, tmp_path) -> None:
     """``platypose lift --device cpu`` lifts one view of real keypoints; an unknown device is refused before any work."""
     take = data_dir / "video" / "pose2sim-balancing"
-    args = ["lift", "--cams", take / "calib_pose2sim.toml", "--keypoints", take / "openpose-body25b" / "cam01_json",
-            "--prior", prior_file, "--out", tmp_path, "--samples", "2", "--steps", "3", "--skip", "1",
-            "--guidance-iters", "1", "--formats", "npz", "--persons", "largest", "--threads", "1", "--quiet"]  # fmt: skip
+    args = [
+        "lift",
+        "--cams",
+        take / "calib_pose2sim.toml",
+        "--keypoints",
+        take / "openpose-body25b" / "cam01_json",
+        "--prior",
+        prior_file,
+        "--out",
+        tmp_path,
+        "--samples",
+        "2",
+        "--steps",
+        "3",
+        "--skip",
+        "1",
+        "--guidance-iters",
+        "1",
+        "--formats",
+        "npz",
+        "--persons",
+        "largest",
+        "--threads",
+        "1",
+        "--quiet",
+    ]
     code, stdout, stderr = run_cli(*args, "--device", "cpu")
     assert code == 0, stderr
     assert "1 ok, 0 failed" in stdout

@@ -63,7 +63,9 @@ def test_lambda_sweep_over_two_decades_is_smooth(tiny_prior, heldout_window):
     scales = [0.1, 0.3, 1.0, 3.0, 10.0]
     errors = []
     for scale in scales:
-        result, _ = _lift(tiny_prior, heldout_window, views=4, noise_px=1.0, samples=10, energy_scale=scale, noise_spread=False)
+        result, _ = _lift(
+            tiny_prior, heldout_window, views=4, noise_px=1.0, samples=10, energy_scale=scale, noise_spread=False
+        )
         errors.append(np.median(_rms_px(result, 4)))
     errors = np.array(errors)
     assert np.all(np.isfinite(errors))
@@ -72,8 +74,16 @@ def test_lambda_sweep_over_two_decades_is_smooth(tiny_prior, heldout_window):
 
 
 def test_paper_step_rule_is_available_and_backtracking_is_no_worse(tiny_prior, heldout_window):
-    paper, _ = _lift(tiny_prior, heldout_window, views=4, samples=10, step_rule="paper", direction="gradient",
-                     energy_scale=30.0, noise_fit=False)  # fmt: skip
+    paper, _ = _lift(
+        tiny_prior,
+        heldout_window,
+        views=4,
+        samples=10,
+        step_rule="paper",
+        direction="gradient",
+        energy_scale=30.0,
+        noise_fit=False,
+    )
     robust, _ = _lift(tiny_prior, heldout_window, views=4, samples=10, noise_fit=False)
     assert np.median(_rms_px(robust, 4)) <= np.median(_rms_px(paper, 4))
 
@@ -99,8 +109,10 @@ def test_structural_energies_lower_bone_length_variation(tiny_prior, heldout_win
     from platypose.lifting.skeleton import bone_lengths
 
     plain, _ = _lift(tiny_prior, heldout_window, views=1, noise_px=3.0, samples=10)
-    structured, _ = _lift(tiny_prior, heldout_window, views=1, noise_px=3.0, samples=10, bone_weight=10.0,
-                          symmetry_weight=10.0)  # fmt: skip
+    structured, _ = _lift(
+        tiny_prior, heldout_window, views=1, noise_px=3.0, samples=10, bone_weight=10.0, symmetry_weight=10.0
+    )
+
     def variation(result):
         return bone_lengths(result.joints[0]).std(axis=1).mean()
 
@@ -109,9 +121,16 @@ def test_structural_energies_lower_bone_length_variation(tiny_prior, heldout_win
 
 @pytest.mark.parametrize(
     "bad",
-    [dict(samples=0), dict(robust="cauchy"), dict(skip=10), dict(energy_scale=-1.0), dict(step_rule="adam"),
-     dict(decay=1.5), dict(depth_smoothness=-1.0)],
-)  # fmt: skip
+    [
+        dict(samples=0),
+        dict(robust="cauchy"),
+        dict(skip=10),
+        dict(energy_scale=-1.0),
+        dict(step_rule="adam"),
+        dict(decay=1.5),
+        dict(depth_smoothness=-1.0),
+    ],
+)
 def test_bad_sampler_settings_are_refused(bad):
     with pytest.raises(ValueError):
         SamplerConfig(**bad)
@@ -123,8 +142,12 @@ def test_depth_limit_keeps_every_root_in_front_and_near_the_others():
     cam = ring_cameras(4)[0]
     R, t = torch.tensor(cam.R), torch.tensor(cam.t)
     rng = np.random.default_rng(3)
-    in_camera = np.concatenate([rng.normal([0, 0, 4], [0.3, 0.3, 0.5], (8, 3)),
-                                [[0.2, 0.1, 30.0], [0.3, 0.0, 2.0], [1.5, 0.2, 0.001], [0.4, -0.2, -0.4], [0.0, 0.0, -6.0]]])  # fmt: skip
+    in_camera = np.concatenate(
+        [
+            rng.normal([0, 0, 4], [0.3, 0.3, 0.5], (8, 3)),
+            [[0.2, 0.1, 30.0], [0.3, 0.0, 2.0], [1.5, 0.2, 0.001], [0.4, -0.2, -0.4], [0.0, 0.0, -6.0]],
+        ]
+    )
     world = torch.tensor((in_camera - cam.t) @ cam.R)[None, :, None]  # (B=1, N=13, F=1, 3)
     limited = limit_depth(world, R, t)[0, :, 0].numpy() @ cam.R.T + cam.t  # back in camera axes
     median = np.median(in_camera[:, 2])
@@ -164,9 +187,13 @@ def test_noise_spread_covers_the_truth_as_often_as_it_claims(tiny_prior, heldout
     assert np.mean(truth_distance < np.quantile(fitted_radius, 0.9, axis=0)) < 0.3  # collapsed: overconfident
     offsets = hyps - fitted
     change = np.linalg.norm(np.diff(offsets, axis=1), axis=-1)
-    assert change.mean() < 0.1 * np.linalg.norm(offsets, axis=-1).mean(), change.mean()  # one draw per window: no jitter
+    assert change.mean() < 0.1 * np.linalg.norm(offsets, axis=-1).mean(), (
+        change.mean()
+    )  # one draw per window: no jitter
     rms = _rms_px(result, 4)
-    assert np.all((rms > 0.8 * np.sqrt(2) * 2.0) & (rms < 1.5 * np.sqrt(2) * 2.0)), rms  # as far from the 2D as the truth
+    assert np.all((rms > 0.8 * np.sqrt(2) * 2.0) & (rms < 1.5 * np.sqrt(2) * 2.0)), (
+        rms
+    )  # as far from the 2D as the truth
 
 
 def test_noise_spread_ignores_frames_without_a_fit():
@@ -197,7 +224,9 @@ def _problem(prior, truth, views, root=False, **config):
     path = torch.as_tensor(truth[None, :, 0], dtype=torch.float32) if root else None
     problem = GuidedProblem(prior, obs, None if root else rays, SamplerConfig(**config), path)
     with torch.inference_mode():
-        x0 = prior.model(torch.randn(6, len(truth), prior.config.features, generator=torch.Generator().manual_seed(0)), 20)
+        x0 = prior.model(
+            torch.randn(6, len(truth), prior.config.features, generator=torch.Generator().manual_seed(0)), 20
+        )
     return problem, x0.clone()
 
 
@@ -210,7 +239,9 @@ def test_moving_joints_then_absorbing_the_move_decodes_to_the_moved_joints(tiny_
     decoded = problem.world_joints(*problem.absorb(x0, offset, moved))
     assert torch.allclose(decoded, problem.displaced(start, moved).movedim(0, -1), atol=1e-5)
     if root:  # the pelvis stays on the known path
-        assert torch.allclose(decoded[..., 0, :], problem.root_trajectory[:, None].expand_as(decoded[..., 0, :]), atol=1e-5)
+        assert torch.allclose(
+            decoded[..., 0, :], problem.root_trajectory[:, None].expand_as(decoded[..., 0, :]), atol=1e-5
+        )
 
 
 def test_gradient_direction_moves_the_joints_as_a_step_down_the_feature_gradient(tiny_prior, heldout_window):
@@ -227,7 +258,9 @@ def test_gradient_direction_moves_the_joints_as_a_step_down_the_feature_gradient
     assert torch.allclose(direction.movedim(0, -1), expected, rtol=1e-3, atol=1e-5 * float(expected.abs().max()))
 
 
-def test_guidance_stops_once_the_fit_gains_nothing_and_lands_where_k_steps_land(tiny_prior, heldout_window, monkeypatch):
+def test_guidance_stops_once_the_fit_gains_nothing_and_lands_where_k_steps_land(
+    tiny_prior, heldout_window, monkeypatch
+):
     from platypose.lifting.sampler import GuidedProblem
 
     problem, x0 = _problem(tiny_prior, heldout_window, views=1)

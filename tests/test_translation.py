@@ -3,10 +3,10 @@
 import numpy as np
 import torch
 
+from platypose.lifting.camera import project
 from platypose.lifting.camera_rigs import ring_cameras
 from platypose.lifting.sampler import cameras_and_rays
 from platypose.lifting.translation import solve_translation
-from platypose.lifting.camera import project
 
 
 def _setup(heldout_window, views):

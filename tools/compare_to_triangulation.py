@@ -73,8 +73,10 @@ def main() -> None:
     args = parser.parse_args()
     lifts = [path for path in args.lifts if not path.name.endswith(".detections.npz")]  # a glob's detection caches
     reference = reference_joints(lifts[0])
-    print("| lift | median vs triangulation (mean / median) | pelvis | best hypothesis per joint | inside min-max box "
-          "| pelvis depth 5 / 50 / 95 % |")  # fmt: skip
+    print(
+        "| lift | median vs triangulation (mean / median) | pelvis | best hypothesis per joint | inside min-max box "
+        "| pelvis depth 5 / 50 / 95 % |"
+    )
     print("|---|---|---|---|---|---|")
     for path in lifts:
         print(compare(path, reference))

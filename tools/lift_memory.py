@@ -53,9 +53,28 @@ def looped_keypoints(seconds: float, folder: Path) -> list[Path]:
 def run_lift(inputs: list[Path], out: Path, extra: list[str]) -> tuple[float, float]:
     """Run ``platypose lift`` on ``inputs`` in a new process; its peak RSS (MiB) and wall time (s)."""
     keypoints = str(inputs[0] if len(inputs) == 1 else inputs[0].parent)
-    command = [sys.executable, "-m", "platypose", "lift", "--keypoints", keypoints,
-               "--cams", str(TAKE / "calib_pose2sim.toml"), "--out", str(out), "--samples", "20",
-               "--persons", "largest", "--threads", "1", "--quiet", "--formats", "npz,csv,bvh,rrd", *extra]  # fmt: skip
+    command = [
+        sys.executable,
+        "-m",
+        "platypose",
+        "lift",
+        "--keypoints",
+        keypoints,
+        "--cams",
+        str(TAKE / "calib_pose2sim.toml"),
+        "--out",
+        str(out),
+        "--samples",
+        "20",
+        "--persons",
+        "largest",
+        "--threads",
+        "1",
+        "--quiet",
+        "--formats",
+        "npz,csv,bvh,rrd",
+        *extra,
+    ]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     started = time.perf_counter()
     process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL)
@@ -81,8 +100,10 @@ def main() -> None:
             out = args.work / f"out-{views}v-{minutes:g}min"
             peak, seconds = run_lift(inputs[:1] if views == 1 else inputs, out, extra)
             load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
-            print(f"| {views} | {minutes:g} | {int(round(60 * minutes * FPS))} | {peak:.0f} | {seconds:.0f} | {load} |",
-                  flush=True)  # fmt: skip
+            print(
+                f"| {views} | {minutes:g} | {int(round(60 * minutes * FPS))} | {peak:.0f} | {seconds:.0f} | {load} |",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

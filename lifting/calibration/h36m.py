@@ -35,11 +35,13 @@ def is_h36m(data: Any) -> bool:
 def quaternion_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrix (3, 3) of a unit quaternion ``(w, x, y, z)``."""
     w, x, y, z = q / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])  # fmt: skip
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _tangential_bases(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -107,12 +109,16 @@ def _subject_extrinsics(data: dict, source: str, subject: str | None, count: int
     filled = sorted(s for s, cams in extrinsics.items() if isinstance(cams, list) and all(cams))
     if subject is None:
         if len(filled) != 1:
-            raise InputError(f"{source}: choose a subject with --subject (subjects with extrinsics: {', '.join(filled)})")
+            raise InputError(
+                f"{source}: choose a subject with --subject (subjects with extrinsics: {', '.join(filled)})"
+            )
         subject = filled[0]
     if subject not in filled:
         raise InputError(f"{source}: subject {subject!r} has no extrinsics (available: {', '.join(filled)})")
     if len(extrinsics[subject]) != count:
-        raise InputError(f"{source}: subject {subject} lists {len(extrinsics[subject])} cameras, intrinsics list {count}")
+        raise InputError(
+            f"{source}: subject {subject} lists {len(extrinsics[subject])} cameras, intrinsics list {count}"
+        )
     return subject, extrinsics[subject]
 
 
@@ -132,5 +138,7 @@ def read_h36m(path: Path, subject: str | None = None) -> Calibration:
         camera, notes = complete_camera(name, size, K, dist, R, t)
         cameras.append(camera)
         meta["assumptions"].extend(notes)
-        meta["conversions"].append(f"camera {name}: Human3.6M tangential distortion fitted as OpenCV p1 p2 (max difference {error_px:.3f} px)")
+        meta["conversions"].append(
+            f"camera {name}: Human3.6M tangential distortion fitted as OpenCV p1 p2 (max difference {error_px:.3f} px)"
+        )
     return Calibration(cameras=validate.check_cameras(cameras, source), meta=meta)

@@ -56,7 +56,9 @@ def calibration_from_dict(data: Any, source: str) -> Calibration:
     if missing:
         raise InputError(f"{source}: missing field(s) {', '.join(missing)}")
     if data["format"] != FORMAT or data["version"] != VERSION:
-        raise InputError(f"{source}: not a {FORMAT} version {VERSION} file (format {data['format']!r}, version {data['version']!r})")
+        raise InputError(
+            f"{source}: not a {FORMAT} version {VERSION} file (format {data['format']!r}, version {data['version']!r})"
+        )
     unit_scale(data["units"], source)
     up_vector(data["world_up"], source)
     if not isinstance(data["cameras"], list):

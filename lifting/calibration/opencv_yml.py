@@ -53,7 +53,9 @@ def _real(fs: cv2.FileStorage, key: str) -> float | None:
     return None if node.empty() else node.real()
 
 
-def _size(height: float | None, width: float | None, K: np.ndarray, path: Path, what: str) -> tuple[tuple[int, int], bool]:
+def _size(
+    height: float | None, width: float | None, K: np.ndarray, path: Path, what: str
+) -> tuple[tuple[int, int], bool]:
     """(height, width) from the file, else from the principal point; the flag says it was assumed."""
     if height is not None and width is not None:
         return validate.as_size([height, width], str(path), what), False
@@ -112,7 +114,9 @@ def _easymocap_extrinsics(extri: cv2.FileStorage, path: Path, name: str) -> tupl
     T = _matrix(extri, f"T_{name}", path)
     if rot is None or T is None:
         raise InputError(f"{path}: camera {name} needs Rot_{name} (or R_{name}) and T_{name}")
-    return validate.as_rotation(rot, str(path), f"rotation of {name}"), validate.as_array(T, (3,), str(path), f"T_{name}")
+    return validate.as_rotation(rot, str(path), f"rotation of {name}"), validate.as_array(
+        T, (3,), str(path), f"T_{name}"
+    )
 
 
 def read_opencv_single(path: Path) -> Calibration:

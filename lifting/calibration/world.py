@@ -55,7 +55,9 @@ def transform_camera(camera: Camera, rotation: np.ndarray, scale: float) -> Came
     return replace(camera, R=camera.R @ rotation.T, t=camera.t * scale)
 
 
-def to_z_up_metres(calibration: Calibration, world_up: str | None = None, units: str | float | None = None) -> Calibration:
+def to_z_up_metres(
+    calibration: Calibration, world_up: str | None = None, units: str | float | None = None
+) -> Calibration:
     """Re-express the cameras in a Z-up metre world; ``world_up``/``units`` override what ``meta`` says of the file."""
     meta = calibration.meta
     source = str(meta.get("source", "calibration"))

@@ -45,28 +45,44 @@ class MotionFormat:
 
 FORMATS: tuple[MotionFormat, ...] = (
     MotionFormat(
-        "bvh", (".bvh",), "BVH of any hierarchy (known namings or a name map), units detected, Y up", load_bvh,
+        "bvh",
+        (".bvh",),
+        "BVH of any hierarchy (known namings or a name map), units detected, Y up",
+        load_bvh,
         options=("name_map", "scale"),
     ),
     MotionFormat(
-        "asf_amc", (".amc",), "Acclaim/CMU AMC motion with its .asf skeleton beside it, 120 fps by default", load_amc,
+        "asf_amc",
+        (".amc",),
+        "Acclaim/CMU AMC motion with its .asf skeleton beside it, 120 fps by default",
+        load_amc,
         options=("asf",),
     ),
     MotionFormat("holosoma", (".npy",), "holosoma-retargeting (T, 53, 3) positions, 120 fps default", load_holosoma),
     MotionFormat(
-        "h36m", (".npz",), "Human3.6M VideoPose3D data_3d_h36m.npz (positions_3d), a clip per subject/action, 50 fps",
-        load_h36m, is_h36m_npz,
+        "h36m",
+        (".npz",),
+        "Human3.6M VideoPose3D data_3d_h36m.npz (positions_3d), a clip per subject/action, 50 fps",
+        load_h36m,
+        is_h36m_npz,
     ),
     MotionFormat(
-        "plain_npz", (".npz",), "npz with joints (T, 17, 3) metres Z up, fps, optional joint_names",
-        load_plain_npz, is_plain_npz,
+        "plain_npz",
+        (".npz",),
+        "npz with joints (T, 17, 3) metres Z up, fps, optional joint_names",
+        load_plain_npz,
+        is_plain_npz,
     ),
     MotionFormat("c3d", (".c3d",), "C3D marker trial (joint centres it defines; the rest NaN, listed)", load_c3d),
     MotionFormat(
-        "deepmimic", (".txt", ".json"), "DeepMimic humanoid clip (JSON Frames) with humanoid.urdf beside it",
-        load_deepmimic, is_deepmimic, options=("urdf", "scale"),
+        "deepmimic",
+        (".txt", ".json"),
+        "DeepMimic humanoid clip (JSON Frames) with humanoid.urdf beside it",
+        load_deepmimic,
+        is_deepmimic,
+        options=("urdf", "scale"),
     ),
-)  # fmt: skip
+)
 
 # Companion files that belong to a clip but hold no motion themselves.
 COMPANIONS: dict[str, str] = {

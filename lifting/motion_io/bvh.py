@@ -18,7 +18,15 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.joint_maps import BVH_NAMING, LIMB_JOINTS, Recipe, apply_recipe, head_between, head_beyond, mocap_recipe
+from platypose.lifting.joint_maps import (
+    BVH_NAMING,
+    LIMB_JOINTS,
+    Recipe,
+    apply_recipe,
+    head_between,
+    head_beyond,
+    mocap_recipe,
+)
 from platypose.lifting.motion import Motion
 from platypose.lifting.motion_io.kinematics import (
     LENGTH_UNITS,

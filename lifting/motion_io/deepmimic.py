@@ -27,9 +27,19 @@ URDF_SCALE = 0.25
 ROOT_LINK = "root"
 HEAD_LINK = "neck"  # the link whose collision sphere is the head
 CHANNEL_ORDER: tuple[str, ...] = (
-    "chest", "neck", "right_hip", "right_knee", "right_ankle", "right_shoulder", "right_elbow",
-    "left_hip", "left_knee", "left_ankle", "left_shoulder", "left_elbow",
-)  # fmt: skip
+    "chest",
+    "neck",
+    "right_hip",
+    "right_knee",
+    "right_ankle",
+    "right_shoulder",
+    "right_elbow",
+    "left_hip",
+    "left_knee",
+    "left_ankle",
+    "left_shoulder",
+    "left_elbow",
+)
 DOF_OF_TYPE = {"spherical": 4, "revolute": 1, "fixed": 0}
 
 

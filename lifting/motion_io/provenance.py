@@ -20,5 +20,5 @@ def find_provenance(path: Path) -> tuple[str, str]:
                 info = json.loads(candidate.read_text(encoding="utf-8"))
                 return str(info["source"]), str(info["licence"])
             except (ValueError, KeyError, TypeError) as err:
-                raise InputError(f"{candidate}: expected {{\"source\": ..., \"licence\": ...}} ({err})") from None
+                raise InputError(f'{candidate}: expected {{"source": ..., "licence": ...}} ({err})') from None
     return UNKNOWN, UNKNOWN

@@ -12,8 +12,11 @@ from platypose.lifting.skeleton import BONES, JOINT_INDEX, JOINT_NAMES, bone_len
 HEIGHT_CHAIN: tuple[tuple[str, ...], ...] = (
     ("left_knee-left_ankle", "right_knee-right_ankle"),
     ("left_hip-left_knee", "right_hip-right_knee"),
-    ("pelvis-spine",), ("spine-thorax",), ("thorax-neck",), ("neck-head",),
-)  # fmt: skip
+    ("pelvis-spine",),
+    ("spine-thorax",),
+    ("thorax-neck",),
+    ("neck-head",),
+)
 
 
 def median_bone_lengths(joints: np.ndarray) -> dict[str, float]:
