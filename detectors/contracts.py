@@ -87,9 +87,11 @@ def load_detector(
     """
     path = Path(model) if model is not None else BUNDLED_MODEL
     if movenet_size < 32:
-        raise InputError(f"--movenet-size must be at least 32 pixels, got {movenet_size}")
+        raise InputError(f"movenet size must be at least 32 pixels, got {movenet_size}", option="movenet size")
     if format is not None and format not in FORMATS:
-        raise InputError(f"{path}: unknown --detector-format {format!r}; known: {', '.join(FORMATS)}")
+        raise InputError(
+            f"{path}: unknown detector format {format!r}; known: {', '.join(FORMATS)}", option="detector format"
+        )
     session = open_session(path, threads, provider)
     if format is None:
         try:
@@ -99,9 +101,13 @@ def load_detector(
                 f"{path}: not a known pose-model contract ({err}; {signature(session)}); see docs/keypoints.md"
             ) from None
     if format in TOP_DOWN and person_detector is None:
-        raise InputError(f"{path}: a top-down {format} model needs --person-detector MODEL.onnx")
+        raise InputError(
+            f"{path}: a top-down {format} model needs person detector MODEL.onnx", option="person detector"
+        )
     if format not in TOP_DOWN and person_detector is not None:
-        raise InputError(f"{path}: --person-detector is only used with top-down models (rtmpose, heatmap)")
+        raise InputError(
+            f"{path}: person detector is only used with top-down models (rtmpose, heatmap)", option="person detector"
+        )
     try:
         if format == "movenet":
             runner = MoveNetMultiPose(session, longest=movenet_size)

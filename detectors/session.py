@@ -31,7 +31,7 @@ def open_session(model: str | Path, threads: int | None = None, provider: str = 
     options = ort.SessionOptions()
     if threads is not None:
         if threads < 1:
-            raise InputError(f"{model}: --threads must be at least 1, got {threads}")
+            raise InputError(f"{model}: threads must be at least 1, got {threads}", option="threads")
         options.intra_op_num_threads = threads
         options.inter_op_num_threads = 1
     options.log_severity_level = 3

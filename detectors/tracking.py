@@ -167,18 +167,18 @@ def track_detections(
 
 
 def persons_count(persons: str) -> int | None:
-    """Parse a ``--persons`` value: ``all`` -> None, ``largest`` -> 1, ``N`` -> N; InputError otherwise."""
+    """Parse a ``persons`` choice: ``all`` -> None, ``largest`` -> 1, ``N`` -> N; InputError otherwise."""
     if persons == "all":
         return None
     if persons == "largest":
         return 1
     if persons.isdigit() and int(persons) > 0:
         return int(persons)
-    raise InputError(f"--persons must be 'all', 'largest' or a positive number, got {persons!r}")
+    raise InputError(f"persons must be 'all', 'largest' or a positive number, got {persons!r}", option="persons")
 
 
 def persons_to_keep(views: Sequence[PoseTrack2D], persons: str) -> np.ndarray | None:
-    """Indices along P (shared by the views) of the ``--persons`` choice, largest first by size summed over
+    """Indices along P (shared by the views) of the ``persons`` choice, largest first by size summed over
     frames and views; None for ``all``."""
     count = persons_count(persons)
     if count is None:

@@ -24,7 +24,7 @@ def parse_formats(text: str | Iterable[str]) -> tuple[str, ...]:
     unknown = sorted(set(items) - set(FORMATS))
     if unknown or not items:
         given = ", ".join(unknown) or repr(text)
-        raise InputError(f"--formats: unknown or empty {given}; choose from {','.join(FORMATS)}")
+        raise InputError(f"formats: unknown or empty {given}; choose from {','.join(FORMATS)}", option="formats")
     return tuple(f for f in FORMATS if f in items)
 
 
@@ -68,7 +68,7 @@ def export(
     """
     formats = parse_formats(formats)
     if bvh not in BVH_MODES:
-        raise InputError(f"--bvh must be one of {', '.join(BVH_MODES)}, got {bvh!r}")
+        raise InputError(f"bvh must be one of {', '.join(BVH_MODES)}, got {bvh!r}", option="bvh")
     out_dir = Path(out_dir)
     if "rrd" in formats:
         from platypose.exporters.rrd import check_videos

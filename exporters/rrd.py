@@ -184,7 +184,7 @@ def _log_video(rec, entity: str, video: Path, mode: str, offset_s: float, say: C
 def check_videos(result: LiftResult, video_paths: Mapping[str, Path], mode: str) -> None:
     """Raise InputError for an unknown mode, a video without a camera, or a missing video file."""
     if mode not in VIDEO_MODES:
-        raise InputError(f"--rrd-video must be one of {', '.join(VIDEO_MODES)}, got {mode!r}")
+        raise InputError(f"rrd video must be one of {', '.join(VIDEO_MODES)}, got {mode!r}", option="rrd video")
     names = {c.name for c in result.cameras}
     for name, path in video_paths.items():
         if name not in names:

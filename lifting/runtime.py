@@ -10,7 +10,7 @@ from __future__ import annotations
 import copy
 import io
 import warnings
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +31,7 @@ def resolve_device(name: str) -> torch.device:
     if name == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
     if name == "cuda" and not torch.cuda.is_available():
-        raise InputError("--device cuda: this torch build sees no CUDA GPU (use --device cpu or auto)")
+        raise InputError("device cuda: this torch build sees no CUDA GPU (choose cpu or auto)", option="device")
     return torch.device(name)
 
 
@@ -106,7 +106,7 @@ def export_onnx(model: MotionPrior, frames: int) -> bytes:
                 dynamo=False,
             )
     except ImportError as err:
-        raise InputError(f"--runtime onnx needs the onnx package to export the prior ({err})") from None
+        raise InputError(f"runtime onnx needs the onnx package to export the prior ({err})", option="runtime") from None
     finally:
         torch.backends.mha.set_fastpath_enabled(fastpath)
     return buffer.getvalue()
@@ -119,7 +119,7 @@ def with_runtime(prior: PriorBundle, runtime: str, threads: int | None = None) -
     if runtime == "float32":
         return prior
     if prior.device.type != "cpu":
-        raise InputError(f"--runtime {runtime} runs on the CPU only (the prior is on {prior.device})")
+        raise InputError(f"runtime {runtime} runs on the CPU only (the prior is on {prior.device})", option="runtime")
     model = BFloat16Denoiser(prior.model) if runtime == "bfloat16" else OnnxDenoiser(prior.model, threads)
     return replace(prior, model=model)
 
@@ -130,3 +130,22 @@ def load_for_runtime(
     """Load a prior (default: the shipped one) onto ``device`` (cpu, cuda, auto) with its network run by ``runtime``."""
     prior, _ = load_prior(path, resolve_device(device))
     return with_runtime(prior, runtime, threads)
+
+
+@dataclass(frozen=True)
+class PriorSettings:
+    """Which prior (``path``; None: the shipped one), on which ``device`` (cpu, cuda, auto), run by which ``runtime``."""
+
+    path: Path | None = None
+    device: str = "cpu"
+    runtime: str = "float32"
+
+    def __post_init__(self) -> None:
+        if self.device not in DEVICES:
+            raise InputError(f"unknown device {self.device!r}; choose {', '.join(DEVICES)}")
+        if self.runtime not in RUNTIMES:
+            raise InputError(f"unknown runtime {self.runtime!r}; choose {', '.join(RUNTIMES)}")
+
+    def load(self, threads: int | None = None) -> PriorBundle:
+        """The prior ready to sample (:func:`load_for_runtime`)."""
+        return load_for_runtime(self.path, self.device, self.runtime, threads)

@@ -54,5 +54,7 @@ def main() -> None:
     try:
         app()
     except InputError as err:
-        typer.echo(f"error: {err}", err=True)
+        from platypose.cli.options import cli_message
+
+        typer.echo(f"error: {cli_message(err)}", err=True)
         sys.exit(2)

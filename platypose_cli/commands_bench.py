@@ -7,11 +7,17 @@ import os
 import platform
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from platypose.cli.app import app
+from platypose.cli.options import settings_options
 from platypose.data import VIDEO_DIR
+
+if TYPE_CHECKING:
+    from platypose.lifting.runtime import PriorSettings
+    from platypose.lifting.sampler import SamplerConfig
 
 DEMO_VIDEO = VIDEO_DIR / "sports2d-demo" / "demo.mp4"
 
@@ -20,9 +26,11 @@ CLIP_FPS = 30.0
 CLIP_HYPOTHESES = 50
 
 
-def sampler_settings(prior, samples: int, frames: int, steps: int, k: int, repeats: int, matmul_size: int):
-    """The SamplerConfig of ``steps`` network calls; InputError for sizes the prior or the bench cannot run."""
-    from platypose.cli.options import sampler_config
+def sampler_settings(prior, sampler, frames: int, steps: int, repeats: int, matmul_size: int):
+    """``sampler`` running ``steps`` network calls (``steps + 2`` kept, 2 skipped, as ``platypose lift``);
+    InputError for sizes the prior or the bench cannot run."""
+    from dataclasses import replace
+
     from platypose.lifting.errors import InputError
 
     if not 1 <= frames <= prior.config.max_frames:
@@ -31,7 +39,10 @@ def sampler_settings(prior, samples: int, frames: int, steps: int, k: int, repea
         raise InputError(f"--steps must be in 1..{prior.config.diffusion_steps - SKIPPED_STEPS}, got {steps}")
     if repeats < 1 or matmul_size < 1:
         raise InputError(f"--repeats and --matmul-size must be positive, got {repeats} and {matmul_size}")
-    return sampler_config(samples=samples, steps=steps + SKIPPED_STEPS, skip=SKIPPED_STEPS, guidance_iters=k)
+    try:
+        return replace(sampler, steps=steps + SKIPPED_STEPS, skip=SKIPPED_STEPS)
+    except ValueError as err:
+        raise InputError(f"sampler: {err}") from None
 
 
 def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int, runtime: str) -> dict:
@@ -146,12 +157,11 @@ def report_lines(report: dict) -> list[str]:
 
 
 @app.command("bench")
+@settings_options("prior", parameter="prior_settings")
+@settings_options("sampler", exclude=("steps", "skip"), defaults={"samples": 200})  # --steps: network calls
 def bench(
-    prior_path: Path | None = typer.Option(None, "--prior", help="Motion prior checkpoint (default: the shipped one)."),
-    samples: int = typer.Option(200, "--samples", help="Hypotheses sampled together (one window)."),
     frames: int = typer.Option(64, "--frames", help="Frames per window."),
     steps: int = typer.Option(8, "--steps", help="Diffusion steps run (network calls; 2 more are kept and skipped)."),
-    k: int = typer.Option(10, "--k", help="Guidance iterations per diffusion step."),
     repeats: int = typer.Option(3, "--repeats", help="Timed runs after one warm-up; the median run is reported."),
     matmul_size: int = typer.Option(2048, "--matmul-size", help="Side of the square float32 matmul reference."),
     threads: int | None = typer.Option(
@@ -160,10 +170,10 @@ def bench(
     end_to_end: bool = typer.Option(True, "--end-to-end/--no-end-to-end", help="Also detect and lift a looped clip."),
     clip_seconds: float = typer.Option(60.0, "--clip-seconds", help="Length of the end-to-end clip (30 fps)."),
     video: Path = typer.Option(DEMO_VIDEO, "--video", help="Video looped into the end-to-end clip."),
-    device: str = typer.Option("cpu", "--device", help="cpu, cuda or auto (cuda when available)."),
-    runtime: str = typer.Option("float32", "--runtime", help="Denoiser runtime: float32, bfloat16 or onnx (CPU)."),
     json_path: Path | None = typer.Option(None, "--json", help="Also write the report as JSON here."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
+    prior_settings: PriorSettings = None,
+    sampler: SamplerConfig = None,
 ) -> None:
     """Time the guided sampler and a whole single-view clip on this machine (docs/bench.md)."""
     import torch
@@ -172,7 +182,6 @@ def bench(
     from platypose.lifting.atomic import write_text_atomic
     from platypose.lifting.errors import InputError
     from platypose.lifting.prior import DEFAULT_PRIOR
-    from platypose.lifting.runtime import load_for_runtime
 
     def say(message: str) -> None:
         if not quiet:
@@ -184,13 +193,15 @@ def bench(
         raise InputError(f"{video}: video to loop not found (give --video)")
     if threads is not None:
         torch.set_num_threads(threads)
-    prior = load_for_runtime(prior_path, device, runtime, threads)
+    prior = prior_settings.load(threads)
     if end_to_end and prior.device.type != "cpu":
-        raise InputError(f"--device {device}: the end-to-end clip is lifted on the CPU only (add --no-end-to-end)")
-    sampler = sampler_settings(prior, samples, frames, steps, k, repeats, matmul_size)
+        raise InputError(
+            f"--device {prior_settings.device}: the end-to-end clip is lifted on the CPU only (add --no-end-to-end)"
+        )
+    sampler = sampler_settings(prior, sampler, frames, steps, repeats, matmul_size)
     clip = clip_section(prior, video, clip_seconds, threads, say) if end_to_end else None  # first: own peak memory
-    say(f"timing the sampler: {samples} x {frames} frames, 1 warm-up and {repeats} runs")
-    timed = sampler_section(prior, sampler, frames, repeats, matmul_size, runtime)
+    say(f"timing the sampler: {sampler.samples} x {frames} frames, 1 warm-up and {repeats} runs")
+    timed = sampler_section(prior, sampler, frames, repeats, matmul_size, prior_settings.runtime)
     config = prior.config
     report = {
         "machine": {
@@ -201,7 +212,7 @@ def bench(
             "torch": torch.__version__,
         },
         "prior": {
-            "path": str(prior_path or DEFAULT_PRIOR),
+            "path": str(prior_settings.path or DEFAULT_PRIOR),
             "sha256": prior.checksum,
             "layers": config.layers,
             "width": config.width,

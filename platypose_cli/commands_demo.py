@@ -3,10 +3,16 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from platypose.cli.app import app
+from platypose.cli.options import as_json, settings_options
+
+if TYPE_CHECKING:
+    from platypose.lifting.runtime import PriorSettings
+    from platypose.lifting.sampler import SamplerConfig
 
 SOURCES = ("videos", "keypoints")
 
@@ -55,36 +61,39 @@ def describe(npz: Path) -> list[str]:
 
 
 @app.command("demo")
+@settings_options("prior", only=("path",))
+@settings_options("sampler", only=("samples",), defaults={"samples": 20})
 def demo(
     out: Path = typer.Option(Path("out/demo"), "--out", help="Output folder."),
     source: str = typer.Option(
         "videos", "--source", help="videos: detect in cam01 + cam02; keypoints: the shipped OpenPose 2D of 4 views."
     ),
-    prior: Path | None = typer.Option(None, "--prior", help="Motion prior checkpoint (default: the shipped one)."),
-    samples: int = typer.Option(20, "--samples", help="Hypotheses per person."),
     threads: int = typer.Option(
         1, "--threads", min=1, help="torch and onnxruntime threads (1: fastest on a busy machine)."
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
+    prior: PriorSettings = None,
+    sampler: SamplerConfig = None,
 ) -> None:
     """Lift the bundled Pose2Sim balancing take (real lab videos, 4-camera calibration) and say where the files are."""
     from platypose.cli.commands_lift import finish, lift_settings
     from platypose.cli.detection import DetectOptions
     from platypose.cli.lift_batch import run_batch
+    from platypose.lifting.lift import WindowSettings
 
     take = demo_take()
     job = demo_job(take, source)
     typer.echo(f"demo: {job.input} with {take / 'calib_pose2sim.toml'}")
-    sampler = {"samples": samples, "steps": 10, "skip": 2, "guidance_iters": 10, "seed": 0}
-    arguments = {"command": "demo", "source": source, "samples": samples, "prior": str(prior) if prior else None}
+    arguments = {"command": "demo", "source": source, "samples": sampler.samples, "prior": as_json(prior.path)}
+    calibration = take / "calib_pose2sim.toml"
+    detect = DetectOptions(threads=threads)
     settings = lift_settings(
         out,
-        take / "calib_pose2sim.toml",
+        calibration,
         prior,
-        DetectOptions(threads=threads),
+        detect,
         sampler,
-        64,
-        16,
+        WindowSettings(),
         "npz,csv,bvh,rrd",
         "largest",
         "auto",

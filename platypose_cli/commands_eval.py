@@ -5,16 +5,23 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from platypose.cli.app import app
-from platypose.cli.options import int_list, sampler_config
+from platypose.cli.options import int_list, settings_options
 from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.errors import InputError
 
+if TYPE_CHECKING:
+    from platypose.lifting.runtime import PriorSettings
+    from platypose.lifting.sampler import SamplerConfig
+
 
 @app.command("eval")
+@settings_options("prior")
+@settings_options("sampler", exclude=("samples",))  # --samples: a list, one table row each
 def evaluate_command(
     motion: list[Path] = typer.Argument(..., help="3D motion files or folders to project and lift."),
     cams: Path = typer.Option(None, "--cams", help="Calibration file; default: a ring of 4 Human3.6M-like cameras."),
@@ -25,53 +32,20 @@ def evaluate_command(
     windows: int = typer.Option(2, help="Windows cut from each clip per window length."),
     heldout: bool = typer.Option(False, "--heldout", help="Only clips the prior held out of training (its manifest)."),
     baseline: bool = typer.Option(True, help="Also run the frame-by-frame baseline."),
-    prior: Path = typer.Option(None, help="Prior checkpoint (default: the shipped one)."),
-    steps: int = typer.Option(10, help="Respaced diffusion steps T."),
-    skip: int = typer.Option(2, help="Skipped steps S."),
-    eta: float = typer.Option(0.0, help="DDIM eta: 0 deterministic re-noising, 1 fresh noise (more diversity)."),
-    guidance_iters: int = typer.Option(10, "--k", help="Guidance steps per diffusion step."),
-    energy_scale: float = typer.Option(1.0, "--lambda", help="Guidance scale."),
-    robust: str = typer.Option("l2", help="Reprojection loss: l2 or geman-mcclure."),
-    size_prior: bool = typer.Option(True, help="Place each prediction as a person of median adult size."),
-    size_spread: float = typer.Option(
-        0.1, help="Log-normal spread of the hypotheses' sizes about adult size (0: all typical)."
-    ),
-    noise_fit: bool = typer.Option(True, help="Follow the 2D only as far as its measured jitter allows."),
-    noise_spread: bool = typer.Option(True, help="2+ views: spread hypotheses by the 2D noise."),
-    bone_weight: float = typer.Option(0.0, help="Weight of the constant-bone-length energy (0: off)."),
-    symmetry_weight: float = typer.Option(0.0, help="Weight of the left/right symmetry energy (0: off)."),
-    depth_smoothness: float = typer.Option(10.0, help="One view: smoothness of every joint's depth path (0: off)."),
-    seed: int = typer.Option(0, help="Random seed."),
     json_out: Path = typer.Option(None, "--json", help="Also write the table as JSON here."),
-    device: str = typer.Option("cpu", help="cpu, cuda or auto (cuda when available)."),
-    runtime: str = typer.Option("float32", help="Denoiser runtime: float32, bfloat16 or onnx (CPU; docs/bench.md)."),
+    prior: PriorSettings = None,
+    sampler: SamplerConfig = None,
 ) -> None:
     """Project motion through cameras, lift it, and print minMPJPE, minMPSPE, PA-*, MPJVE, ECE."""
     from platypose.lifting.camera_rigs import ring_cameras
     from platypose.lifting.evaluation import evaluate, format_header
     from platypose.lifting.motion_io import load_motion_paths
-    from platypose.lifting.runtime import load_for_runtime
     from platypose.lifting.timebase import resample
 
     frames_list = int_list(frames, "--frames")
     samples_list = int_list(samples, "--samples")
-    config = sampler_config(
-        steps=steps,
-        skip=skip,
-        eta=eta,
-        guidance_iters=guidance_iters,
-        energy_scale=energy_scale,
-        robust=robust,
-        bone_weight=bone_weight,
-        symmetry_weight=symmetry_weight,
-        size_prior=size_prior,
-        size_spread=size_spread,
-        noise_fit=noise_fit,
-        noise_spread=noise_spread,
-        depth_smoothness=depth_smoothness,
-        seed=seed,
-    )
-    bundle = load_for_runtime(prior, device, runtime)
+    config = sampler
+    bundle = prior.load()
     if max(frames_list) > bundle.config.max_frames:
         raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")
     if cams is not None:

@@ -28,11 +28,14 @@ import typer
 
 from platypose.cli.detection import Detection, DetectOptions
 from platypose.cli.lift_jobs import Job
+from platypose.cli.options import as_json, cli_message
 from platypose.lifting.errors import InputError
+from platypose.lifting.lift import WindowSettings
+from platypose.lifting.runtime import PriorSettings
+from platypose.lifting.sampler import SamplerConfig
 
 MANIFEST = "lift.json"
 FAILURE = "failed.json"
-ROOT_MODES = ("auto", "triangulate", "solve")
 SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
 
 
@@ -42,18 +45,16 @@ class RunSettings:
 
     out: Path
     cams: Path | None = None
-    prior: Path | None = None
+    prior: PriorSettings = field(default_factory=PriorSettings)
     detect: DetectOptions = field(default_factory=DetectOptions)
-    sampler: dict = field(default_factory=dict)
-    window: int = 64
-    overlap: int = 16
+    sampler: SamplerConfig = field(default_factory=SamplerConfig)
+    windows: WindowSettings = field(default_factory=WindowSettings)
     formats: tuple[str, ...] = ("npz", "csv", "bvh", "rrd")
     persons: str = "all"
     root: str = "auto"
     root_file: Path | None = None
     quiet: bool = False
     arguments: dict = field(default_factory=dict)
-    device: str = "cpu"
 
 
 class JobLog:
@@ -79,17 +80,14 @@ class JobLog:
         write_text_atomic(path, "\n".join(self.lines) + "\n")
 
 
-_PRIORS: dict[str, object] = {}
+_PRIORS: dict[PriorSettings, object] = {}
 
 
-def _prior(path: Path | None, device: str = "cpu"):
-    """The prior at ``path`` (default: the shipped one) on ``device``, loaded once per process."""
-    from platypose.lifting.runtime import load_for_runtime
-
-    key = f"{path}@{device}"
-    if key not in _PRIORS:
-        _PRIORS[key] = load_for_runtime(path, device)
-    return _PRIORS[key]
+def _prior(settings: PriorSettings):
+    """The prior of ``settings``, loaded once per process."""
+    if settings not in _PRIORS:
+        _PRIORS[settings] = settings.load()
+    return _PRIORS[settings]
 
 
 def _check_size(camera, image_size: tuple[int, int], source: str, log: JobLog) -> None:
@@ -134,85 +132,67 @@ def view_cameras(job: Job, views, calibrated: list | None, log: JobLog) -> list:
     return [default_camera(job.views[0].name, *views[0].image_size)]
 
 
-def gather_keypoints(job: Job, views, cameras, persons: str):
-    """Keypoints (C, T, P, 17, 3) of the chosen persons on the first view's clock, frame times (T,), track IDs (P,)."""
-    from platypose.detectors.tracking import persons_to_keep
-    from platypose.lifting.calibration.matching import gather_views
-
-    if len(views) > 1:
-        from platypose.detectors.multiview import match_across_views
-
-        views = match_across_views(views, cameras)
-    keep = persons_to_keep(views, persons)
-    views = views if keep is None else [v.select(keep) for v in views]
-    if views[0].num_persons == 0:
-        raise InputError(f"{job.input}: no person found")
-    step = np.median(np.diff(views[0].frame_times)) if views[0].num_frames > 1 else 1.0
-    gathered = gather_views([v.keypoints for v in views], [v.frame_times for v in views], cameras, 0.5 * step)
-    return np.stack(gathered), views[0].frame_times, views[0].track_ids
-
-
 def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) -> list[np.ndarray | None]:
-    """Per person: a known root path (T, 3) (file or triangulation), or None to solve it per hypothesis."""
-    from platypose.lifting.root import fill_gaps, triangulated_root
+    """Per person: the pelvis path of ``--root-trajectory`` (T, 3), a triangulated one, or None (solved)."""
+    from platypose.lifting.take import root_paths as decide_roots
 
-    P = keypoints.shape[2]
+    given = None
     if settings.root_file is not None:
         from platypose.cli.root_file import read_root_trajectory
 
         log(f"root trajectory from {settings.root_file}")
-        return list(read_root_trajectory(settings.root_file, times, P))
-    if settings.root == "solve" or (settings.root == "auto" and len(cameras) < 2):
-        log("root: solved per hypothesis from the rays of every camera")
-        return [None] * P
-    if len(cameras) < 2:
-        raise InputError(f"--root triangulate needs two or more calibrated views, got {len(cameras)}")
-    roots = triangulated_root(keypoints, cameras)
-    paths: list[np.ndarray | None] = []
-    for p in range(P):
-        covered = np.isfinite(roots[p]).all(-1).mean()
-        usable = covered >= 0.5
-        log(
-            f"root of person {p}: pelvis triangulated in {covered:.0%} of frames; "
-            + ("gaps interpolated" if usable else "too few, solved per hypothesis instead")
-        )
-        paths.append(fill_gaps(roots[p], times) if usable else None)
-    return paths
+        given = list(read_root_trajectory(settings.root_file, times, keypoints.shape[2]))
+    return decide_roots(keypoints, times, cameras, settings.root, given, say=log)
 
 
 def lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings: RunSettings, folder: Path):
-    """Hypotheses (P, N, T, 17, 3), their median (P, T, 17, 3) and energy (P, N, T) as FrameArrays in ``folder``.
-
-    Persons with a known root and the others are lifted apart; frames are written as
-    lifting hands them out, with NaN where ``absent`` (P, T), so memory stays bounded.
-    """
-    from platypose.cli.options import sampler_config
+    """Hypotheses (P, N, T, 17, 3), their median (P, T, 17, 3) and energy (P, N, T) as FrameArrays in ``folder``,
+    filled by :func:`platypose.lifting.take.lift_persons` with a progress bar per group of persons."""
     from platypose.exporters.frames import FrameArray
-    from platypose.lifting.lift import WindowSettings, lift_stream
+    from platypose.lifting.take import lift_persons
 
-    config = sampler_config(**settings.sampler)
-    windows = WindowSettings(window=settings.window, overlap=settings.overlap)
-    (P, T), N = absent.shape, config.samples
+    (P, T), N = absent.shape, settings.sampler.samples
     hypotheses = FrameArray.create(folder / ".hypotheses.npy", (P, N, T, 17, 3), np.float32)
     median = FrameArray.create(folder / ".median.npy", (P, T, 17, 3), np.float32)
     energy = FrameArray.create(folder / ".energy.npy", (P, N, T), np.float32)
-    known = [p for p in range(P) if roots[p] is not None]
-    groups = [(g, root) for g, root in ((known, True), ([p for p in range(P) if roots[p] is None], False)) if g]
-    for group, has_root in groups:
-        root = np.stack([roots[p] for p in group]) if has_root else None
-        bar = _LazyBar(f"lifting {len(group)} person(s)", settings.quiet)
-        try:
-            for chunk in lift_stream(prior, cameras, keypoints[:, :, group], times, config, windows, root, bar.update):
-                t = slice(chunk.start, chunk.start + chunk.hypotheses.shape[2])
-                gone = absent[group, t][:, None]  # (G, 1, t)
-                chunk.hypotheses[np.broadcast_to(gone, chunk.hypotheses.shape[:3])] = np.nan
-                chunk.energy[np.broadcast_to(gone, chunk.energy.shape)] = np.nan
-                hypotheses[group, :, t] = chunk.hypotheses
-                energy[group, :, t] = chunk.energy
-                median[group, t] = np.median(chunk.hypotheses, axis=1)
-        finally:
-            bar.close()
+    bars = _GroupBars(settings.quiet)
+    try:
+        lift_persons(
+            prior,
+            keypoints,
+            times,
+            cameras,
+            roots,
+            absent,
+            settings.sampler,
+            settings.windows,
+            hypotheses,
+            median,
+            energy,
+            bars.update,
+        )
+    finally:
+        bars.close()
     return hypotheses, median, energy
+
+
+class _GroupBars:
+    """One progress bar per group of persons lifted together, its length known at its first update."""
+
+    def __init__(self, hidden: bool) -> None:
+        self.hidden, self.group, self.bar = hidden, None, None
+
+    def update(self, group: list[int], done: int, total: int) -> None:
+        if group != self.group:
+            self.close()
+            self.group, self.bar = group, _LazyBar(f"lifting {len(group)} person(s)", self.hidden)
+        self.bar.update(done, total)
+
+    def close(self) -> None:
+        """Finish the current bar's line."""
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
 
 
 class _LazyBar:
@@ -234,42 +214,25 @@ class _LazyBar:
             self.bar.__exit__(None, None, None)
 
 
-REPROJECTION_WARNING_SHARE = (
-    0.02  # of the image width: a view whose keypoints the median motion misses by more is suspect
-)
-
-
 def report_reprojection(median, keypoints: np.ndarray, cameras: list, log: JobLog) -> dict[str, float]:
-    """Per view, the median pixel distance between the median motion ``(P, T, 17, 3)`` and the view's keypoints
-    ``(C, T, P, 17, 3)`` (the largest over persons), logged; views above ``REPROJECTION_WARNING_SHARE`` of their
-    image width get a warning.
+    """:func:`platypose.lifting.take.reprojection_report` logged: one line of per-view pixels, its warnings."""
+    from platypose.lifting.take import reprojection_report
 
-    With one view guidance fits the keypoints exactly and nothing is reported. With several, a view far off
-    the others usually has a wrong calibration (or a detector that lost the person there).
-    """
-    from platypose.lifting.triangulation import view_median_errors
-
-    if len(cameras) < 2:
-        return {}
-    per_person = [view_median_errors(median[p], keypoints[:, :, p], cameras) for p in range(keypoints.shape[2])]
-    errors = np.nanmax(np.stack(per_person), axis=0) if per_person else np.full(len(cameras), np.nan)
-    report = {cam.name: round(float(e), 2) for cam, e in zip(cameras, errors)}
-    log(
-        "median motion against the keypoints (median px per view): "
-        + ", ".join(f"{name} {value:.1f}" for name, value in report.items())
-    )
-    for cam, value in zip(cameras, report.values()):
-        if value > REPROJECTION_WARNING_SHARE * cam.width:
-            log.warning(
-                f"view {cam.name}: the median motion lies {value:.1f} px (median) from its keypoints, "
-                f"{value / cam.width:.0%} of the image width; check its calibration and its detections"
-            )
+    report, warnings = reprojection_report(median, keypoints, cameras)
+    if report:
+        log(
+            "median motion against the keypoints (median px per view): "
+            + ", ".join(f"{name} {value:.1f}" for name, value in report.items())
+        )
+    for warning in warnings:
+        log.warning(warning)
     return report
 
 
 def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     """The LiftResult of one job, its long arrays in files under ``staging``, and the videos of its cameras."""
     from platypose import __version__
+    from platypose.detectors.take import take_keypoints
     from platypose.exporters.result import LiftResult
     from platypose.lifting.root import presence
 
@@ -288,10 +251,10 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
         views.append(tracks)
     timings["keypoints_s"] = time.perf_counter() - started
     cameras = view_cameras(job, views, calibrated, log)
-    keypoints, times, track_ids = gather_keypoints(job, views, cameras, settings.persons)
+    keypoints, times, track_ids = take_keypoints(views, cameras, settings.persons, job.input)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
     roots = root_paths(keypoints, times, cameras, settings, log)
-    prior = _prior(settings.prior, settings.device)
+    prior = _prior(settings.prior)
     started = time.perf_counter()
     absent = ~presence(keypoints, times)  # (P, T)
     hypotheses, median, energy = lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings, staging)
@@ -369,14 +332,13 @@ def _stamp(path: Path) -> list:
 
 def fingerprint(job: Job, settings: RunSettings) -> str:
     """A digest of the job's input files and the settings that decide whether it can succeed."""
-    files = [v.source for v in job.views] + [p for p in (settings.cams, settings.root_file, settings.prior) if p]
+    files = [v.source for v in job.views] + [p for p in (settings.cams, settings.root_file, settings.prior.path) if p]
     decisive = [
         str(replace(settings.detect, threads=None)),
         settings.persons,
         settings.root,
-        settings.sampler,
-        settings.window,
-        settings.overlap,
+        as_json(settings.sampler),
+        as_json(settings.windows),
         [_stamp(Path(f)) for f in files],
     ]
     return hashlib.sha256(json.dumps(decisive, sort_keys=True, default=str).encode()).hexdigest()
@@ -424,7 +386,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         (folder / FAILURE).unlink(missing_ok=True)
         entry.update(status="ok", outputs=outputs)
     except Exception as err:
-        message = str(err) if isinstance(err, InputError) else f"{type(err).__name__}: {err}"
+        message = cli_message(err) if isinstance(err, InputError) else f"{type(err).__name__}: {err}"
         entry["error"] = " ".join(message.split())
         log(f"failed: {entry['error']}")
         if not isinstance(err, InputError):

@@ -89,7 +89,7 @@ def test_rtmpose_with_person_detector(tmp_path: Path, frame: np.ndarray) -> None
     simcc_x[0, 0], simcc_y[0, 0] = 0, 0
     simcc_x[0, 0, 0] = simcc_y[0, 0, 0] = 0.9  # joint 0 at the crop's top-left corner
     model = constant_model(tmp_path / "rtmpose.onnx", [1, 3, 256, 192], {"simcc_x": simcc_x, "simcc_y": simcc_y})
-    with pytest.raises(InputError, match="needs --person-detector"):
+    with pytest.raises(InputError, match="needs person detector"):
         load_detector(model)
     detector = load_detector(model, person_detector=_dets_person_detector(tmp_path))
     people = detector(frame)

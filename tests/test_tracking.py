@@ -85,7 +85,7 @@ def test_person_selection(demo_detections) -> None:
     sizes = [np.nansum(np.ptp(tracks.keypoints[:, p, :, 1], axis=1)) for p in range(2)]
     assert largest.track_ids[0] == tracks.track_ids[int(np.argmax(sizes))]
     assert select_persons(tracks, "5").num_persons == 2
-    with pytest.raises(InputError, match="--persons"):
+    with pytest.raises(InputError, match="persons must be"):
         select_persons(tracks, "tallest")
 
 

@@ -58,7 +58,8 @@ def _check_distances(path: Path, calibration: Calibration, units_read: str | flo
     if max(distances) > MAX_CAMERA_DISTANCE_M:
         raise InputError(
             f"{path}: a camera is {max(distances):.0f} m from the origin; the units look wrong "
-            f"(file read as {units_read}); pass --units mm, cm or m"
+            f"(file read as {units_read}); pass units mm, cm or m",
+            option="units",
         )
 
 

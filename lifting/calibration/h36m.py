@@ -110,7 +110,7 @@ def _subject_extrinsics(data: dict, source: str, subject: str | None, count: int
     if subject is None:
         if len(filled) != 1:
             raise InputError(
-                f"{source}: choose a subject with --subject (subjects with extrinsics: {', '.join(filled)})"
+                f"{source}: several subjects; give subject, one with extrinsics: {', '.join(filled)}", option="subject"
             )
         subject = filled[0]
     if subject not in filled:
