@@ -6,7 +6,7 @@ One table per settings class names the flags of its fields (:data:`SAMPLER_FLAGS
 :class:`~platypose.lifting.runtime.PriorSettings`). A command decorated with
 ``@settings_options("sampler")`` gets one typer option per row and receives the built
 settings object in its ``sampler`` parameter; an option not given takes the class's
-default (the one source of defaults), unless the command sets its own (``defaults=``).
+default (the one source of defaults; --help shows it), unless the command sets its own (``defaults=``).
 
 To add an option: add the field to the dataclass (its check in ``__post_init__``, its
 message naming the field, not a flag) and a row to its table here; every command using
@@ -82,6 +82,22 @@ def settings_class(group: str) -> type:
     return getattr(importlib.import_module(module), name)
 
 
+def declared_defaults(group: str) -> dict[str, object]:
+    """The defaults ``group``'s class declares, read from its source without importing it (the sampler's module
+    imports torch, which would make ``platypose --help`` take seconds); literal defaults only."""
+    import ast
+    import importlib.util
+
+    module, name, _ = SETTINGS[group]
+    tree = ast.parse(Path(importlib.util.find_spec(module).origin).read_text(encoding="utf-8"))
+    (body,) = [node.body for node in tree.body if isinstance(node, ast.ClassDef) and node.name == name]
+    return {
+        node.target.id: ast.literal_eval(node.value)
+        for node in body
+        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and node.value is not None
+    }
+
+
 def settings_options(
     group: str,
     *,
@@ -100,6 +116,7 @@ def settings_options(
     defaults = dict(defaults or {})
     label = group.replace("_", " ")
     parameter = parameter or group
+    shown = declared_defaults(group)
 
     def decorate(command: Callable) -> Callable:
         signature = inspect.signature(command)
@@ -110,7 +127,13 @@ def settings_options(
             inspect.Parameter(
                 f.field,
                 inspect.Parameter.KEYWORD_ONLY,
-                default=typer.Option(defaults.get(f.field), *f.names, help=f.help, rich_help_panel=label.title()),
+                default=typer.Option(
+                    defaults.get(f.field),
+                    *f.names,
+                    help=f.help,
+                    show_default=f.field in defaults or _shown(shown.get(f.field), f.names),
+                    rich_help_panel=label.title(),
+                ),
                 annotation=f.type if f.field in defaults else f.type | None,
             )
             for f in chosen
@@ -138,6 +161,16 @@ def settings_options(
         return wrapper
 
     return decorate
+
+
+def _shown(default: object, names: Sequence[str]) -> str | bool:
+    """How --help shows a class default: the value, the flag of a true/false switch, or nothing for None."""
+    if default is None:
+        return False
+    if isinstance(default, bool):
+        on, _, off = names[0].partition("/")
+        return (on if default else off).lstrip("-")
+    return str(default)
 
 
 def _resolved(annotation, command: Callable):

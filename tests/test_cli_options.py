@@ -5,7 +5,7 @@ from dataclasses import fields
 
 import pytest
 
-from platypose.cli.options import SETTINGS, cli_message, settings_class
+from platypose.cli.options import SETTINGS, cli_message, declared_defaults, settings_class
 from platypose.lifting.errors import InputError
 
 
@@ -18,6 +18,9 @@ def test_every_flag_names_a_field_of_its_class_with_its_type(group):
         assert flag.field in names, f"{group}: {flag.field} is not a field of {cls.__name__}"
         assert flag.type in (hints[flag.field], *typing.get_args(hints[flag.field])), flag.field
         assert all(n.startswith("--") for n in flag.names)
+    shown = declared_defaults(group)  # what --help shows, read without importing the class
+    assert shown == {f.name: f.default for f in fields(cls) if f.name in shown}
+    assert {f.field for f in SETTINGS[group][2]} <= set(shown)
 
 
 def test_lift_eval_and_bench_spell_the_shared_options_alike(run_cli):
