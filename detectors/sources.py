@@ -13,6 +13,18 @@ from platypose.detectors.tracking import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.errors import InputError
 
+KEYPOINT_SUFFIXES = (".json", ".npz", ".csv")
+
+
+def view_name(source: Path) -> str:
+    """The output / camera-matching name of a view: file stem or folder name without ``_json``."""
+    return (source.name if source.is_dir() else source.stem).removesuffix("_json")
+
+
+def is_keypoint_source(source: Path) -> bool:
+    """Whether ``source`` holds precomputed keypoints (a folder or a keypoint file) rather than a video."""
+    return source.is_dir() or source.suffix.lower() in KEYPOINT_SUFFIXES
+
 
 def read_keypoints(
     path: str | Path,

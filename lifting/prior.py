@@ -96,10 +96,9 @@ def encode_for_inference(encoder: nn.TransformerEncoder, tokens: torch.Tensor) -
     """The pre-norm GELU encoder's layers on ``tokens`` ``(B, L, d)`` without autograd or dropout, as plain matrix
     products over all B*L tokens and ``scaled_dot_product_attention`` reading the heads in place.
 
-    Equals ``encoder(tokens)`` in eval mode up to float rounding. In float32 on a CPU it is 10-20 % faster
-    than torch's fused encoder-layer kernel, whose query/key/value re-layout alone took a quarter of the
-    network's time; in bfloat16 it is slower (the CPU flash-attention kernel: 29 ms a layer against 10 ms
-    for torch's matrix products and softmax), so bfloat16 keeps torch's kernel.
+    Equals ``encoder(tokens)`` in eval mode up to float rounding. :meth:`MotionPrior.forward` uses it in
+    float32 only, where it is faster on a CPU than torch's fused encoder-layer kernel; in bfloat16 torch's
+    kernel is faster and is kept (docs/results.md, 2026-12-01).
     """
     batch, length, width = tokens.shape
     x = tokens.reshape(batch * length, width)
@@ -142,6 +141,14 @@ class PriorBundle:
     def fps(self) -> float:
         """Frame rate the prior runs at."""
         return self.model.config.fps
+
+    @classmethod
+    def load(cls, path: str | Path | None = None, device: str = "cpu", runtime: str = "float32") -> PriorBundle:
+        """The prior at ``path`` (None: the shipped one) on ``device`` (cpu, cuda, auto), its network run by
+        ``runtime`` (float32, bfloat16, onnx; :mod:`platypose.lifting.runtime`)."""
+        from platypose.lifting.runtime import load_for_runtime
+
+        return load_for_runtime(path, device, runtime)
 
 
 def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None) -> str:

@@ -66,6 +66,11 @@ def root_paths(
     return paths
 
 
+def root_kinds(roots: Sequence[np.ndarray | None], given: bool) -> list[str]:
+    """What each person's root path is, for a result's meta: "given", "triangulated" or "solved"."""
+    return ["given" if given else ("solved" if r is None else "triangulated") for r in roots]
+
+
 def lift_persons(
     prior: PriorBundle,
     keypoints: np.ndarray,

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from platypose.cli.app import app
-from platypose.cli.detection import Detection, DetectOptions, image_size_option, view_name
+from platypose.cli.detection import Detection, DetectOptions, image_size_option
 
 
 def _summary(tracks, seconds: float, frames_run: int | None) -> list[str]:
@@ -109,6 +109,7 @@ def detect(
 ) -> None:
     """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
     from platypose.detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
+    from platypose.detectors.sources import view_name
     from platypose.detectors.tracking import persons_count, persons_to_keep
 
     persons_count(persons)  # a bad --persons fails before any detection

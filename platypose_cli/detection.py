@@ -9,8 +9,6 @@ from pathlib import Path
 
 import typer
 
-KEYPOINT_SUFFIXES = (".json", ".npz", ".csv")
-
 
 def image_size_option(value: str | None) -> tuple[int, int] | None:
     """``HEIGHTxWIDTH`` -> (height, width)."""
@@ -22,16 +20,6 @@ def image_size_option(value: str | None) -> tuple[int, int] | None:
     if not sep or not height.isdigit() or not width.isdigit():
         raise InputError(f"--image-size {value}: give HEIGHTxWIDTH in pixels, e.g. 1080x1920")
     return int(height), int(width)
-
-
-def view_name(source: Path) -> str:
-    """The output / camera-matching name of a view: file stem or folder name without ``_json``."""
-    return (source.name if source.is_dir() else source.stem).removesuffix("_json")
-
-
-def is_keypoint_source(source: Path) -> bool:
-    """Whether ``source`` holds precomputed keypoints (a folder or a keypoint file) rather than a video."""
-    return source.is_dir() or source.suffix.lower() in KEYPOINT_SUFFIXES
 
 
 @dataclass(frozen=True)
@@ -60,11 +48,11 @@ class Detection:
 
     def tracks(self, source: Path, folder: Path, quiet: bool):
         """(tracks, seconds, frames detected: None for precomputed keypoints, 0 when read from the cache)."""
+        from platypose.detectors.sources import is_keypoint_source, read_keypoints
+
         o = self.options
         started = time.perf_counter()
         if is_keypoint_source(source):
-            from platypose.detectors.sources import read_keypoints
-
             tracks = read_keypoints(source, fps=o.fps, image_size=image_size_option(o.image_size))
             return tracks, time.perf_counter() - started, None
         from platypose.detectors.contracts import load_detector

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from platypose.cli.detection import KEYPOINT_SUFFIXES, view_name
+from platypose.detectors.sources import KEYPOINT_SUFFIXES, view_name
 from platypose.detectors.video import VIDEO_SUFFIXES, sibling_video
 from platypose.lifting.calibration.matching import match_views, normalise_view_name
 from platypose.lifting.errors import InputError

@@ -33,10 +33,10 @@ from platypose.lifting.errors import InputError
 from platypose.lifting.lift import WindowSettings
 from platypose.lifting.runtime import PriorSettings
 from platypose.lifting.sampler import SamplerConfig
+from platypose.pipeline import JobLog, lift_take, match_cameras, view_cameras
 
 MANIFEST = "lift.json"
 FAILURE = "failed.json"
-SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
 
 
 @dataclass(frozen=True)
@@ -57,29 +57,6 @@ class RunSettings:
     arguments: dict = field(default_factory=dict)
 
 
-class JobLog:
-    """Timestamped lines for ``OUT/<name>/log.txt``, kept in memory and written atomically at the end."""
-
-    def __init__(self) -> None:
-        self.started = time.perf_counter()
-        self.lines: list[str] = []
-        self.warnings: list[str] = []
-
-    def __call__(self, message: str) -> None:
-        self.lines.append(f"[{time.perf_counter() - self.started:7.1f} s] {message}")
-
-    def warning(self, message: str) -> None:
-        """Log a warning and keep it for the result's meta."""
-        self.warnings.append(message)
-        self(f"warning: {message}")
-
-    def write(self, path: Path) -> None:
-        """Write the log atomically."""
-        from platypose.lifting.atomic import write_text_atomic
-
-        write_text_atomic(path, "\n".join(self.lines) + "\n")
-
-
 _PRIORS: dict[PriorSettings, object] = {}
 
 
@@ -90,46 +67,11 @@ def _prior(settings: PriorSettings):
     return _PRIORS[settings]
 
 
-def _check_size(camera, image_size: tuple[int, int], source: str, log: JobLog) -> None:
-    """Warn about a small calibrated/actual image size difference; InputError for a large one."""
-    if tuple(camera.size) == tuple(image_size):
-        return
-    relative = max(abs(a - b) / b for a, b in zip(camera.size, image_size))
-    said = (
-        f"calibration says {camera.width}x{camera.height} px for camera {camera.name}, "
-        f"{source} is {image_size[1]}x{image_size[0]}"
-    )
-    if relative > SIZE_TOLERANCE:
-        raise InputError(f"{source}: calibration mismatch: {said}")
-    log.warning(f"{said}; pixels used as they are (the principal point is what matters)")
-
-
 def calibrated_cameras(job: Job, cams: Path) -> list:
     """The camera of ``cams`` matching each view by name; InputError (calibration mismatch) when one has none."""
     from platypose.lifting.calibration import load_calibration
-    from platypose.lifting.calibration.matching import match_views
 
-    calibration = load_calibration(cams)
-    try:
-        pairs = match_views(calibration.names, [v.name for v in job.views], allow_missing=True)
-    except InputError as err:
-        raise InputError(f"{job.input}: calibration mismatch with {cams}: {err}") from None
-    by_view = {view: calibration.camera(camera) for camera, view in pairs.items()}
-    return [by_view[v.name] for v in job.views]
-
-
-def view_cameras(job: Job, views, calibrated: list | None, log: JobLog) -> list:
-    """The calibrated cameras checked against the views' image sizes, or the default camera of a single view."""
-    if calibrated is not None:
-        for camera, tracks, view in zip(calibrated, views, job.views):
-            _check_size(camera, tracks.image_size, str(view.source), log)
-        return calibrated
-    if len(views) > 1:
-        raise InputError(f"{job.input}: {len(views)} views need --cams to place the cameras")
-    from platypose.lifting.calibration.defaults import default_camera
-
-    log.warning("no --cams: a level camera at the origin with a 53 degree diagonal field of view is assumed")
-    return [default_camera(job.views[0].name, *views[0].image_size)]
+    return match_cameras(load_calibration(cams), [v.name for v in job.views], job.input, str(cams))
 
 
 def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) -> list[np.ndarray | None]:
@@ -138,42 +80,11 @@ def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) ->
 
     given = None
     if settings.root_file is not None:
-        from platypose.cli.root_file import read_root_trajectory
+        from platypose.detectors.root_file import read_root_trajectory
 
         log(f"root trajectory from {settings.root_file}")
         given = list(read_root_trajectory(settings.root_file, times, keypoints.shape[2]))
     return decide_roots(keypoints, times, cameras, settings.root, given, say=log)
-
-
-def lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings: RunSettings, folder: Path):
-    """Hypotheses (P, N, T, 17, 3), their median (P, T, 17, 3) and energy (P, N, T) as FrameArrays in ``folder``,
-    filled by :func:`platypose.lifting.take.lift_persons` with a progress bar per group of persons."""
-    from platypose.exporters.frames import FrameArray
-    from platypose.lifting.take import lift_persons
-
-    (P, T), N = absent.shape, settings.sampler.samples
-    hypotheses = FrameArray.create(folder / ".hypotheses.npy", (P, N, T, 17, 3), np.float32)
-    median = FrameArray.create(folder / ".median.npy", (P, T, 17, 3), np.float32)
-    energy = FrameArray.create(folder / ".energy.npy", (P, N, T), np.float32)
-    bars = _GroupBars(settings.quiet)
-    try:
-        lift_persons(
-            prior,
-            keypoints,
-            times,
-            cameras,
-            roots,
-            absent,
-            settings.sampler,
-            settings.windows,
-            hypotheses,
-            median,
-            energy,
-            bars.update,
-        )
-    finally:
-        bars.close()
-    return hypotheses, median, energy
 
 
 class _GroupBars:
@@ -214,27 +125,12 @@ class _LazyBar:
             self.bar.__exit__(None, None, None)
 
 
-def report_reprojection(median, keypoints: np.ndarray, cameras: list, log: JobLog) -> dict[str, float]:
-    """:func:`platypose.lifting.take.reprojection_report` logged: one line of per-view pixels, its warnings."""
-    from platypose.lifting.take import reprojection_report
-
-    report, warnings = reprojection_report(median, keypoints, cameras)
-    if report:
-        log(
-            "median motion against the keypoints (median px per view): "
-            + ", ".join(f"{name} {value:.1f}" for name, value in report.items())
-        )
-    for warning in warnings:
-        log.warning(warning)
-    return report
-
-
 def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     """The LiftResult of one job, its long arrays in files under ``staging``, and the videos of its cameras."""
     from platypose import __version__
     from platypose.detectors.take import take_keypoints
-    from platypose.exporters.result import LiftResult
-    from platypose.lifting.root import presence
+    from platypose.exporters.frames import FrameArray
+    from platypose.lifting.take import root_kinds
 
     timings: dict[str, float] = {}
     started = time.perf_counter()
@@ -250,39 +146,41 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
         )
         views.append(tracks)
     timings["keypoints_s"] = time.perf_counter() - started
-    cameras = view_cameras(job, views, calibrated, log)
+    names, sources = [v.name for v in job.views], [str(v.source) for v in job.views]
+    cameras = view_cameras(calibrated, [t.image_size for t in views], names, sources, job.input, log, "--cams")
     keypoints, times, track_ids = take_keypoints(views, cameras, settings.persons, job.input)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
     roots = root_paths(keypoints, times, cameras, settings, log)
     prior = _prior(settings.prior)
     started = time.perf_counter()
-    absent = ~presence(keypoints, times)  # (P, T)
-    hypotheses, median, energy = lift_keypoints(prior, keypoints, times, cameras, roots, absent, settings, staging)
+    bars = _GroupBars(settings.quiet)
+    try:
+        result = lift_take(
+            prior,
+            keypoints,
+            times,
+            track_ids,
+            cameras,
+            roots,
+            settings.sampler,
+            settings.windows,
+            lambda shape, name: FrameArray.create(staging / f".{name}.npy", shape, np.float32),
+            bars.update,
+            log,
+        )
+    finally:
+        bars.close()
     timings["lift_s"] = time.perf_counter() - started
-    log(f"lifted {hypotheses.shape[1]} hypotheses in {timings['lift_s']:.1f} s")
-    reprojection = report_reprojection(median, keypoints, cameras, log)
-    fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
     meta = {
         "version": __version__,
         "input": job.input,
         "arguments": settings.arguments,
-        "prior_sha256": prior.checksum,
-        "root": ["given" if settings.root_file else ("solved" if r is None else "triangulated") for r in roots],
+        **result.meta,
+        "root": root_kinds(roots, settings.root_file is not None),
         "timings": timings,
-        "reprojection_px": reprojection,
         "warnings": log.warnings,
     }
-    result = LiftResult(
-        hypotheses=hypotheses,
-        median=median,
-        keypoints2d=np.moveaxis(keypoints, 2, 1),
-        frame_times=times,
-        fps=fps,
-        track_ids=track_ids,
-        cameras=tuple(cameras),
-        energy=energy,
-        meta=meta,
-    )
+    result = replace(result, meta=meta)
     videos = {c.name: v.video for c, v in zip(cameras, job.views) if v.video is not None}
     return result, videos
 

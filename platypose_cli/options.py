@@ -82,6 +82,7 @@ def settings_class(group: str) -> type:
     return getattr(importlib.import_module(module), name)
 
 
+@functools.cache
 def declared_defaults(group: str) -> dict[str, object]:
     """The defaults ``group``'s class declares, read from its source without importing it (the sampler's module
     imports torch, which would make ``platypose --help`` take seconds); literal defaults only."""

@@ -275,7 +275,8 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
 
 def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> None:
     import platypose.exporters as exporters
-    from platypose.cli.lift_run import JobLog, export_atomically, staging_folder
+    from platypose.cli.lift_run import export_atomically, staging_folder
+    from platypose.pipeline import JobLog
 
     folder = tmp_path / "take"
     folder.mkdir()

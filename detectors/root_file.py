@@ -1,4 +1,4 @@
-"""``--root-trajectory``: a known pelvis path per person, from an npz or a CSV file.
+"""A known pelvis path per person (``platypose lift --root-trajectory``), read from an npz or a CSV file.
 
 npz: ``frame_times`` (T,) seconds and ``root`` (T, 3) or (P, T, 3) world metres.
 CSV: a header ``time,x,y,z`` (one person) or ``person,time,x,y,z`` (person = 0..P-1).

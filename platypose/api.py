@@ -1,0 +1,164 @@
+"""The Python API: :func:`lift` one take, :func:`load_result` of an earlier lift, :class:`Prior` to load once.
+
+``platypose.lift`` runs the pipeline of ``platypose lift`` (:mod:`platypose.pipeline`) on one
+take and returns the :class:`~platypose.exporters.result.LiftResult` in memory; nothing is
+written. docs/api.md shows it end to end.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+from pathlib import Path
+
+from platypose.exporters.result import LiftResult
+from platypose.lifting.calibration import Calibration
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
+from platypose.lifting.lift import WindowSettings
+from platypose.lifting.prior import PriorBundle
+from platypose.lifting.sampler import SamplerConfig
+from platypose.pipeline import JobLog
+
+Prior = PriorBundle  # platypose.Prior.load(path=None, device="cpu", runtime="float32")
+
+
+def load_result(path: str | Path) -> LiftResult:
+    """The LiftResult of a ``.npz`` written by ``platypose lift`` (or by :func:`platypose.exporters.export`)."""
+    from platypose.exporters.npz import read_npz
+
+    return read_npz(path)
+
+
+def lift(
+    views: str | Path | Sequence[str | Path],
+    cams: str | Path | Calibration | Sequence[Camera] | None = None,
+    *,
+    prior: PriorBundle | str | Path | None = None,
+    sampler: SamplerConfig | None = None,
+    windows: WindowSettings | None = None,
+    persons: str = "all",
+    root: str = "auto",
+    root_trajectory: str | Path | None = None,
+    detector: str | Path | None = None,
+    threads: int | None = None,
+    say: Callable[[str], None] | None = None,
+    **sampler_fields: object,
+) -> LiftResult:
+    """Lift the people of one take to 3D motion hypotheses, as ``platypose lift`` does for one input.
+
+    ``views``: one path per camera, each a video (detected with ``detector``, default the
+    bundled MoveNet) or precomputed keypoints (an OpenPose folder, our npz / CSV, MMPose
+    JSON); its name (file stem, folder name without ``_json``) is matched to the camera's.
+    ``cams``: a calibration file, a loaded :class:`Calibration` or a list of cameras; None
+    for one view (a level camera at the origin is assumed). ``prior``: a loaded
+    :class:`Prior` (load it once for many takes) or a checkpoint path (None: the shipped
+    prior). ``sampler`` / ``windows``: settings objects; keyword arguments named after
+    :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
+    ``persons``: all, largest or N; ``root``: auto, triangulate or solve;
+    ``root_trajectory``: a known pelvis path file. ``say`` receives the log's lines.
+
+    Returns the LiftResult (hypotheses (P, N, T, 17, 3) world metres, median, 2D keypoints,
+    cameras, ``meta`` with the log's warnings); InputError for bad input, as the CLI.
+    """
+    from platypose import __version__
+    from platypose.detectors.sources import view_name
+    from platypose.detectors.take import take_keypoints
+    from platypose.lifting.take import root_kinds, root_paths
+    from platypose.pipeline import lift_take, match_cameras, view_cameras
+
+    sources = [Path(views)] if isinstance(views, (str, Path)) else [Path(v) for v in views]
+    if not sources:
+        raise InputError("lift: give at least one view (a video or keypoints)")
+    try:
+        sampler = replace(sampler or SamplerConfig(), **sampler_fields)
+    except (TypeError, ValueError) as err:  # an unknown field, or a value SamplerConfig refuses
+        raise InputError(f"sampler: {err}") from None
+    windows = windows or WindowSettings()
+    log = _Log(say)
+    names = [view_name(s) for s in sources]
+    what = ", ".join(map(str, sources))
+    cameras = None if cams is None else match_cameras(_calibration(cams), names, what, _described(cams))
+    started = time.perf_counter()
+    read = _ViewReader(detector, threads, log)
+    tracks = [read(source) for source in sources]
+    timings = {"keypoints_s": time.perf_counter() - started}
+    sizes = [t.image_size for t in tracks]
+    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, "a calibration (cams)")
+    keypoints, times, track_ids = take_keypoints(tracks, cameras, persons, what)
+    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (persons {persons})")
+    given = None
+    if root_trajectory is not None:
+        from platypose.detectors.root_file import read_root_trajectory
+
+        given = list(read_root_trajectory(Path(root_trajectory), times, keypoints.shape[2]))
+    roots = root_paths(keypoints, times, cameras, root, given, say=log)
+    bundle = prior if isinstance(prior, PriorBundle) else PriorBundle.load(prior)
+    started = time.perf_counter()
+    result = lift_take(bundle, keypoints, times, track_ids, cameras, roots, sampler, windows, log=log)
+    timings["lift_s"] = time.perf_counter() - started
+    return result.with_meta(
+        version=__version__,
+        input=what,
+        root=root_kinds(roots, given is not None),
+        timings=timings,
+        warnings=log.warnings,
+    )
+
+
+class _Log(JobLog):
+    """A JobLog that also hands each line to ``say``."""
+
+    def __init__(self, say: Callable[[str], None] | None) -> None:
+        super().__init__()
+        self.say = say
+
+    def __call__(self, message: str) -> None:
+        super().__call__(message)
+        if self.say is not None:
+            self.say(message)
+
+
+def _calibration(cams: str | Path | Calibration | Sequence[Camera]) -> Calibration:
+    """A Calibration from a file path, a Calibration, or cameras."""
+    if isinstance(cams, Calibration):
+        return cams
+    if isinstance(cams, (str, Path)):
+        from platypose.lifting.calibration import load_calibration
+
+        return load_calibration(Path(cams))
+    return Calibration(tuple(cams))
+
+
+def _described(cams: object) -> str:
+    """How an error names the calibration given."""
+    return str(cams) if isinstance(cams, (str, Path)) else "the cameras given"
+
+
+class _ViewReader:
+    """The 2D tracks of one view: read when it holds keypoints, else detected (the detector loaded once)."""
+
+    def __init__(self, detector: str | Path | None, threads: int | None, log: JobLog) -> None:
+        self.detector, self.threads, self.log, self.model = detector, threads, log, None
+
+    def __call__(self, source: Path):
+        from platypose.detectors.sources import is_keypoint_source, read_keypoints
+
+        started = time.perf_counter()
+        if is_keypoint_source(source):
+            tracks, how = read_keypoints(source), "read"
+        else:
+            from platypose.detectors.contracts import load_detector
+            from platypose.detectors.pipeline import detect_video
+
+            if not source.is_file():
+                raise InputError(f"{source}: no such video or keypoint file")
+            if self.model is None:
+                self.model = load_detector(self.detector, threads=self.threads)
+            tracks, how = detect_video(source, self.model), "detected"
+        self.log(
+            f"view {source.name}: {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, "
+            f"{time.perf_counter() - started:.1f} s"
+        )
+        return tracks

@@ -1,0 +1,176 @@
+"""One take from its views' 2D tracks to a :class:`~platypose.exporters.result.LiftResult`.
+
+Shared by ``platypose lift`` (``platypose.cli.lift_run`` adds detection, files and job
+bookkeeping around it) and the Python API (:func:`platypose.lift`):
+
+1. :func:`match_cameras`: the calibration's camera of each view, matched by name (before
+   any detection), then :func:`check_image_size` against each view's image size;
+2. :func:`platypose.detectors.take.take_keypoints`: the views' tracks matched across cameras,
+   the chosen persons, one clock;
+3. :func:`platypose.lifting.take.root_paths`: each person's pelvis path, known or solved;
+4. :func:`lift_take`: hypotheses, their median and energy, the per-view reprojection report.
+
+Every step says what it did and warns through a :class:`JobLog`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from platypose.exporters.result import LiftResult
+from platypose.lifting.calibration import Calibration
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
+from platypose.lifting.lift import WindowSettings
+from platypose.lifting.prior import PriorBundle
+from platypose.lifting.root import presence
+from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.take import lift_persons, reprojection_report
+
+SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
+
+
+class JobLog:
+    """Timestamped lines of one lift (``OUT/<name>/log.txt`` for the CLI), and its warnings for the result's meta."""
+
+    def __init__(self) -> None:
+        self.started = time.perf_counter()
+        self.lines: list[str] = []
+        self.warnings: list[str] = []
+
+    def __call__(self, message: str) -> None:
+        self.lines.append(f"[{time.perf_counter() - self.started:7.1f} s] {message}")
+
+    def warning(self, message: str) -> None:
+        """Log a warning and keep it for the result's meta."""
+        self.warnings.append(message)
+        self(f"warning: {message}")
+
+    def write(self, path: Path) -> None:
+        """Write the log atomically."""
+        from platypose.lifting.atomic import write_text_atomic
+
+        write_text_atomic(path, "\n".join(self.lines) + "\n")
+
+
+def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
+    """An in-memory float32 array for one of the result's long arrays (``name``: hypotheses, median, energy)."""
+    return np.empty(shape, np.float32)
+
+
+def match_cameras(calibration: Calibration, names: Sequence[str], what: str, against: str) -> list[Camera]:
+    """The camera of ``calibration`` (read from ``against``) matching each view name of ``names``; InputError
+    (calibration mismatch, naming ``what``) when a view has none."""
+    from platypose.lifting.calibration.matching import match_views
+
+    try:
+        pairs = match_views(calibration.names, list(names), allow_missing=True)
+    except InputError as err:
+        raise InputError(f"{what}: calibration mismatch with {against}: {err}") from None
+    by_view = {view: calibration.camera(camera) for camera, view in pairs.items()}
+    return [by_view[name] for name in names]
+
+
+def view_cameras(
+    cameras: Sequence[Camera] | None,
+    image_sizes: Sequence[tuple[int, int]],
+    names: Sequence[str],
+    sources: Sequence[str],
+    what: str,
+    log: JobLog,
+    calibration_word: str = "cams",
+) -> list[Camera]:
+    """The matched ``cameras`` checked against the views' image sizes (height, width), or without a calibration
+    the default camera of a single view (with a warning); InputError for several views without one.
+
+    ``calibration_word`` is how the messages name the missing calibration (the CLI says ``--cams``).
+    """
+    if cameras is not None:
+        for camera, size, source in zip(cameras, image_sizes, sources):
+            check_image_size(camera, size, source, log)
+        return list(cameras)
+    if len(names) > 1:
+        raise InputError(f"{what}: {len(names)} views need {calibration_word} to place the cameras")
+    from platypose.lifting.calibration.defaults import default_camera
+
+    log.warning(
+        f"no {calibration_word}: a level camera at the origin with a 53 degree diagonal field of view is assumed"
+    )
+    return [default_camera(names[0], *image_sizes[0])]
+
+
+def check_image_size(camera: Camera, image_size: tuple[int, int], source: str, log: JobLog) -> None:
+    """Warn about a small calibrated/actual image size difference; InputError for a large one."""
+    if tuple(camera.size) == tuple(image_size):
+        return
+    relative = max(abs(a - b) / b for a, b in zip(camera.size, image_size))
+    said = (
+        f"calibration says {camera.width}x{camera.height} px for camera {camera.name}, "
+        f"{source} is {image_size[1]}x{image_size[0]}"
+    )
+    if relative > SIZE_TOLERANCE:
+        raise InputError(f"{source}: calibration mismatch: {said}")
+    log.warning(f"{said}; pixels used as they are (the principal point is what matters)")
+
+
+def lift_take(
+    prior: PriorBundle,
+    keypoints: np.ndarray,
+    times: np.ndarray,
+    track_ids: np.ndarray,
+    cameras: Sequence[Camera],
+    roots: Sequence[np.ndarray | None],
+    sampler: SamplerConfig,
+    windows: WindowSettings,
+    arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
+    progress: Callable[[list[int], int, int], None] | None = None,
+    log: JobLog | None = None,
+) -> LiftResult:
+    """The LiftResult of a take: keypoints (C, T, P, 17, 3) on ``times`` (T,) of persons ``track_ids`` (P,),
+    seen by ``cameras``, each person's root path known (T, 3) or None (solved per hypothesis).
+
+    ``arrays(shape, name)`` makes the result's long arrays (default: in memory; the CLI's are files).
+    The result's ``meta`` holds ``prior_sha256`` and ``reprojection_px`` (per view); the caller adds its own.
+    """
+    log = log if log is not None else JobLog()
+    started = time.perf_counter()
+    absent = ~presence(keypoints, times)  # (P, T)
+    (P, T), N = absent.shape, sampler.samples
+    hypotheses = arrays((P, N, T, 17, 3), "hypotheses")
+    median = arrays((P, T, 17, 3), "median")
+    energy = arrays((P, N, T), "energy")
+    lift_persons(
+        prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress
+    )
+    log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
+    report = report_reprojection(median, keypoints, cameras, log)
+    fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
+    meta = {"prior_sha256": prior.checksum, "reprojection_px": report}
+    return LiftResult(
+        hypotheses=hypotheses,
+        median=median,
+        keypoints2d=np.moveaxis(keypoints, 2, 1),
+        frame_times=times,
+        fps=fps,
+        track_ids=track_ids,
+        cameras=tuple(cameras),
+        energy=energy,
+        meta=meta,
+    )
+
+
+def report_reprojection(median, keypoints: np.ndarray, cameras: Sequence[Camera], log: JobLog) -> dict[str, float]:
+    """:func:`platypose.lifting.take.reprojection_report` logged: one line of per-view pixels, then its warnings."""
+    report, warnings = reprojection_report(median, keypoints, cameras)
+    if report:
+        log(
+            "median motion against the keypoints (median px per view): "
+            + ", ".join(f"{name} {value:.1f}" for name, value in report.items())
+        )
+    for warning in warnings:
+        log.warning(warning)
+    return report
