@@ -11,7 +11,7 @@ import numpy as np
 
 from platypose.detectors.letterbox import fit_size, letterbox
 
-DEFAULT_LONGEST = 384  # measured: 256 loses the backlit person in the Sports2D demo; see docs/keypoints.md
+DEFAULT_LONGEST = 384  # input size of the longest side; why not 256: docs/keypoints.md
 
 
 class MoveNetMultiPose:

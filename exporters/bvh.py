@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.frames import Lead, frame_chunks
-from platypose.exporters.ik import CHILDREN, fit_rotations, forward_kinematics, local_euler
+from platypose.exporters.ik import CHILDREN, euler_to_matrix, fit_rotations, local_euler
 from platypose.lifting.atomic import atomic_open
+from platypose.lifting.motion_io.kinematics import forward_kinematics
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
 
 CM_PER_M = 100.0
@@ -145,8 +146,10 @@ def motion_channels(joints: np.ndarray, offsets: np.ndarray) -> np.ndarray:
 
 def channels_to_positions(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """World joints (T, 17, 3) metres from channel values (T, 54) and rest offsets (17, 3)."""
-    euler = values[:, 3:].reshape(len(values), NUM_JOINTS, 3)
-    return from_bvh_axes(forward_kinematics(euler, values[:, :3], offsets))
+    rotations = euler_to_matrix(values[:, 3:].reshape(len(values), NUM_JOINTS, 3))
+    placed = np.broadcast_to(offsets, (len(values), NUM_JOINTS, 3)).copy()
+    placed[:, 0] += values[:, :3]  # the root's offset is its position
+    return from_bvh_axes(forward_kinematics(PARENTS, placed, rotations))
 
 
 def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit:

@@ -1,4 +1,4 @@
-"""Inverse and forward kinematics of our 17-joint tree with fixed bone offsets (pure array maths).
+"""Inverse kinematics of our 17-joint tree with fixed bone offsets (pure array maths).
 
 IK: a joint with several children (pelvis, thorax) gets the two-vector frame of
 its left-right axis (hips, shoulders: kept exactly) and its midline bone
@@ -6,7 +6,8 @@ its left-right axis (hips, shoulders: kept exactly) and its midline bone
 child gets the smallest rotation, relative to its parent, that aims its bone at
 the child from where the fitted chain has put it; leaves (wrists, ankles,
 head) keep their parent's orientation. Local rotations are ZXY Euler angles
-(``Rz @ Rx @ Ry``), as in BVH's ``Zrotation Xrotation Yrotation`` channels.
+(``Rz @ Rx @ Ry``), as in BVH's ``Zrotation Xrotation Yrotation`` channels. Forward
+kinematics is the importers' (:func:`platypose.lifting.motion_io.kinematics.forward_kinematics`).
 """
 
 from __future__ import annotations
@@ -108,26 +109,5 @@ def local_euler(global_rot: np.ndarray) -> np.ndarray:
 
 def euler_to_matrix(euler: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) ``Rz @ Rx @ Ry`` from ZXY Euler degrees (..., 3) given as (z, x, y)."""
-    cz, cx, cy = np.moveaxis(np.cos(np.radians(euler)), -1, 0)
-    sz, sx, sy = np.moveaxis(np.sin(np.radians(euler)), -1, 0)
-    rows = [
-        [cz * cy - sz * sx * sy, -sz * cx, cz * sy + sz * sx * cy],
-        [sz * cy + cz * sx * sy, cz * cx, sz * sy - cz * sx * cy],
-        [-cx * sy, sx, cx * cy],
-    ]
-    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
-
-
-def forward_kinematics(euler: np.ndarray, root: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """BVH-axes joint positions (T, 17, 3) from local ZXY Euler degrees (T, 17, 3), root (T, 3), offsets (17, 3)."""
-    local = euler_to_matrix(euler)
-    rot = np.zeros_like(local)
-    pos = np.zeros(euler.shape)
-    for j in range(NUM_JOINTS):
-        p = PARENTS[j]
-        if p < 0:
-            rot[:, j], pos[:, j] = local[:, j], root + offsets[j]
-        else:
-            rot[:, j] = rot[:, p] @ local[:, j]
-            pos[:, j] = pos[:, p] + rot[:, p] @ offsets[j]
-    return pos
+    flat = Rotation.from_euler(EULER_ORDER, np.reshape(euler, (-1, 3)), degrees=True).as_matrix()
+    return flat.reshape(*np.shape(euler)[:-1], 3, 3)

@@ -1,4 +1,4 @@
-"""``LiftResult``: everything one input's lift produced, exactly the fields of the npz (DESIGN.md, Outputs).
+"""``LiftResult``: everything one input's lift produced, exactly the fields of the npz (docs/outputs.md).
 
 A person absent from a frame has NaN in every joint of every hypothesis and of
 the median at that frame; present frames are finite. Missing 2D keypoints

@@ -1,4 +1,4 @@
-"""Evaluation metrics over hypotheses, as in the paper's tables (DESIGN.md, Metrics).
+"""Evaluation metrics over hypotheses, as in the paper's tables (docs/prior.md, Evaluation).
 
 Shapes: ``hypotheses`` (N, T, J, 3), ``truth`` (T, J, 3), metres in, metres out.
 Position errors are measured on pelvis-relative joints (Human3.6M protocol 1);

@@ -2,7 +2,7 @@
 
 With two or more views guidance fits every joint to its least-squares position, so all
 hypotheses collapse onto one point per joint, and with noisy 2D the truth lies outside
-them (4 views, 2 px noise: ECE 0.5, the worst possible). The fit's residuals tell how
+them (the worst calibration there is; docs/results.md). The fit's residuals tell how
 noisy the 2D is: with n observed coordinates and p = 3 unknowns per joint seen twice or
 more, the unit-weight variance is ``sigma^2 = E / (n - p)`` (E the confidence-weighted
 sum of squared residuals). Linearised, the least-squares position of a joint is then

@@ -1,11 +1,11 @@
 """Cutting a long track into overlapping windows and stitching hypotheses back into one motion each.
 
-Windows of F frames start every ``F - O`` frames (O = overlap <= F / 2), the
-last one padded past the end. Windows are sampled in order; the first half of
-each overlap is anchored to (in-painted from) hypothesis k of the window before
-and the second half is blended in with a linear ramp, so hypothesis k is one
-continuous motion. (Sampling windows independently and bridging them does not
-work with one camera: independent windows put hypothesis k at different depths,
+Windows of F frames start every ``F - O`` frames (O = overlap <= F / 2), the last one
+padded past the end. Windows are sampled in order. The first :func:`anchored_frames` (two)
+of each window are anchored to (in-painted from) hypothesis k of the window before, and
+the later window takes every overlap frame after them (:func:`blend_weights`: no ramp), so
+hypothesis k is one continuous motion. (Sampling windows independently and bridging them
+does not work with one camera: independent windows put hypothesis k at different depths,
 and a bridge has to jump.)
 """
 
@@ -66,13 +66,10 @@ def blend_weights(plan: WindowPlan) -> np.ndarray:
 
     In an overlap the earlier window keeps the frames the later one is anchored to, and the later
     window takes every frame after them: it starts on the earlier window's path (the anchor) and
-    continues it as one motion of the prior. Blending the two over the overlap instead mixed the
+    continues it as one motion of the prior. Blending the two over the overlap instead would mix the
     earlier window's last frames, which are pulled back to the rays' own placement
-    (:func:`lifting.sampler.continuation_ramp`), into the later window: with one camera and a
-    prior whose placement disagreed with the continued depth by metres, hypotheses stepped 0.38 m
-    at seams. On 20 s of one-view climbing, relative to the true motion, seams now step 0.85x as
-    fast as the inside (8 seeds; blending: 1.01x), and 0.80x with that prior (4 seeds; blending:
-    1.09x, up to 0.38 m).
+    (:func:`platypose.lifting.sampler.continuation_ramp`), into the later window, and with one camera
+    hypotheses then step at seams (docs/results.md, 2026-12-01).
     """
     weights = np.ones((plan.count, plan.length))
     if plan.count > 1:
@@ -86,10 +83,8 @@ def blend_weights(plan: WindowPlan) -> np.ndarray:
 def anchored_frames(plan: WindowPlan) -> int:
     """How many of a window's first frames are anchored to the window before: two (position and velocity).
 
-    With one camera, anchoring half the overlap (8 of 16 frames) made hypotheses step 1.15x faster
-    at seams than inside windows (relative to the true motion, 8 seeds of 20 s of climbing, windows
-    blended over the overlap); with two frames they stepped as fast as inside (1.01x), with the
-    whole overlap 1.3x.
+    Anchoring more of the overlap makes one-view hypotheses step faster at seams than inside
+    windows, and fewer cannot carry the velocity over (docs/results.md, 2026-12-01).
     """
     return min(2, plan.overlap)
 

@@ -59,12 +59,14 @@ def _lifted_climbing(data_dir, views: int, seconds: int, samples: int = 8, seed:
     return fastest_joint(hyps), fastest_joint(truth), seam
 
 
+@pytest.mark.slow  # the shipped prior
 def test_four_view_seams_are_no_faster_than_inside_windows(data_dir):
     """The issue's criterion, 10 s of real climbing seen by 4 cameras: the fastest step at seams is no larger."""
     speed, _, seam = _lifted_climbing(data_dir, views=4, seconds=10)
     assert speed[:, seam].max() <= speed[:, ~seam].max(), (speed[:, seam].max(), speed[:, ~seam].max())
 
 
+@pytest.mark.slow  # the shipped prior
 def test_one_view_seams_are_no_faster_than_inside_windows_relative_to_the_motion(data_dir):
     """20 s of real climbing seen by one camera: relative to how fast the true motion is, hypotheses step no
     faster at seams than inside windows, and never jump.
@@ -83,6 +85,7 @@ def test_one_view_seams_are_no_faster_than_inside_windows_relative_to_the_motion
     assert speed.max() < 0.25, speed.max()  # no jump, at seams or inside: the truth's fastest step is 0.10 m
 
 
+@pytest.mark.slow  # the shipped prior
 def test_one_view_placement_does_not_drift_over_windows(data_dir):
     """20 s of real climbing seen by one camera 5 m away: the hypotheses' depth stays near the truth.
 

@@ -33,15 +33,10 @@ def is_h36m(data: Any) -> bool:
 
 
 def quaternion_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix (3, 3) of a unit quaternion ``(w, x, y, z)``."""
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    """Rotation matrix (3, 3) of a quaternion ``(w, x, y, z)`` (normalised first)."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_quat(np.asarray(q, dtype=np.float64)[[1, 2, 3, 0]]).as_matrix()
 
 
 def _tangential_bases(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

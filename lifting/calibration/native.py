@@ -1,4 +1,4 @@
-"""The native ``calib.json`` (see DESIGN.md): exact reader and atomic writer."""
+"""The native ``calib.json`` (docs/calibration.md): exact reader and atomic writer."""
 
 from __future__ import annotations
 
