@@ -1,12 +1,13 @@
-"""BVH export: our 17 joints as a BVH hierarchy, rotations fitted to positions by inverse kinematics.
+"""BVH export: our 17 joints as a BVH hierarchy on a rigid skeleton, rotations fitted to positions.
 
 Conventions of the file: Y up, centimetres, a world point (x, y, z) of ours
 (Z up, metres) is written as 100 * (x, z, -y), so Blender's default BVH import
 (forward -Z, up Y) puts it back in our world frame. The rest pose stands
 upright facing +Z (our -y) with the arms out sideways (T-pose); its bone
-lengths are the median bone lengths of the motion. Every joint has
-``Zrotation Xrotation Yrotation`` channels (local rotation ``Rz @ Rx @ Ry``),
-the root also ``Xposition Yposition Zposition`` first.
+lengths and the shape of pelvis and thorax are fitted once over the motion
+(:func:`exporters.ik.rest_offsets`). The root has ``Xposition Yposition
+Zposition`` then its rotation channels; every joint's rotation channels are in
+its own Euler order (:data:`exporters.ik.EULER_ORDERS`), continuous in time.
 
 Rotations are fitted by :mod:`exporters.ik`.
 """
@@ -19,39 +20,25 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.frames import Lead, frame_chunks
-from platypose.exporters.ik import CHILDREN, euler_to_matrix, fit_rotations, local_euler
+from platypose.exporters.ik import (
+    CHILDREN,
+    EULER_ORDERS,
+    body_directions,
+    continuous_euler,
+    fit_rotations,
+    forward_kinematics,
+    local_euler,
+    local_rotations,
+    refine_rotations,
+    rest_offsets,
+)
 from platypose.lifting.atomic import atomic_open
-from platypose.lifting.motion_io.kinematics import forward_kinematics
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
 
 CM_PER_M = 100.0
 DECIMALS = 6
 
-# Rest direction of each joint's offset from its parent, BVH axes (x left, y up, z forward).
-_LEFT, _RIGHT, _UP, _DOWN, _FORWARD = (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)
-REST_DIRECTIONS = np.array(
-    [
-        (0, 0, 0),
-        _RIGHT,
-        _DOWN,
-        _DOWN,
-        _LEFT,
-        _DOWN,
-        _DOWN,
-        _UP,
-        _UP,
-        _UP,
-        _UP,
-        _LEFT,
-        _LEFT,
-        _LEFT,
-        _RIGHT,
-        _RIGHT,
-        _RIGHT,
-    ],
-    dtype=np.float64,
-)
-
+_LEFT, _RIGHT, _UP, _FORWARD = (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, 0, 1)
 # End sites of the leaf joints: direction and length as a fraction of the leaf's own bone.
 END_SITES: dict[int, tuple[tuple[int, int, int], float]] = {
     JOINT_NAMES.index("right_ankle"): (_FORWARD, 0.35),
@@ -60,18 +47,35 @@ END_SITES: dict[int, tuple[tuple[int, int, int], float]] = {
     JOINT_NAMES.index("left_wrist"): (_LEFT, 0.75),
     JOINT_NAMES.index("right_wrist"): (_RIGHT, 0.75),
 }
+_NECK, _HEAD = JOINT_NAMES.index("neck"), JOINT_NAMES.index("head")
 
 
 @dataclass(frozen=True)
 class BvhFit:
-    """Distance between the BVH's joints (after forward kinematics) and the fitted positions, metres."""
+    """How faithful a written BVH is, measured on present frames by forward kinematics of the written numbers.
+
+    ``mean_m``, ``max_m``: distance of the file's joints to the fitted positions (metres);
+    ``head_deg``: largest angle between the file's neck-to-head bone and the positions' one;
+    ``step_deg``: largest frame-to-frame change of any joint's local rotation;
+    ``stretch_m``: largest difference between a bone's length in a frame of the positions and
+    its length in the file (the motion's own non-rigidity, which no rigid skeleton can follow).
+    """
 
     mean_m: float
     max_m: float
+    head_deg: float = 0.0
+    step_deg: float = 0.0
+    stretch_m: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
         """JSON-ready form for ``meta``."""
-        return {"mean_m": self.mean_m, "max_m": self.max_m}
+        return {
+            "mean_m": self.mean_m,
+            "max_m": self.max_m,
+            "head_deg": self.head_deg,
+            "step_deg": self.step_deg,
+            "stretch_m": self.stretch_m,
+        }
 
 
 def to_bvh_axes(points: np.ndarray) -> np.ndarray:
@@ -84,15 +88,6 @@ def from_bvh_axes(points: np.ndarray) -> np.ndarray:
     """BVH Y-up centimetres ``(..., 3)`` -> our Z-up metres ``(..., 3)``."""
     x, y, z = np.moveaxis(np.asarray(points, dtype=np.float64), -1, 0)
     return np.stack([x, -z, y], axis=-1) / CM_PER_M
-
-
-def rest_offsets(lengths: np.ndarray) -> np.ndarray:
-    """Rest offsets (17, 3) in BVH centimetres from the median of per-frame bone lengths (T, 16) metres."""
-    median = np.nanmedian(lengths, axis=0) * CM_PER_M
-    offsets = np.zeros((NUM_JOINTS, 3))
-    for b, (child, _) in enumerate(BONES):
-        offsets[child] = REST_DIRECTIONS[child] * median[b]
-    return offsets
 
 
 def end_site_offsets(offsets: np.ndarray) -> dict[int, np.ndarray]:
@@ -112,6 +107,12 @@ def nearest_present(present: np.ndarray) -> np.ndarray:
     return np.where(np.abs(idx[before] - frames) <= np.abs(idx[after] - frames), idx[before], idx[after])
 
 
+def _channel_names(j: int) -> str:
+    """The CHANNELS line's names of joint ``j``: positions for the root, then rotations in its Euler order."""
+    rotations = " ".join(f"{axis}rotation" for axis in EULER_ORDERS[j])
+    return f"3 {rotations}" if PARENTS[j] >= 0 else f"6 Xposition Yposition Zposition {rotations}"
+
+
 def _hierarchy(offsets: np.ndarray) -> list[str]:
     """The HIERARCHY section lines."""
     ends = end_site_offsets(offsets)
@@ -122,8 +123,7 @@ def _hierarchy(offsets: np.ndarray) -> list[str]:
         lines.append(f"{pad}{'ROOT' if PARENTS[j] < 0 else 'JOINT'} {JOINT_NAMES[j]}")
         lines.append(f"{pad}{{")
         lines.append(f"{pad}  OFFSET {' '.join(f'{v:.{DECIMALS}f}' for v in offsets[j])}")
-        position = "Xposition Yposition Zposition " if PARENTS[j] < 0 else ""
-        lines.append(f"{pad}  CHANNELS {6 if PARENTS[j] < 0 else 3} {position}Zrotation Xrotation Yrotation")
+        lines.append(f"{pad}  CHANNELS {_channel_names(j)}")
         for c in CHILDREN[j]:
             emit(c, depth + 1)
         if j in ends:
@@ -136,20 +136,56 @@ def _hierarchy(offsets: np.ndarray) -> list[str]:
     return lines
 
 
-def motion_channels(joints: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Channel values (T, 54), rounded as written, for world joints (T, 17, 3) metres and rest ``offsets`` (17, 3)."""
+def fit_skeleton(joints: np.ndarray | Lead, present: np.ndarray) -> np.ndarray:
+    """Rigid rest offsets (17, 3) BVH centimetres fitted over the present frames of world joints (T, 17, 3)."""
+    lengths, directions = [], []
+    for t in frame_chunks(len(joints)):
+        on = present[t]
+        positions = to_bvh_axes(np.asarray(joints[t], np.float64)[on])
+        lengths.append(bone_lengths(positions))
+        directions.append(body_directions(positions))
+    return np.round(rest_offsets(np.concatenate(lengths), np.concatenate(directions)), DECIMALS)
+
+
+def motion_channels(
+    joints: np.ndarray, offsets: np.ndarray, previous: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Channel values (T, 54) rounded as written, and the fitted global rotations (T, 17, 3, 3).
+
+    ``joints`` are world joints (T, 17, 3) metres; ``previous`` (54,) the channel values of the frame
+    before (the last of the chunk before), which the Euler angles continue from.
+    """
     positions = to_bvh_axes(joints)
-    euler = local_euler(fit_rotations(positions, offsets))
-    values = np.concatenate([positions[:, 0], euler.reshape(len(joints), -1)], axis=1)
-    return np.round(values, DECIMALS)
+    rot, root = refine_rotations(fit_rotations(positions, offsets), positions, offsets)
+    before = None if previous is None else previous[3:].reshape(NUM_JOINTS, 3)
+    euler = continuous_euler(local_euler(rot), before)
+    values = np.concatenate([root, euler.reshape(len(joints), -1)], axis=1)
+    return np.round(values, DECIMALS), rot
 
 
 def channels_to_positions(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """World joints (T, 17, 3) metres from channel values (T, 54) and rest offsets (17, 3)."""
-    rotations = euler_to_matrix(values[:, 3:].reshape(len(values), NUM_JOINTS, 3))
-    placed = np.broadcast_to(offsets, (len(values), NUM_JOINTS, 3)).copy()
-    placed[:, 0] += values[:, :3]  # the root's offset is its position
-    return from_bvh_axes(forward_kinematics(PARENTS, placed, rotations))
+    euler = values[:, 3:].reshape(len(values), NUM_JOINTS, 3)
+    return from_bvh_axes(forward_kinematics(euler, values[:, :3], offsets))
+
+
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angles (...) in degrees between vectors ``a`` and ``b`` (..., 3)."""
+    cos = np.sum(a * b, -1) / np.maximum(np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1), 1e-12)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def _head_bone(joints: np.ndarray) -> np.ndarray:
+    """Neck-to-head vectors (T, 3) of joints (T, 17, 3)."""
+    return joints[:, _HEAD] - joints[:, _NECK]
+
+
+def _largest_step(rot: np.ndarray) -> float:
+    """Largest change of any joint's local rotation between consecutive frames of rot (T, 17, 3, 3), degrees."""
+    local = local_rotations(rot)
+    rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
+    cos = np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)
+    return float(np.degrees(np.arccos(cos)).max(initial=0.0))
 
 
 def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit:
@@ -163,17 +199,25 @@ def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit
     if not present.any():
         raise ValueError(f"{path}: no frame to write, the person is absent throughout")
     pick = nearest_present(present)  # absent frames hold the nearest present pose
-    lengths = np.concatenate([bone_lengths(np.asarray(joints[t], np.float64))[present[t]] for t in frame_chunks(T)])
-    offsets = np.round(rest_offsets(lengths[(np.cumsum(present) - 1)[pick]]), DECIMALS)
+    offsets = fit_skeleton(joints, present)
+    rigid = np.array([np.linalg.norm(offsets[child]) for child, _ in BONES]) / CM_PER_M
     header = _hierarchy(offsets) + ["MOTION", f"Frames: {T}", f"Frame Time: {1.0 / fps:.8f}"]
-    total, count, largest = 0.0, 0, 0.0
+    total, count, largest, head, step, stretch = 0.0, 0, 0.0, 0.0, 0.0, 0.0
+    previous, last_rot = None, None
     with atomic_open(path, "w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(header) + "\n")
         for t in frame_chunks(T):
             filled = np.asarray(joints[pick[t]], dtype=np.float64)
-            values = motion_channels(filled, offsets)
+            values, rot = motion_channels(filled, offsets, previous)
             np.savetxt(f, values, fmt=f"%.{DECIMALS}f", delimiter=" ")
             on = present[t]
-            error = np.linalg.norm(channels_to_positions(values, offsets)[on] - filled[on], axis=-1)
+            back = channels_to_positions(values, offsets)
+            error = np.linalg.norm(back[on] - filled[on], axis=-1)
             total, count, largest = total + error.sum(), count + error.size, max(largest, error.max(initial=0.0))
-    return BvhFit(mean_m=float(total / count), max_m=float(largest))
+            head = max(head, _angle_deg(_head_bone(back), _head_bone(filled))[on].max(initial=0.0))
+            step = max(step, _largest_step(rot if last_rot is None else np.concatenate([last_rot, rot])))
+            stretch = max(stretch, float(np.abs(bone_lengths(filled[on]) - rigid).max(initial=0.0)))
+            previous, last_rot = values[-1], rot[-1:]
+    return BvhFit(
+        mean_m=float(total / count), max_m=float(largest), head_deg=float(head), step_deg=step, stretch_m=stretch
+    )

@@ -1,13 +1,34 @@
-"""Inverse kinematics of our 17-joint tree with fixed bone offsets (pure array maths).
+"""Inverse and forward kinematics of our 17-joint tree on a rigid skeleton (pure array maths).
 
-IK: a joint with several children (pelvis, thorax) gets the two-vector frame of
-its left-right axis (hips, shoulders: kept exactly) and its midline bone
-(spine, neck: kept in the plane it makes with that axis); a joint with one
-child gets the smallest rotation, relative to its parent, that aims its bone at
-the child from where the fitted chain has put it; leaves (wrists, ankles,
-head) keep their parent's orientation. Local rotations are ZXY Euler angles
-(``Rz @ Rx @ Ry``), as in BVH's ``Zrotation Xrotation Yrotation`` channels. Forward
-kinematics is the importers' (:func:`platypose.lifting.motion_io.kinematics.forward_kinematics`).
+Axes are BVH's (x left, y up, z forward, any unit). The rest pose stands upright
+facing +z with the arms out sideways; :func:`rest_offsets` fits its bone
+lengths and the shape of the two rigid bodies (pelvis with hips and spine,
+thorax with shoulders and neck) once over a clip.
+
+Per frame (:func:`fit_rotations`), every joint's global rotation is set from
+the joints that define it, going down the tree from where the fitted chain has
+put each joint:
+
+- pelvis and thorax: the rotation that best maps their three children's rest
+  offsets onto the observed ones (least squares, Kabsch);
+- spine and neck: aimed at their child, rolled with the lateral axis (hips and
+  shoulders for the spine, the thorax for the neck);
+- thighs, shins, upper arms and forearms: aimed at their child, rolled about
+  the limb's hinge axis (the normal of the hip-knee-ankle or
+  shoulder-elbow-wrist plane), so knees and elbows bend about one axis and a
+  bent limb cannot flip its roll; a nearly straight limb, whose plane is not
+  defined, blends smoothly into the parent's axis swung onto the bone;
+- wrists, ankles and head (no child to define them) keep their parent's rotation.
+
+Then :func:`refine_rotations` solves all bone directions of each frame at
+once by damped Gauss-Newton on the squared distances of the forward-kinematics
+joints to the observed ones (the roll about each bone is left as set).
+
+Local rotations are written as Euler angles in a per-joint order
+(:data:`EULER_ORDERS`) chosen so that gimbal lock falls on a rotation the joint
+does not make (a bone's twist, or the root pitching to horizontal), and
+:func:`continuous_euler` picks, frame after frame, the equivalent angles
+nearest the previous frame's, so channels never wrap by 360 degrees.
 """
 
 from __future__ import annotations
@@ -17,20 +38,49 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
-
-EULER_ORDER = "ZXY"  # intrinsic: R = Rz @ Rx @ Ry
+from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS
 
 CHILDREN: tuple[tuple[int, ...], ...] = tuple(
     tuple(c for c in range(NUM_JOINTS) if PARENTS[c] == j) for j in range(NUM_JOINTS)
 )
+_J = JOINT_NAMES.index
 
-# Joints with several children: (left child, right child, midline child). Their rotation is the
-# two-vector frame of the left-right axis (kept exactly) and the midline bone (kept in its plane).
-LATERAL_CHILDREN: dict[int, tuple[int, int, int]] = {
-    JOINT_NAMES.index("pelvis"): tuple(JOINT_NAMES.index(n) for n in ("left_hip", "right_hip", "spine")),
-    JOINT_NAMES.index("thorax"): tuple(JOINT_NAMES.index(n) for n in ("left_shoulder", "right_shoulder", "neck")),
+_LEFT, _RIGHT, _UP, _DOWN, _FORWARD = (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)
+# Rest direction of each joint's offset from its parent (the limbs and midline; the pelvis and thorax
+# children get the direction measured in the clip, see rest_offsets).
+REST_DIRECTIONS = np.array(
+    [(0, 0, 0), _RIGHT, _DOWN, _DOWN, _LEFT, _DOWN, _DOWN, _UP, _UP, _UP, _UP]
+    + [_LEFT, _LEFT, _LEFT, _RIGHT, _RIGHT, _RIGHT],
+    dtype=np.float64,
+)
+
+# Joints with several children: (left child, right child, midline child), fitted as rigid bodies.
+BODIES: dict[int, tuple[int, int, int]] = {
+    _J("pelvis"): (_J("left_hip"), _J("right_hip"), _J("spine")),
+    _J("thorax"): (_J("left_shoulder"), _J("right_shoulder"), _J("neck")),
 }
+_SPINE, _NECK, _HEAD = _J("spine"), _J("neck"), _J("head")
+# Limbs: upper joint -> (lower joint, end joint, rest hinge axis). Flexion bends the lower bone
+# forward (elbows) or backward (knees) about the hinge axis, which is d_upper x d_lower.
+LIMBS: dict[int, tuple[int, int, tuple[int, int, int]]] = {
+    _J("right_hip"): (_J("right_knee"), _J("right_ankle"), (1, 0, 0)),
+    _J("left_hip"): (_J("left_knee"), _J("left_ankle"), (1, 0, 0)),
+    _J("left_shoulder"): (_J("left_elbow"), _J("left_wrist"), (0, -1, 0)),
+    _J("right_shoulder"): (_J("right_elbow"), _J("right_wrist"), (0, 1, 0)),
+}
+_LOWER = {lower: (upper, end, axis) for upper, (lower, end, axis) in LIMBS.items()}
+
+# Intrinsic Euler order of each joint's local rotation (the BVH channel order). The middle axis is
+# the one where gimbal lock sits at 90 degrees: the bone's own axis (twist) for limbs and trunk,
+# the pitch for the root (whose heading turns freely).
+_LEG, _ARM = "ZYX", "ZXY"
+EULER_ORDERS: tuple[str, ...] = ("YXZ", _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG) + (_ARM,) * 6
+
+# Limbs blend from the parent's swung axis to the plane normal between these sines of the bend
+# (15-37 degrees) and these cosines between the normal and the swung axis (73-45 degrees).
+_BEND_SIN, _AXIS_AGREE = (0.25, 0.6), (0.3, 0.7)
+# Weights of the vectors fitted to a rigid body: left, right and midline child, and the parent.
+_BODY_WEIGHTS = np.array([1.0, 1.0, 0.5, 1.0])
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -43,6 +93,11 @@ def _skew(v: np.ndarray) -> np.ndarray:
     x, y, z = np.moveaxis(v, -1, 0)
     zero = np.zeros_like(x)
     return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
+
+
+def _apply(rot: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``rot @ v`` for rotations (..., 3, 3) and vectors (..., 3) or (3,)."""
+    return np.einsum("...ij,...j->...i", rot, v)
 
 
 def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -65,49 +120,243 @@ def two_vector_frame(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
     return np.stack([e1, e2, np.cross(e1, e2)], axis=-1)
 
 
+def kabsch(rest: np.ndarray, seen: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Rotations (T, 3, 3) minimising ``sum_k w_k |R rest_k - seen_k|^2``, rest (K, 3), seen (T, K, 3), weights (K,)."""
+    h = np.einsum("k,ki,tkj->tij", weights, rest, seen)
+    u, _, vt = np.linalg.svd(h)
+    d = np.sign(np.linalg.det(np.swapaxes(vt, -1, -2) @ np.swapaxes(u, -1, -2)))
+    fix = np.broadcast_to(np.eye(3), h.shape).copy()
+    fix[:, 2, 2] = np.where(d == 0, 1.0, d)
+    return np.swapaxes(vt, -1, -2) @ fix @ np.swapaxes(u, -1, -2)
+
+
+def body_directions(positions: np.ndarray) -> np.ndarray:
+    """Per frame, each body child's direction in its body's own frame, (T, 2, 3, 3) for BODIES in order.
+
+    A body's frame: x from its right child to its left child, y towards the midline child (made
+    orthogonal), z = x cross y (forward).
+    """
+    out = []
+    for j, (left, right, mid) in BODIES.items():
+        frame = two_vector_frame(positions[:, left] - positions[:, right], positions[:, mid] - positions[:, j])
+        local = np.einsum("tji,tkj->tki", frame, positions[:, [left, right, mid]] - positions[:, j, None])
+        out.append(_unit(local))
+    return np.stack(out, axis=1)
+
+
+def rest_offsets(lengths: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Rest offsets (17, 3) from bone lengths (T, 16) and body directions (T, 2, 3, 3) of the clip's frames.
+
+    Each bone gets its median length over the frames; limbs and midline bones their T-pose
+    direction; a body's children the median of their measured directions in the body's frame.
+    """
+    length = np.nanmedian(lengths, axis=0)
+    offsets = np.zeros((NUM_JOINTS, 3))
+    for b, (child, _) in enumerate(BONES):
+        offsets[child] = REST_DIRECTIONS[child] * length[b]
+    median_dirs = _unit(np.nanmedian(directions, axis=0))
+    for (_, kids), dirs in zip(BODIES.items(), median_dirs):
+        for kid, d in zip(kids, dirs):
+            offsets[kid] = d * np.linalg.norm(offsets[kid])
+    return offsets
+
+
+def _ramp(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Smoothstep of ``x`` from 0 at ``lo`` to 1 at ``hi``."""
+    w = np.clip((x - lo) / (hi - lo), 0.0, 1.0)
+    return w * w * (3 - 2 * w)
+
+
+def _hinge_axes(parent_rot: np.ndarray, rest_dir: np.ndarray, rest_axis: np.ndarray, upper, lower) -> np.ndarray:
+    """Unit hinge axes (T, 3) of a limb, perpendicular to its upper bone.
+
+    The default is the parent's rest axis carried by the smallest rotation onto the upper bone.
+    The plane's normal takes over, continuously, where the limb is clearly bent about an axis
+    near the default one (a straight limb's plane, or a sideways bend, is noise); its sign is
+    that of the default, so a hyperextended joint keeps its axis.
+    """
+    d1, d2 = _unit(upper), _unit(lower)
+    normal = np.cross(d1, d2)
+    sine = np.linalg.norm(normal, axis=-1, keepdims=True)
+    neutral = _apply(parent_rot, rest_dir)
+    default = _apply(rotation_between(_unit(neutral), d1), _apply(parent_rot, rest_axis))
+    normal = normal / np.maximum(sine, 1e-12)
+    agree = np.sum(normal * default, axis=-1, keepdims=True)
+    w = _ramp(sine, *_BEND_SIN) * _ramp(np.abs(agree), *_AXIS_AGREE)
+    axis = w * np.sign(agree) * normal + (1 - w) * default
+    return _unit(axis - np.sum(axis * d1, axis=-1, keepdims=True) * d1)
+
+
 def fit_rotations(positions: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """Global joint rotations (T, 17, 3, 3) for BVH-axes positions (T, 17, 3) and rest ``offsets`` (17, 3).
 
-    Each joint aims from where the fitted chain has put it (not from its observed
+    Each joint is rotated from where the fitted chain has put it (not from its observed
     position), so a bone-length mismatch is not passed on to the joints below.
     """
     T = positions.shape[0]
     rot = np.zeros((T, NUM_JOINTS, 3, 3))
     fitted = np.zeros((T, NUM_JOINTS, 3))
+    hinge: dict[int, np.ndarray] = {}
+    x_axis = np.array([1.0, 0.0, 0.0])
     for j in range(NUM_JOINTS):
         p = PARENTS[j]
-        if p < 0:
-            parent_rot, fitted[:, j] = np.broadcast_to(np.eye(3), (T, 3, 3)), positions[:, j]
-        else:
-            parent_rot, fitted[:, j] = rot[:, p], fitted[:, p] + rot[:, p] @ offsets[j]
+        fitted[:, j] = positions[:, j] if p < 0 else fitted[:, p] + _apply(rot[:, p], offsets[j])
         kids = CHILDREN[j]
-        if not kids:
-            rot[:, j] = parent_rot
-        elif len(kids) == 1:
-            rest = _unit(parent_rot @ offsets[kids[0]])
-            seen = _unit(positions[:, kids[0]] - fitted[:, j])
-            rot[:, j] = rotation_between(rest, seen) @ parent_rot
-        else:
-            left, right, mid = LATERAL_CHILDREN[j]
-            rest = two_vector_frame(offsets[left] - offsets[right], offsets[mid])
-            seen = two_vector_frame(positions[:, left] - positions[:, right], positions[:, mid] - fitted[:, j])
-            rot[:, j] = seen @ rest.T
+        if j in BODIES:  # its children and, for the thorax, the way back to the spine
+            kids = BODIES[j]
+            rest, seen = offsets[list(kids)], positions[:, list(kids)] - fitted[:, j, None]
+            weights = _BODY_WEIGHTS[:3]
+            if p >= 0:
+                rest = np.concatenate([rest, -offsets[j][None]])
+                seen = np.concatenate([seen, (positions[:, p] - fitted[:, j])[:, None]], axis=1)
+                weights = _BODY_WEIGHTS
+            rot[:, j] = kabsch(rest, seen, weights)
+        elif j == _SPINE:  # aimed at the thorax, rolled with the hips' and shoulders' lateral axes
+            left, right, _ = BODIES[_J("thorax")]
+            lateral = _unit(positions[:, left] - positions[:, right]) + _apply(rot[:, p], x_axis)
+            rest = two_vector_frame(offsets[kids[0]], x_axis)
+            rot[:, j] = two_vector_frame(positions[:, kids[0]] - fitted[:, j], lateral) @ rest.T
+        elif j == _NECK:  # the smallest turn from the thorax that aims it at the head
+            neutral = _unit(_apply(rot[:, p], offsets[kids[0]]))
+            rot[:, j] = rotation_between(neutral, _unit(positions[:, kids[0]] - fitted[:, j])) @ rot[:, p]
+        elif j in LIMBS:
+            lower, end, axis = LIMBS[j]
+            rest_axis = np.asarray(axis, dtype=np.float64)
+            hinge[j] = _hinge_axes(
+                rot[:, p],
+                _unit(offsets[lower]),
+                rest_axis,
+                positions[:, lower] - positions[:, j],
+                positions[:, end] - positions[:, lower],
+            )
+            rest = two_vector_frame(offsets[lower], rest_axis)
+            rot[:, j] = two_vector_frame(positions[:, lower] - fitted[:, j], hinge[j]) @ rest.T
+        elif j in _LOWER:
+            upper, end, axis = _LOWER[j]
+            rest = two_vector_frame(offsets[end], np.asarray(axis, dtype=np.float64))
+            rot[:, j] = two_vector_frame(positions[:, end] - fitted[:, j], hinge[upper]) @ rest.T
+        else:  # leaves: wrists, ankles, head
+            rot[:, j] = rot[:, p]
     return rot
 
 
-def local_euler(global_rot: np.ndarray) -> np.ndarray:
-    """Local ZXY Euler angles (T, 17, 3) in degrees, as (z, x, y), from global rotations (T, 17, 3, 3)."""
+def _global_positions(rot: np.ndarray, root: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Joint positions (T, 17, 3) from global rotations (T, 17, 3, 3), root (T, 3) and offsets (17, 3)."""
+    pos = np.zeros(root.shape[:1] + (NUM_JOINTS, 3))
+    pos[:, 0] = root + offsets[0]
+    for j in range(1, NUM_JOINTS):
+        pos[:, j] = pos[:, PARENTS[j]] + _apply(rot[:, PARENTS[j]], offsets[j])
+    return pos
+
+
+def _ancestors(j: int) -> list[int]:
+    """Joints from the child of the root down to ``j`` (empty for the root)."""
+    path = []
+    while PARENTS[j] >= 0:
+        path.append(j)
+        j = PARENTS[j]
+    return path[::-1]
+
+
+_MOVERS = [p for p in range(NUM_JOINTS) if CHILDREN[p]]  # rotations that move some joint
+
+
+def refine_rotations(
+    rot: np.ndarray, positions: np.ndarray, offsets: np.ndarray, iterations: int = 4, damping: float = 1e-2
+) -> tuple[np.ndarray, np.ndarray]:
+    """Global rotations (T, 17, 3, 3) and root positions (T, 3) improved by damped Gauss-Newton on the forward-kinematics error.
+
+    Parameters are the root translation and a small rotation of each joint with children, applied
+    on the left (in the world frame); the rotation about each single-child bone's own axis leaves
+    every joint in place and so stays as given. ``damping`` is relative to the squared bone scale.
+    Finally the neck is turned so that the neck-to-head bone points exactly as in ``positions``.
+    """
+    rot = rot.copy()
+    T = len(rot)
+    root = positions[:, 0].copy()
+    scale2 = float(np.mean(np.sum(offsets**2, axis=-1)))
+    cols = {p: 3 + 3 * i for i, p in enumerate(_MOVERS)}
+    n = 3 + 3 * len(_MOVERS)
+    paths = [_ancestors(j) for j in range(NUM_JOINTS)]
+    for _ in range(iterations):
+        pos = _global_positions(rot, root, offsets)
+        residual = (pos - positions).reshape(T, -1)  # (T, 51)
+        jac = np.zeros((T, 3 * NUM_JOINTS, n))
+        for j, path in enumerate(paths):
+            jac[:, 3 * j : 3 * j + 3, 0:3] = np.eye(3)
+            for c in path:
+                p = PARENTS[c]
+                jac[:, 3 * j : 3 * j + 3, cols[p] : cols[p] + 3] = -_skew(_apply(rot[:, p], offsets[c]))
+        jtj = np.swapaxes(jac, 1, 2) @ jac + damping * scale2 * np.eye(n)
+        step = np.linalg.solve(jtj, -np.einsum("tki,tk->ti", jac, residual)[..., None])[..., 0]
+        root += step[:, 0:3]
+        for p, c in cols.items():
+            delta = Rotation.from_rotvec(step[:, c : c + 3]).as_matrix()
+            rot[:, p] = delta @ rot[:, p]
+    # the head's direction is the data's own (a 5 cm bone whose angle matters more than its end)
+    bone = _unit(_apply(rot[:, _NECK], offsets[_HEAD]))
+    rot[:, _NECK] = rotation_between(bone, _unit(positions[:, _HEAD] - positions[:, _NECK])) @ rot[:, _NECK]
+    for j in range(NUM_JOINTS):  # leaves follow their parent again
+        if not CHILDREN[j]:
+            rot[:, j] = rot[:, PARENTS[j]]
+    return rot, root
+
+
+def local_rotations(global_rot: np.ndarray) -> np.ndarray:
+    """Local rotations (T, 17, 3, 3), each relative to its parent, from global ones."""
     parent_rot = np.concatenate(
         [np.broadcast_to(np.eye(3), global_rot[:, :1].shape), global_rot[:, list(PARENTS[1:])]], axis=1
     )
-    local = np.swapaxes(parent_rot, -1, -2) @ global_rot
+    return np.swapaxes(parent_rot, -1, -2) @ global_rot
+
+
+def local_euler(global_rot: np.ndarray) -> np.ndarray:
+    """Local Euler angles (T, 17, 3) in degrees, each joint in its :data:`EULER_ORDERS` order."""
+    local = local_rotations(global_rot)
+    out = np.zeros(global_rot.shape[:2] + (3,))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # gimbal lock: angles still reproduce the matrix
-        angles = Rotation.from_matrix(local.reshape(-1, 3, 3)).as_euler(EULER_ORDER, degrees=True)
-    return angles.reshape(global_rot.shape[0], NUM_JOINTS, 3)
+        for j, order in enumerate(EULER_ORDERS):
+            out[:, j] = Rotation.from_matrix(local[:, j]).as_euler(order, degrees=True)
+    return out
+
+
+def continuous_euler(angles: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    """Euler angles (T, J, 3) degrees re-expressed frame by frame as the equivalent angles nearest the previous.
+
+    Each Tait-Bryan rotation has two angle triples, ``(a, b, c)`` and ``(a + 180, 180 - b, c + 180)``,
+    and each angle is defined modulo 360: the one closest to the frame before is kept (``previous``
+    (J, 3) is the frame before the first, e.g. the last of the previous chunk).
+    """
+    alt = angles + np.array([180.0, 0.0, 180.0])
+    alt[..., 1] = 180.0 - angles[..., 1]
+    out = np.empty_like(angles)
+    prev = previous
+    for t in range(len(angles)):
+        if prev is None:
+            out[t] = angles[t]
+        else:
+            a = prev + (angles[t] - prev + 180.0) % 360.0 - 180.0
+            b = prev + (alt[t] - prev + 180.0) % 360.0 - 180.0
+            keep = np.abs(a - prev).sum(-1) <= np.abs(b - prev).sum(-1)
+            out[t] = np.where(keep[:, None], a, b)
+        prev = out[t]
+    return out
 
 
 def euler_to_matrix(euler: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) ``Rz @ Rx @ Ry`` from ZXY Euler degrees (..., 3) given as (z, x, y)."""
-    flat = Rotation.from_euler(EULER_ORDER, np.reshape(euler, (-1, 3)), degrees=True).as_matrix()
-    return flat.reshape(*np.shape(euler)[:-1], 3, 3)
+    """Local rotation matrices (T, 17, 3, 3) from Euler degrees (T, 17, 3) in each joint's :data:`EULER_ORDERS`."""
+    out = np.zeros(euler.shape[:2] + (3, 3))
+    for j, order in enumerate(EULER_ORDERS):
+        out[:, j] = Rotation.from_euler(order, euler[:, j], degrees=True).as_matrix()
+    return out
+
+
+def forward_kinematics(euler: np.ndarray, root: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """BVH-axes joint positions (T, 17, 3) from local Euler degrees (T, 17, 3), root (T, 3), offsets (17, 3)."""
+    local = euler_to_matrix(euler)
+    rot = np.zeros_like(local)
+    for j in range(NUM_JOINTS):
+        p = PARENTS[j]
+        rot[:, j] = local[:, j] if p < 0 else rot[:, p] @ local[:, j]
+    return _global_positions(rot, root, offsets)

@@ -8,7 +8,7 @@ from bvh import Bvh
 from export_helpers import climb_joints
 
 from platypose.exporters.bvh import write_bvh
-from platypose.lifting.skeleton import JOINT_NAMES
+from platypose.lifting.skeleton import BONES, JOINT_NAMES, bone_lengths
 
 
 def _axis_rotation(axis: str, degrees: np.ndarray) -> np.ndarray:
@@ -65,17 +65,58 @@ def test_bvh_structure_and_stated_fit_error(climb, tmp_path):
     positions, mocap = parse_positions(tmp_path / "clip.bvh")
     assert mocap.get_joints_names() == list(JOINT_NAMES)
     assert mocap.nframes == len(joints) and mocap.frame_time == pytest.approx(1 / fps, abs=1e-8)
-    root_channels = ["Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"]
+    root_channels = ["Xposition", "Yposition", "Zposition", "Yrotation", "Xrotation", "Zrotation"]
     assert mocap.joint_channels("pelvis") == root_channels
     assert mocap.joint_channels("left_elbow") == ["Zrotation", "Xrotation", "Yrotation"]
+    assert mocap.joint_channels("right_knee") == ["Zrotation", "Yrotation", "Xrotation"]
     text = (tmp_path / "clip.bvh").read_text()
     assert text.count("End Site") == 5
     error = np.linalg.norm(blender_world(positions) - joints, axis=-1)
     # the file holds exactly what the writer says: the stated error is the independently measured one
     assert fit.mean_m == pytest.approx(error.mean(), abs=1e-6) and fit.max_m == pytest.approx(error.max(), abs=1e-6)
-    assert fit.mean_m < 0.01 and fit.max_m < 0.06
-    legs = [JOINT_NAMES.index(n) for n in ("pelvis", "right_knee", "left_ankle")]
-    assert error[:, legs].max() < 1e-3
+    assert fit.mean_m < 0.006 and fit.max_m < 0.04
+    # a rigid skeleton: every bone has one length in every frame of the file
+    world = blender_world(positions)
+    lengths = bone_lengths(world)
+    assert np.ptp(lengths, axis=0).max() < 1e-5
+    # the head points exactly where the positions' head points
+    assert fit.head_deg < 0.01
+    head = world[:, JOINT_NAMES.index("head")] - world[:, JOINT_NAMES.index("neck")]
+    seen = joints[:, JOINT_NAMES.index("head")] - joints[:, JOINT_NAMES.index("neck")]
+    cos = np.sum(head * seen, -1) / np.linalg.norm(head, axis=-1) / np.linalg.norm(seen, axis=-1)
+    assert cos.min() > 1 - 1e-8
+
+
+def test_bvh_rotations_are_continuous(climb, tmp_path):
+    """No roll pops or Euler wraps: every channel and every joint's rotation changes a little per frame."""
+    joints, fps = climb
+    fit = write_bvh(joints, fps, tmp_path / "clip.bvh")
+    mocap = Bvh((tmp_path / "clip.bvh").read_text())
+    channels = np.array(mocap.frames, dtype=np.float64)[:, 3:]
+    # the real climb at 120 fps turns no bone by more than a few degrees per frame
+    data_step = _largest_bone_turn(joints)
+    assert data_step < 8.0
+    assert np.abs(np.diff(channels, axis=0)).max() < 4 * data_step
+    assert fit.step_deg < 2 * data_step
+    # a straight leg whose knee wobbles 2 mm sideways every frame (its plane flips: noise) keeps its roll
+    noisy = joints.copy()
+    hip, knee, ankle = (JOINT_NAMES.index(n) for n in ("left_hip", "left_knee", "left_ankle"))
+    down = noisy[:, ankle] - noisy[:, hip]
+    down /= np.linalg.norm(down, axis=-1, keepdims=True)
+    side = np.cross(down, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side, axis=-1, keepdims=True)
+    wobble = 0.002 * (-1.0) ** np.arange(len(noisy))[:, None] * side
+    noisy[:, knee] = noisy[:, hip] + 0.42 * down + wobble
+    noisy[:, ankle] = noisy[:, hip] + 0.83 * down
+    fit = write_bvh(noisy, fps, tmp_path / "noisy.bvh")
+    assert fit.step_deg < 2 * data_step and fit.max_m < 0.04
+
+
+def _largest_bone_turn(joints: np.ndarray) -> float:
+    """Largest angle (degrees) any bone of joints (T, 17, 3) turns between consecutive frames."""
+    bones = np.stack([joints[:, c] - joints[:, p] for c, p in BONES], axis=1)
+    bones /= np.linalg.norm(bones, axis=-1, keepdims=True)
+    return float(np.degrees(np.arccos(np.clip(np.sum(bones[1:] * bones[:-1], -1), -1, 1))).max())
 
 
 def test_clean_motion_round_trips_under_a_millimetre(climb, tmp_path):

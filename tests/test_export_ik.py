@@ -5,7 +5,15 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from platypose.exporters.ik import euler_to_matrix, local_euler, rotation_between, two_vector_frame
+from platypose.exporters.ik import (
+    EULER_ORDERS,
+    continuous_euler,
+    euler_to_matrix,
+    kabsch,
+    local_euler,
+    rotation_between,
+    two_vector_frame,
+)
 from platypose.lifting.skeleton import PARENTS
 
 
@@ -28,14 +36,44 @@ def test_two_vector_frame_keeps_the_primary_axis():
     np.testing.assert_allclose(frame, np.eye(3), atol=1e-12)
 
 
-def test_euler_zxy_matches_scipy_and_round_trips():
+def test_euler_per_joint_orders_match_scipy_and_round_trip():
     angles = np.random.default_rng(1).uniform(-170, 170, size=(50, 17, 3))
     angles[..., 1] = np.clip(angles[..., 1], -80, 80)  # away from gimbal lock, so angles are unique
     matrices = euler_to_matrix(angles)
-    expected = Rotation.from_euler("ZXY", angles.reshape(-1, 3), degrees=True).as_matrix().reshape(50, 17, 3, 3)
-    np.testing.assert_allclose(matrices, expected, atol=1e-12)
+    for j, order in enumerate(EULER_ORDERS):
+        expected = Rotation.from_euler(order, angles[:, j], degrees=True).as_matrix()
+        np.testing.assert_allclose(matrices[:, j], expected, atol=1e-12)
     # global rotations of a tree whose local rotations are ``matrices`` give the same angles back
     glob = np.zeros_like(matrices)
     for j, p in enumerate(PARENTS):
         glob[:, j] = matrices[:, j] if p < 0 else glob[:, p] @ matrices[:, j]
     np.testing.assert_allclose(local_euler(glob), angles, atol=1e-8)
+
+
+def test_continuous_euler_never_wraps_and_keeps_the_rotation():
+    """A joint turning steadily through 720 degrees about each axis in turn: channels follow without jumps."""
+    t = np.linspace(0, 720, 400)
+    truth = np.stack([t, 0.5 * np.sin(t / 40) * 100, -t], axis=-1)[:, None]  # (T, 1, 3), middle through +-50
+    raw = Rotation.from_euler("ZYX", truth[:, 0], degrees=True).as_euler("ZYX", degrees=True)[:, None]
+    assert np.abs(np.diff(raw, axis=0)).max() > 300  # what a per-frame decomposition gives
+    smooth = continuous_euler(raw)
+    assert np.abs(np.diff(smooth, axis=0)).max() < 5
+    back = Rotation.from_euler("ZYX", smooth[:, 0], degrees=True).as_matrix()
+    np.testing.assert_allclose(back, Rotation.from_euler("ZYX", truth[:, 0], degrees=True).as_matrix(), atol=1e-9)
+    # continuing from the last frame of an earlier chunk gives the same as one pass
+    np.testing.assert_allclose(continuous_euler(raw[200:], smooth[199]), smooth[200:], atol=1e-9)
+
+
+def test_kabsch_recovers_a_rotation_and_weights_count():
+    rng = np.random.default_rng(3)
+    truth = Rotation.random(20, random_state=4).as_matrix()
+    rest = rng.normal(size=(4, 3))
+    seen = np.einsum("tij,kj->tki", truth, rest)
+    np.testing.assert_allclose(kabsch(rest, seen, np.ones(4)), truth, atol=1e-10)
+    # a point that disagrees pulls the fit less when it weighs less
+    bad = seen.copy()
+    bad[:, 3] += 0.5
+    heavy = kabsch(rest, bad, np.ones(4))
+    light = kabsch(rest, bad, np.array([1.0, 1.0, 1.0, 0.01]))
+    angle = lambda a: np.degrees(Rotation.from_matrix(np.swapaxes(a, 1, 2) @ truth).magnitude())  # noqa: E731
+    assert angle(light).max() < angle(heavy).max()
