@@ -1,7 +1,10 @@
-"""Joint angles of every hypothesis, continuous in time, and their 5 / 50 / 95 % quantiles per frame.
+"""Joint angles of every hypothesis and their 5 / 50 / 95 % quantiles per frame.
 
-All angles are in degrees, computed from the 17 joints (world Z up), each one
-continuous in time (unwrapped: no 360-degree jumps), the sides named. Frames:
+All angles are in degrees, computed from the 17 joints (world Z up), the sides
+named. Each angle lives in a fixed 360-degree range (:data:`ANGLE_RANGES`)
+whose ends lie on a pose the joint cannot take (an arm raised backwards past
+120 degrees, a knee or elbow bent backwards past 90), so real motion never wraps: the
+same pose always reads the same number, and a series is continuous. Frames:
 
 - pelvis frame: ``left`` from the right to the left hip, ``up`` from the pelvis
   towards the spine (made perpendicular to ``left``), ``forward = left x up``;
@@ -56,6 +59,18 @@ ANGLE_NAMES: tuple[str, ...] = (
     "right_elbow_flexion",
     "left_elbow_flexion",
 )
+# Lower end of each angle's 360-degree range, [lo, lo + 360).
+ANGLE_RANGES: dict[str, float] = {
+    **{f"{s}_{a}": -120.0 for s in ("right", "left") for a in ("hip_flexion", "shoulder_flexion")},
+    **{f"{s}_{a}": -120.0 for s in ("right", "left") for a in ("hip_abduction", "shoulder_abduction")},
+    **{f"{s}_knee_flexion": -90.0 for s in ("right", "left")},
+    **{f"{s}_elbow_flexion": -90.0 for s in ("right", "left")},
+    "trunk_flexion": -120.0,
+    "trunk_lateral": -180.0,
+    "pelvis_tilt": -180.0,
+    "pelvis_obliquity": -180.0,
+}
+_LOWER_ENDS = np.array([ANGLE_RANGES[n] for n in ANGLE_NAMES])
 QUANTILES = (0.05, 0.5, 0.95)
 # Columns of a person's series: the angle of the median motion, then the hypotheses' quantiles.
 SERIES_COLUMNS = ("median", "q05", "q50", "q95")
@@ -83,7 +98,7 @@ def _plane_angle(v: np.ndarray, zero: np.ndarray, positive: np.ndarray) -> np.nd
 
 
 def joint_angles(joints: np.ndarray) -> np.ndarray:
-    """Angles (..., 16) degrees in :data:`ANGLE_NAMES` order of joints (..., 17, 3), each in (-180, 180]."""
+    """Angles (..., 16) degrees in :data:`ANGLE_NAMES` order of joints (..., 17, 3), each in its :data:`ANGLE_RANGES`."""
     j = lambda name: joints[..., J[name], :]  # noqa: E731
     p_left, p_up, p_fwd = _frame(j("left_hip") - j("right_hip"), j("spine") - j("pelvis"))
     t_left, t_up, t_fwd = _frame(j("left_shoulder") - j("right_shoulder"), j("thorax") - j("pelvis"))
@@ -109,40 +124,25 @@ def joint_angles(joints: np.ndarray) -> np.ndarray:
     out["pelvis_tilt"] = _plane_angle(j("spine") - j("pelvis"), _UP, heading)
     hips = _unit(j("left_hip") - j("right_hip"))
     out["pelvis_obliquity"] = np.degrees(np.arcsin(np.clip(_dot(hips, _UP), -1.0, 1.0)))
-    return np.stack([out[n] for n in ANGLE_NAMES], axis=-1)
-
-
-def _unwrap_from(values: np.ndarray, last: np.ndarray | None) -> np.ndarray:
-    """``values`` (..., t, A) degrees unwrapped along t, continuing from ``last`` (..., A) when given."""
-    if last is None:
-        return np.unwrap(values, period=360.0, axis=-2)
-    joined = np.concatenate([last[..., None, :], values], axis=-2)
-    return np.unwrap(joined, period=360.0, axis=-2)[..., 1:, :]
+    angles = np.stack([out[n] for n in ANGLE_NAMES], axis=-1)
+    return _LOWER_ENDS + (angles - _LOWER_ENDS) % 360.0
 
 
 def person_angle_series(result: LiftResult, p: int) -> np.ndarray:
     """Angles of person ``p`` per frame, (T, A, 4): the median motion's, then the hypotheses' 5/50/95 % quantiles.
 
-    Each series is continuous over the frames where the person is present (NaN elsewhere); every
-    hypothesis is put on the same 360-degree branch as the median motion at the first present frame.
+    NaN where the person is absent.
     """
     T, A = result.num_frames, len(ANGLE_NAMES)
     out = np.full((T, A, len(SERIES_COLUMNS)), np.nan)
     present = result.present()[p]
-    last_median = last_hyp = None
     for t in frame_chunks(T):
         on = np.flatnonzero(present[t])
-        if not len(on):
-            continue
-        median = _unwrap_from(joint_angles(np.asarray(result.median[p, t], np.float64)[on]), last_median)
-        hyp = joint_angles(np.asarray(result.hypotheses[p, :, t], np.float64)[:, on])  # (N, t_on, A)
-        if last_hyp is None:  # same branch as the median at the first frame
-            hyp[:, 0] += 360.0 * np.round((median[0] - hyp[:, 0]) / 360.0)
-        hyp = _unwrap_from(hyp, last_hyp)
-        rows = t.start + on
-        out[rows, :, 0] = median
-        out[rows, :, 1:] = np.moveaxis(np.quantile(hyp, QUANTILES, axis=0), 0, -1)
-        last_median, last_hyp = median[-1], hyp[:, -1]
+        if len(on):
+            rows = t.start + on
+            out[rows, :, 0] = joint_angles(np.asarray(result.median[p, t], np.float64)[on])
+            hyp = joint_angles(np.asarray(result.hypotheses[p, :, t], np.float64)[:, on])  # (N, t_on, A)
+            out[rows, :, 1:] = np.moveaxis(np.quantile(hyp, QUANTILES, axis=0), 0, -1)
     return out
 
 

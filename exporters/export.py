@@ -14,7 +14,7 @@ from platypose.exporters.npz import write_npz
 from platypose.exporters.result import LiftResult
 from platypose.lifting.errors import InputError
 
-FORMATS = ("npz", "csv", "bvh", "rrd")
+FORMATS = ("npz", "csv", "bvh", "trc", "c3d", "angles", "report", "rrd")
 BVH_MODES = ("median", "all")
 
 
@@ -50,6 +50,31 @@ def _write_bvhs(result: LiftResult, out_dir: Path, name: str, mode: str) -> tupl
                 "max_m": float(np.max([f.max_m for f in fits])),
             }
     return paths, errors
+
+
+def _write_markers(
+    result: LiftResult, out_dir: Path, name: str, formats: tuple[str, ...], say: Callable[[str], None]
+) -> list[Path]:
+    """TRC and/or C3D files per person (the median motion, gaps filled) and the gaps sidecar ``<name>_gaps.json``."""
+    from platypose.exporters.c3d_export import write_c3d
+    from platypose.exporters.markers import describe_gaps, fill_gaps, gaps_sidecar, read_frames
+    from platypose.exporters.trc import write_trc
+
+    paths: list[Path] = []
+    gaps: dict[str, list] = {}
+    for p, track in enumerate(result.track_ids):
+        joints = read_frames(Lead(result.median, p))
+        present = np.isfinite(joints).all(axis=(1, 2))
+        if not present.any():
+            continue
+        filled, gaps[f"p{track}"] = fill_gaps(joints, result.frame_times)
+        say(f"{name}: person {track} markers: {describe_gaps(gaps[f'p{track}'])}")
+        if "trc" in formats:
+            paths.append(write_trc(filled, result.frame_times, result.fps, out_dir / f"{name}_p{track}.trc"))
+        if "c3d" in formats:
+            paths.append(write_c3d(filled, present, result.fps, out_dir / f"{name}_p{track}.c3d"))
+    paths.append(gaps_sidecar(out_dir / f"{name}_gaps.json", gaps))
+    return paths
 
 
 def export(
@@ -88,6 +113,21 @@ def export(
         say(f"{name}: CSV")
         written.append(write_long_csv(result, out_dir / f"{name}.csv"))
         written.append(write_summary_csv(result, out_dir / f"{name}_summary.csv"))
+    if "trc" in formats or "c3d" in formats:
+        say(f"{name}: {' and '.join(f.upper() for f in formats if f in ('trc', 'c3d'))} markers")
+        written += _write_markers(result, out_dir, name, formats, say)
+    if "angles" in formats or "report" in formats:
+        from platypose.exporters.angles import angle_series, write_angles_csv
+
+        series = angle_series(result)
+        if "angles" in formats:
+            say(f"{name}: joint angles")
+            written.append(write_angles_csv(result, series, out_dir / f"{name}_angles.csv"))
+        if "report" in formats:
+            from platypose.exporters.report import write_report
+
+            say(f"{name}: report picture")
+            written.append(write_report(result, series, name, out_dir / f"{name}_report.png"))
     if "rrd" in formats:
         from platypose.exporters.rrd import write_rrd
 

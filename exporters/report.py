@@ -1,0 +1,102 @@
+"""The report picture of one input (``<name>_report.png``): per person, what a coach or clinician looks at first.
+
+One row per person: leg angles and arm/trunk angles over time (the median
+motion's line and the hypotheses' 5-95 % band), the pelvis path seen from
+above with every camera, and both ankle heights above the lowest ankle of the
+clip. Drawn with matplotlib's Agg backend (no display needed).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from platypose.exporters.angles import ANGLE_NAMES
+from platypose.exporters.frames import frame_chunks
+from platypose.exporters.result import LiftResult
+from platypose.lifting.atomic import atomic_path
+from platypose.lifting.skeleton import JOINT_INDEX
+
+LEG_ANGLES = ("right_hip_flexion", "left_hip_flexion", "right_knee_flexion", "left_knee_flexion")
+UPPER_ANGLES = ("trunk_flexion", "right_shoulder_flexion", "left_shoulder_flexion", "right_elbow_flexion")
+_COLOURS = ("tab:red", "tab:blue", "tab:orange", "tab:cyan")
+MAX_ROWS = 8  # persons drawn (the longest present first)
+
+
+def _camera_centres(result: LiftResult) -> np.ndarray:
+    """World positions (C, 3) of the cameras: ``-R^T t``."""
+    return np.stack([-np.asarray(c.R).T @ np.asarray(c.t) for c in result.cameras])
+
+
+def _track(result: LiftResult, p: int, joint: str) -> np.ndarray:
+    """One joint's median path (T, 3) of person ``p``, NaN where absent."""
+    j = JOINT_INDEX[joint]
+    return np.concatenate([np.asarray(result.median[p, t, j], np.float64) for t in frame_chunks(result.num_frames)])
+
+
+def _plot_angles(ax, times: np.ndarray, series: np.ndarray, names: tuple[str, ...]) -> None:
+    """Median-motion lines and 5-95 % bands of ``names`` from a person's series (T, A, 4)."""
+    for name, colour in zip(names, _COLOURS):
+        a = ANGLE_NAMES.index(name)
+        ax.fill_between(times, series[:, a, 1], series[:, a, 3], color=colour, alpha=0.18, linewidth=0)
+        ax.plot(times, series[:, a, 0], color=colour, linewidth=1.2, label=name.replace("_", " "))
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("degrees")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+
+
+def write_report(result: LiftResult, series: dict[int, np.ndarray], name: str, path: Path | str) -> Path:
+    """Draw the report of ``result`` with its angle ``series`` (per person index, (T, A, 4)) to ``path`` atomically."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    path = Path(path)
+    persons = sorted(series, key=lambda p: -np.isfinite(series[p][:, 0, 0]).sum())[:MAX_ROWS]
+    rows = max(len(persons), 1)
+    fig = Figure(figsize=(18, 3.6 * rows + 0.8), dpi=100, layout="constrained")
+    axes = fig.subplots(rows, 4, squeeze=False, width_ratios=[3, 3, 2, 3])
+    times = result.frame_times
+    cams = _camera_centres(result)
+    title = f"{name}: {result.num_persons} person(s), {result.num_hypotheses} hypotheses, "
+    title += f"{result.num_frames} frames at {result.fps:g} fps, {len(result.cameras)} camera(s)"
+    fig.suptitle(title + "  (lines: median motion; bands: 5-95 % of the hypotheses)", fontsize=11)
+    for row, p in enumerate(persons):
+        track = int(result.track_ids[p])
+        s = series[p]
+        _plot_angles(axes[row, 0], times, s, LEG_ANGLES)
+        axes[row, 0].set_title(f"person {track}: hips and knees", fontsize=10)
+        _plot_angles(axes[row, 1], times, s, UPPER_ANGLES)
+        axes[row, 1].set_title(f"person {track}: trunk, shoulders, elbow", fontsize=10)
+        ax = axes[row, 2]
+        pelvis = _track(result, p, "pelvis")
+        ax.plot(pelvis[:, 0], pelvis[:, 1], color="tab:green", linewidth=1.5, label="pelvis")
+        ok = np.flatnonzero(np.isfinite(pelvis[:, 0]))
+        if len(ok):
+            ax.plot(*pelvis[ok[0], :2], "o", color="tab:green", label="start")
+        ax.plot(cams[:, 0], cams[:, 1], "k^", label="cameras")
+        for c, camera in enumerate(result.cameras):
+            ax.annotate(camera.name, cams[c, :2], fontsize=7, xytext=(3, 3), textcoords="offset points")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_title(f"person {track}: pelvis path from above", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+        ax = axes[row, 3]
+        right, left = _track(result, p, "right_ankle")[:, 2], _track(result, p, "left_ankle")[:, 2]
+        floor = np.nanmin(np.concatenate([right, left]))
+        ax.plot(times, 100 * (right - floor), color="tab:red", label="right ankle")
+        ax.plot(times, 100 * (left - floor), color="tab:blue", label="left ankle")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("cm above the lowest ankle")
+        ax.set_title(f"person {track}: ankle heights", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right")
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as stream:
+            fig.savefig(stream, format="png")
+    return path
