@@ -201,7 +201,7 @@ def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit
     pick = nearest_present(present)  # absent frames hold the nearest present pose
     offsets = fit_skeleton(joints, present)
     rigid = np.array([np.linalg.norm(offsets[child]) for child, _ in BONES]) / CM_PER_M
-    header = _hierarchy(offsets) + ["MOTION", f"Frames: {T}", f"Frame Time: {1.0 / fps:.8f}"]
+    header = _hierarchy(offsets) + ["MOTION", f"Frames: {T}", f"Frame Time: {1.0 / fps:.12g}"]
     total, count, largest, head, step, stretch = 0.0, 0, 0.0, 0.0, 0.0, 0.0
     previous, last_rot = None, None
     with atomic_open(path, "w", encoding="ascii", newline="\n") as f:

@@ -1,7 +1,8 @@
 """The one module that talks to rerun-sdk (pinned 0.41.x): thin functions over arrays.
 
 Everything time-varying is sent with columnar ``send_columns`` on two timelines,
-``time`` (seconds, the shared clock) and, for per-frame data, ``frame``.
+``time`` (the shared clock, whole nanoseconds rounded from seconds, so that the
+same second always gives the same stamp) and ``frame`` (output frame index).
 """
 
 from __future__ import annotations
@@ -29,11 +30,15 @@ class ClassStyle:
 
 @dataclass(frozen=True)
 class Layout:
-    """The default blueprint: one 3D view, one 2D view per camera, and the plots."""
+    """The default blueprint: the 3D world beside the camera views (a grid), per-person plots and a text below."""
 
     world: str
     camera_views: tuple[tuple[str, str], ...]  # (entity path, title)
-    plots: tuple[tuple[str, str], ...]  # (entity path, title)
+    camera_columns: int  # columns of the camera grid
+    spread_plots: tuple[tuple[str, str], ...]  # (entity path, title), one per person
+    energy_plots: tuple[tuple[str, str], ...]  # (entity path, title), one per person
+    text: tuple[str, str] | None  # (entity path, title) of a text document
+    fps: float  # playback rate of the frame timeline
 
 
 def open_recording(path: Path, application_id: str, recording_name: str, layout: Layout) -> rr.RecordingStream:
@@ -56,19 +61,35 @@ def close_recording(rec: rr.RecordingStream) -> None:
 
 
 def _blueprint(layout: Layout) -> rrb.Blueprint:
-    """Blueprint object for ``layout``."""
-    view3d = rrb.Spatial3DView(origin=layout.world, name="3D hypotheses")
+    """Blueprint object for ``layout``; it opens paused (at the start of the recording)."""
+    view3d = rrb.Spatial3DView(origin=layout.world, name="3D: hypotheses, median, cameras")
     cameras = [rrb.Spatial2DView(origin=origin, name=title) for origin, title in layout.camera_views]
-    plots = [rrb.TimeSeriesView(origin=origin, name=title) for origin, title in layout.plots]
-    right = [rrb.Vertical(*cameras)] if cameras else []
-    right += [rrb.Vertical(*plots)] if plots else []
-    main = rrb.Horizontal(view3d, rrb.Vertical(*right), column_shares=[3, 2]) if right else view3d
-    return rrb.Blueprint(main, rrb.TimePanel(timeline=TIME), collapse_panels=False)
+    top: rrb.Container | rrb.View = view3d
+    if cameras:
+        grid = cameras[0] if len(cameras) == 1 else rrb.Grid(*cameras, grid_columns=layout.camera_columns)
+        top = rrb.Horizontal(view3d, grid, column_shares=[1, 1])
+    bottom: list[rrb.Container | rrb.View] = []
+    spread = [rrb.TimeSeriesView(origin=o, name=t) for o, t in layout.spread_plots]
+    energy = [rrb.TimeSeriesView(origin=o, name=t) for o, t in layout.energy_plots]
+    if spread:
+        bottom.append(rrb.Grid(*spread) if len(spread) > 1 else spread[0])
+    if energy:
+        bottom.append(rrb.Tabs(*energy) if len(energy) > 1 else energy[0])
+    if layout.text is not None:
+        bottom.append(rrb.TextDocumentView(origin=layout.text[0], name=layout.text[1]))
+    main = rrb.Vertical(top, rrb.Horizontal(*bottom), row_shares=[3, 1]) if bottom else top
+    panel = rrb.TimePanel(timeline=TIME, fps=layout.fps, play_state="paused")
+    return rrb.Blueprint(main, panel, collapse_panels=False)
+
+
+def nanoseconds(seconds: np.ndarray) -> np.ndarray:
+    """Seconds (float) as whole nanoseconds (int64), rounded: the stamps every entity is logged at."""
+    return np.round(np.asarray(seconds, dtype=np.float64) * 1e9).astype(np.int64)
 
 
 def _indexes(times: np.ndarray, frames: np.ndarray | None) -> list[rr.TimeColumn]:
     """Time (and frame) index columns."""
-    cols = [rr.TimeColumn(TIME, duration=np.asarray(times, dtype=np.float64))]
+    cols = [rr.TimeColumn(TIME, duration=nanoseconds(times).astype("timedelta64[ns]"))]
     if frames is not None:
         cols.append(rr.TimeColumn(FRAME, sequence=np.asarray(frames, dtype=np.int64)))
     return cols
@@ -202,21 +223,59 @@ def send_series(
     rr.send_columns(entity, indexes=_indexes(times, frames), columns=rr.Scalars.columns(scalars=values), recording=rec)
 
 
-def log_video_asset(rec: rr.RecordingStream, entity: str, video: Path, time_offset_s: float) -> int:
-    """Embed an MP4 (H.264/AV1) and reference each of its frames at its own time + offset; returns the frame count."""
+def log_video_asset(rec: rr.RecordingStream, entity: str, video: Path) -> np.ndarray:
+    """Embed an MP4 (H.264/AV1) as a static asset; return its frame timestamps in nanoseconds (V,)."""
     asset = rr.AssetVideo(path=video)
     rec.log(entity, asset, static=True)
-    nanos = asset.read_frame_timestamps_nanos()
-    rr.send_columns(
-        entity,
-        indexes=[rr.TimeColumn(TIME, duration=nanos / 1e9 + time_offset_s)],
-        columns=rr.VideoFrameReference.columns_nanos(nanos),
-        recording=rec,
-    )
-    return len(nanos)
+    return np.asarray(asset.read_frame_timestamps_nanos(), dtype=np.int64)
 
 
-def send_jpeg_frames(rec: rr.RecordingStream, entity: str, times: np.ndarray, blobs: Sequence[bytes]) -> None:
-    """Video frames as JPEG images at ``times`` seconds."""
-    columns = rr.EncodedImage.columns(blob=list(blobs), media_type=["image/jpeg"] * len(blobs))
-    rr.send_columns(entity, indexes=_indexes(times, None), columns=columns, recording=rec)
+def send_video_references(
+    rec: rr.RecordingStream, entity: str, video_nanos: np.ndarray, stamps_ns: np.ndarray, frames: np.ndarray
+) -> None:
+    """Show the asset's frames (timestamps ``video_nanos`` (V,)) at clock stamps ``stamps_ns`` (V,) ns.
+
+    Frames with ``frames`` (V,) >= 0 are also put on the frame timeline at that output frame.
+    """
+    for rows, with_frames in ((frames >= 0, True), (frames < 0, False)):
+        if rows.any():
+            indexes = [rr.TimeColumn(TIME, duration=stamps_ns[rows].astype("timedelta64[ns]"))]
+            if with_frames:
+                indexes.append(rr.TimeColumn(FRAME, sequence=frames[rows]))
+            columns = rr.VideoFrameReference.columns_nanos(video_nanos[rows])
+            rr.send_columns(entity, indexes=indexes, columns=columns, recording=rec)
+
+
+def send_jpeg_frames(
+    rec: rr.RecordingStream, entity: str, stamps_ns: np.ndarray, frames: np.ndarray, blobs: Sequence[bytes]
+) -> None:
+    """Video frames as JPEG images at clock stamps ``stamps_ns`` (B,) ns; ``frames`` >= 0 also on the frame timeline."""
+    for rows, with_frames in ((frames >= 0, True), (frames < 0, False)):
+        idx = np.flatnonzero(rows)
+        if len(idx):
+            indexes = [rr.TimeColumn(TIME, duration=stamps_ns[idx].astype("timedelta64[ns]"))]
+            if with_frames:
+                indexes.append(rr.TimeColumn(FRAME, sequence=frames[idx]))
+            picked = [blobs[i] for i in idx]
+            columns = rr.EncodedImage.columns(blob=picked, media_type=["image/jpeg"] * len(picked))
+            rr.send_columns(entity, indexes=indexes, columns=columns, recording=rec)
+
+
+def send_labels_3d(
+    rec: rr.RecordingStream,
+    entity: str,
+    times: np.ndarray,
+    frames: np.ndarray,
+    points: np.ndarray,
+    label: str,
+    rgba: tuple[int, int, int, int],
+) -> None:
+    """One labelled point per frame (T, 3), e.g. a person's name floating above the head."""
+    rec.log(entity, rr.Points3D.from_fields(labels=[label], colors=[rgba], radii=0.01, show_labels=True), static=True)
+    columns = rr.Points3D.columns(positions=np.asarray(points, dtype=np.float32))
+    rr.send_columns(entity, indexes=_indexes(times, frames), columns=columns, recording=rec)
+
+
+def log_text(rec: rr.RecordingStream, entity: str, markdown: str) -> None:
+    """A static Markdown document."""
+    rec.log(entity, rr.TextDocument(markdown, media_type=rr.MediaType.MARKDOWN), static=True)

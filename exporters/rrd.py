@@ -4,14 +4,20 @@ Entity paths (all under a Z-up ``world``):
 
 - ``world/cameras/<cam>``: camera pose and pinhole; ``.../video``: the video;
   ``.../keypoints/p<id>``: 2D keypoints of person ``<id>`` (confidence > 0).
-- ``world/people/p<id>/hypotheses``: every hypothesis as a skeleton, one
-  annotation class per hypothesis (class id = hypothesis index);
-  ``.../median``: the median skeleton (joints in the median class) and
-  ``.../median/bones``: its bones as thick orange lines;
-  ``.../spread``: a wireframe sphere per joint at the median, radius = RMS
-  distance of the hypotheses to the median (the per-joint spread).
+- ``world/people/p<id>``: the person's annotation classes, in the person's own
+  hue: ``.../hypotheses``: every hypothesis as a skeleton (class id =
+  hypothesis index, muted shades of the hue); ``.../median``: the median
+  skeleton (class id N, the bright hue) and ``.../median/bones``: its bones as
+  thick lines; ``.../spread``: a wireframe sphere per joint at the median,
+  radius = RMS distance of the hypotheses to the median; ``.../label``: the
+  person's name above the head (with "check" when a quality flag is raised).
 - ``plots/energy/p<id>``: energy over hypotheses (5%, median, 95%) per frame;
-  ``plots/spread/p<id>``: mean per-joint spread in millimetres.
+  ``plots/spread/p<id>``: mean per-joint spread in millimetres, one plot each.
+- ``quality``: a Markdown summary per person (frames, spread, BVH fit, flags) and the warnings.
+
+Videos are shown on both timelines: a video frame is put on the ``frame``
+timeline at the output frame whose time it has (within half a frame), and its
+clock stamp is that frame's exact stamp.
 """
 
 from __future__ import annotations
@@ -32,18 +38,46 @@ from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS
 
 VIDEO_MODES = ("asset", "frames", "none")
-MEDIAN_CLASS = 65000
-KEYPOINTS_CLASS = 65001
-MEDIAN_RGBA = (255, 140, 0, 255)
-KEYPOINTS_RGBA = (40, 230, 120, 255)
-SPREAD_RGBA = (255, 200, 90, 255)
-ENERGY_RGBA = ((120, 160, 255, 255), (255, 255, 255, 255), (255, 120, 160, 255))
+KEYPOINTS_CLASS = 0
+ENERGY_SHADES = (0.55, 1.0, 0.55)  # value of the 5 %, median and 95 % lines in the person's hue
+LABEL_HEIGHT_M = 0.25  # the name floats this far above the head
+SPREAD_FLAG_M = 0.15  # a person whose mean joint spread exceeds this is flagged
+STRETCH_FLAG_M = 0.10  # ... or whose BVH had to absorb a bone stretching by more than this
+# The camera views share a region of about this aspect (width / height) beside the 3D view.
+CAMERA_REGION = (800.0, 700.0)
 
 
-def hypothesis_colours(count: int) -> list[tuple[int, int, int, int]]:
-    """Distinct muted colours for ``count`` hypotheses (hues from cyan to violet), so the median stands out."""
-    hues = np.linspace(0.45, 0.8, count) if count > 1 else [0.6]
-    return [tuple(int(255 * c) for c in colorsys.hsv_to_rgb(h, 0.5, 0.7)) + (255,) for h in hues]
+def _rgba(hue: float, saturation: float, value: float) -> tuple[int, int, int, int]:
+    return tuple(int(round(255 * c)) for c in colorsys.hsv_to_rgb(hue % 1.0, saturation, value)) + (255,)
+
+
+def person_hue(slot: int) -> float:
+    """Hue of the ``slot``-th person: golden-ratio steps from orange, so neighbours differ clearly."""
+    return 0.08 + 0.618034 * slot
+
+
+def person_colour(slot: int) -> tuple[int, int, int, int]:
+    """The bright colour of a person (median, bones, label, 2D keypoints, plots)."""
+    return _rgba(person_hue(slot), 0.85, 1.0)
+
+
+def hypothesis_colours(slot: int, count: int) -> list[tuple[int, int, int, int]]:
+    """Muted shades of the person's hue for ``count`` hypotheses, so the median stands out."""
+    values = np.linspace(0.55, 0.8, count) if count > 1 else [0.7]
+    return [_rgba(person_hue(slot), 0.45, v) for v in values]
+
+
+def camera_grid_columns(sizes_hw: list[tuple[int, int]], region: tuple[float, float] = CAMERA_REGION) -> int:
+    """Columns of the camera grid that give the images the largest on-screen size in ``region`` (w, h)."""
+    h = max(s[0] for s in sizes_hw)
+    w = max(s[1] for s in sizes_hw)
+    count = len(sizes_hw)
+
+    def scale(columns: int) -> float:
+        rows = -(-count // columns)
+        return min(region[0] / columns / w, region[1] / rows / h)
+
+    return max(range(1, count + 1), key=scale)
 
 
 def per_joint_spread(hypotheses: np.ndarray, median: np.ndarray) -> np.ndarray:
@@ -52,10 +86,21 @@ def per_joint_spread(hypotheses: np.ndarray, median: np.ndarray) -> np.ndarray:
 
 
 def _layout(result: LiftResult) -> rra.Layout:
-    """Default blueprint: 3D world, each camera view, energy and spread plots."""
+    """Default blueprint: 3D world beside a grid of the camera views; per-person plots and the quality summary below."""
     views = tuple((f"world/cameras/{c.name}", c.name) for c in result.cameras)
-    plots = (("plots/energy", "energy"),) if result.energy is not None else ()
-    return rra.Layout(world="world", camera_views=views, plots=plots + (("plots/spread", "spread (mm)"),))
+    present = result.present().any(axis=1)
+    tracks = [int(t) for p, t in enumerate(result.track_ids) if present[p]]
+    spread = tuple((f"plots/spread/p{t}", f"p{t} spread (mm)") for t in tracks)
+    energy = tuple((f"plots/energy/p{t}", f"p{t} energy") for t in tracks) if result.energy is not None else ()
+    return rra.Layout(
+        world="world",
+        camera_views=views,
+        camera_columns=camera_grid_columns([c.size for c in result.cameras]),
+        spread_plots=spread,
+        energy_plots=energy,
+        text=("quality", "quality"),
+        fps=result.fps,
+    )
 
 
 def bone_segments(joints: np.ndarray) -> np.ndarray:
@@ -65,17 +110,27 @@ def bone_segments(joints: np.ndarray) -> np.ndarray:
     return np.stack([joints[:, child], joints[:, parent]], axis=2)
 
 
-def _log_person(rec, result: LiftResult, p: int) -> None:
-    """Skeletons, median, spread and plots of person ``p`` on the frames where it is present, a chunk at a time."""
+def _log_person(rec, result: LiftResult, p: int, slot: int, label: str) -> None:
+    """Skeletons, median, spread, label and plots of person ``p`` (colour ``slot``) where present, a chunk at a time."""
+    track = result.track_ids[p]
+    colour = person_colour(slot)
+    classes = [
+        rra.ClassStyle(i, f"p{track} hypothesis {i}", c)
+        for i, c in enumerate(hypothesis_colours(slot, result.num_hypotheses))
+    ]
+    classes.append(rra.ClassStyle(result.num_hypotheses, f"p{track} median", colour))
+    rra.log_annotations(rec, f"world/people/p{track}", classes, JOINT_NAMES, BONES)
     present = result.present()[p]
     for t in frame_chunks(result.num_frames):
         on = np.flatnonzero(present[t])
         if len(on):
-            _log_person_frames(rec, result, p, t.start + on, result.hypotheses[p, :, t][:, on])
+            _log_person_frames(rec, result, p, t.start + on, result.hypotheses[p, :, t][:, on], colour, label)
             rra.flush(rec)
 
 
-def _log_person_frames(rec, result: LiftResult, p: int, idx: np.ndarray, hypotheses: np.ndarray) -> None:
+def _log_person_frames(
+    rec, result: LiftResult, p: int, idx: np.ndarray, hypotheses: np.ndarray, colour: tuple, label: str
+) -> None:
     """Person ``p`` at frames ``idx`` (T_on,) where it is present, with its ``hypotheses`` (N, T_on, 17, 3) there."""
     track = result.track_ids[p]
     base = f"world/people/p{track}"
@@ -102,7 +157,7 @@ def _log_person_frames(rec, result: LiftResult, p: int, idx: np.ndarray, hypothe
         idx,
         median.reshape(-1, 3),
         np.full(T_on, NUM_JOINTS),
-        np.full(NUM_JOINTS, MEDIAN_CLASS, dtype=np.uint16),
+        np.full(NUM_JOINTS, N, dtype=np.uint16),
         joint_ids,
         radius=0.02,
     )
@@ -114,8 +169,10 @@ def _log_person_frames(rec, result: LiftResult, p: int, idx: np.ndarray, hypothe
         bone_segments(median).reshape(-1, 2, 3),
         np.full(T_on, len(BONES)),
         radius=0.018,
-        rgba=MEDIAN_RGBA,
+        rgba=colour,
     )
+    head = median[:, JOINT_NAMES.index("head")] + [0.0, 0.0, LABEL_HEIGHT_M]
+    rra.send_labels_3d(rec, f"{base}/label", times, idx, head, label, colour)
     spread = per_joint_spread(hypotheses, median)
     rra.send_spheres_3d(
         rec,
@@ -125,7 +182,7 @@ def _log_person_frames(rec, result: LiftResult, p: int, idx: np.ndarray, hypothe
         median.reshape(-1, 3),
         spread.reshape(-1),
         np.full(T_on, NUM_JOINTS),
-        SPREAD_RGBA,
+        colour[:3] + (160,),
     )
     rra.send_series(
         rec,
@@ -134,26 +191,30 @@ def _log_person_frames(rec, result: LiftResult, p: int, idx: np.ndarray, hypothe
         idx,
         1000.0 * spread.mean(axis=1, keepdims=True),
         [f"p{track} mean joint spread"],
-        [MEDIAN_RGBA],
+        [colour],
     )
     if result.energy is not None:
         energy = result.energy[p, :, idx[0] : idx[-1] + 1][:, idx - idx[0]]
         energy = np.quantile(energy, [0.05, 0.5, 0.95], axis=0).T
         names = [f"p{track} energy {q}" for q in ("5%", "median", "95%")]
-        rra.send_series(rec, f"plots/energy/p{track}", times, idx, energy, names, ENERGY_RGBA)
+        shades = [_rgba(person_hue(p), 0.85, v) for v in ENERGY_SHADES]
+        rra.send_series(rec, f"plots/energy/p{track}", times, idx, energy, names, shades)
 
 
 def _log_keypoints(rec, result: LiftResult, c: int) -> None:
-    """2D keypoints of every person on camera ``c`` (only confident, finite points), a chunk of frames at a time."""
+    """2D keypoints of every person on camera ``c`` (only confident, finite points) in the person's colour."""
     camera = result.cameras[c]
     for p, track in enumerate(result.track_ids):
+        entity = f"world/cameras/{camera.name}/keypoints/p{track}"
+        style = rra.ClassStyle(KEYPOINTS_CLASS, f"p{track} 2D keypoints", person_colour(p))
+        rra.log_annotations(rec, entity, [style], JOINT_NAMES, BONES)
         for t in frame_chunks(result.num_frames):
             kp = result.keypoints2d[c, p, t]
             valid = (kp[..., 2] > 0) & np.isfinite(kp[..., :2]).all(axis=-1)  # (t, 17)
             t_idx, j_idx = np.nonzero(valid)
             rra.send_keypoints_2d(
                 rec,
-                f"world/cameras/{camera.name}/keypoints/p{track}",
+                entity,
                 result.frame_times[t],
                 np.arange(t.start, t.stop),
                 kp[t_idx, j_idx, :2],
@@ -165,20 +226,101 @@ def _log_keypoints(rec, result: LiftResult, c: int) -> None:
             rra.flush(rec)
 
 
-def _log_video(rec, entity: str, video: Path, mode: str, offset_s: float, say: Callable[[str], None]) -> None:
-    """The camera's video as an MP4 asset (re-encoded when needed) or as JPEG frames."""
+def video_stamps(video_seconds: np.ndarray, frame_times: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Clock stamps (ns) and output frame indices (-1: none) of video frames at ``video_seconds`` (V,) on the clock.
+
+    A video frame within half an output frame of an output frame's time takes that frame's exact
+    stamp and index (the nearest one only, when several video frames are that close); any other
+    keeps its own time and no index.
+    """
+    stamps = rra.nanoseconds(video_seconds)
+    frames = np.full(len(stamps), -1, dtype=np.int64)
+    if len(stamps) == 0:
+        return stamps, frames
+    last = len(frame_times) - 1
+    after = np.clip(np.searchsorted(frame_times, video_seconds), 0, last)
+    before = np.clip(after - 1, 0, last)
+    closer_before = np.abs(frame_times[before] - video_seconds) <= np.abs(frame_times[after] - video_seconds)
+    nearest = np.where(closer_before, before, after)
+    gap = np.abs(frame_times[nearest] - video_seconds)
+    close = gap <= 0.5 / fps
+    order = np.lexsort((gap, nearest))  # for each output frame, its closest video frame first
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = nearest[order][1:] != nearest[order][:-1]
+    keep = np.zeros(len(stamps), dtype=bool)
+    keep[order[first]] = True
+    keep &= close
+    frames[keep] = nearest[keep]
+    stamps[keep] = rra.nanoseconds(frame_times[nearest[keep]])
+    return stamps, frames
+
+
+def _log_video(
+    rec, entity: str, video: Path, mode: str, offset_s: float, result: LiftResult, say: Callable[[str], None]
+) -> None:
+    """The camera's video as an MP4 asset (re-encoded when needed) or as JPEG frames, on both timelines."""
     if mode == "asset":
-        if needs_reencode(video):
-            say(f"re-encoding {video.name} to H.264 for rerun")
-            with tempfile.TemporaryDirectory() as tmp:
+        with tempfile.TemporaryDirectory() as tmp:
+            if needs_reencode(video):
+                say(f"re-encoding {video.name} to H.264 for rerun")
                 encoded = Path(tmp) / "video.mp4"
                 reencode_h264(video, encoded)
-                rra.log_video_asset(rec, entity, encoded, offset_s)
-        else:
-            rra.log_video_asset(rec, entity, video, offset_s)
+                video = encoded
+            nanos = rra.log_video_asset(rec, entity, video)
+        stamps, frames = video_stamps(nanos / 1e9 + offset_s, result.frame_times, result.fps)
+        rra.send_video_references(rec, entity, nanos, stamps, frames)
     elif mode == "frames":
         for times, blobs in jpeg_frames(video):
-            rra.send_jpeg_frames(rec, entity, times + offset_s, blobs)
+            stamps, frames = video_stamps(times + offset_s, result.frame_times, result.fps)
+            rra.send_jpeg_frames(rec, entity, stamps, frames, blobs)
+
+
+def quality_flags(result: LiftResult, p: int) -> list[str]:
+    """Reasons to check person ``p`` (empty when none): a large spread, a stretching skeleton, few frames."""
+    flags = []
+    present = result.present()[p]
+    track = f"p{result.track_ids[p]}"
+    spread = _mean_spread(result, p)
+    if spread > SPREAD_FLAG_M:
+        flags.append(f"hypotheses spread {1000 * spread:.0f} mm on average (over {1000 * SPREAD_FLAG_M:.0f})")
+    fit = result.meta.get("bvh_fit_error", {}).get(track, {}).get("median", {})
+    if fit.get("stretch_m", 0.0) > STRETCH_FLAG_M:
+        flags.append(f"bones stretch by up to {1000 * fit['stretch_m']:.0f} mm (not a rigid body)")
+    if present.mean() < 0.5:
+        flags.append(f"present in {present.sum()} of {len(present)} frames")
+    return flags
+
+
+def _mean_spread(result: LiftResult, p: int) -> float:
+    """Mean over present frames and joints of the hypotheses' RMS distance to the median, metres."""
+    total, count = 0.0, 0
+    present = result.present()[p]
+    for t in frame_chunks(result.num_frames):
+        on = np.flatnonzero(present[t])
+        if len(on):
+            hyp = np.asarray(result.hypotheses[p, :, t], np.float64)[:, on]
+            spread = per_joint_spread(hyp, np.asarray(result.median[p, t], np.float64)[on])
+            total, count = total + spread.sum(), count + spread.size
+    return total / max(count, 1)
+
+
+def quality_text(result: LiftResult, flags: dict[int, list[str]]) -> str:
+    """Markdown: per person frames, spread, BVH fit and flags; then the lift's warnings."""
+    lines = ["# Quality", ""]
+    present = result.present()
+    for p, track in enumerate(result.track_ids):
+        fit = result.meta.get("bvh_fit_error", {}).get(f"p{track}", {}).get("median")
+        line = f"- **p{track}**: present in {present[p].sum()} / {result.num_frames} frames"
+        if present[p].any():
+            line += f", mean joint spread {1000 * _mean_spread(result, p):.0f} mm"
+        if fit:
+            line += f", BVH fit {1000 * fit['mean_m']:.0f} mm mean / {1000 * fit['max_m']:.0f} mm max"
+        lines.append(line)
+        lines += [f"  - check: {f}" for f in flags.get(p, [])]
+    warnings = result.meta.get("warnings") or []
+    if warnings:
+        lines += ["", "## Warnings", ""] + [f"- {w}" for w in warnings]
+    return "\n".join(lines) + "\n"
 
 
 def check_videos(result: LiftResult, video_paths: Mapping[str, Path], mode: str) -> None:
@@ -205,23 +347,23 @@ def write_rrd(
     path = Path(path)
     video_paths = {k: Path(v) for k, v in (video_paths or {}).items()}
     check_videos(result, video_paths, video_mode)
-    colours = hypothesis_colours(result.num_hypotheses)
-    classes = [rra.ClassStyle(i, f"hypothesis {i}", rgba) for i, rgba in enumerate(colours)]
-    classes.append(rra.ClassStyle(MEDIAN_CLASS, "median", MEDIAN_RGBA))
-    classes.append(rra.ClassStyle(KEYPOINTS_CLASS, "2D keypoints", KEYPOINTS_RGBA))
+    present = result.present().any(axis=1)
+    flags = {p: quality_flags(result, p) for p in range(result.num_persons) if present[p]}
     with atomic_path(path) as tmp:
         rec = rra.open_recording(tmp, "platypose", name, _layout(result))
         try:
             rra.log_world(rec, "world")
-            rra.log_annotations(rec, "world", classes, JOINT_NAMES, BONES)
+            rra.log_text(rec, "quality", quality_text(result, flags))
             for c, camera in enumerate(result.cameras):
                 entity = f"world/cameras/{camera.name}"
                 rra.log_camera(rec, entity, camera.K, camera.size, camera.R, camera.t)
                 if camera.name in video_paths and video_mode != "none":
-                    _log_video(rec, f"{entity}/video", video_paths[camera.name], video_mode, camera.time_offset_s, say)
+                    video = video_paths[camera.name]
+                    _log_video(rec, f"{entity}/video", video, video_mode, camera.time_offset_s, result, say)
                 _log_keypoints(rec, result, c)
-            for p in range(result.num_persons):
-                _log_person(rec, result, p)
+            for p in flags:
+                label = f"p{result.track_ids[p]}" + (" (check)" if flags[p] else "")
+                _log_person(rec, result, p, p, label)
         finally:
             rra.close_recording(rec)
     return path

@@ -13,7 +13,7 @@ import pytest
 from export_helpers import two_person_result
 from rerun.chunk import RrdReader
 
-from platypose.exporters.rrd import MEDIAN_CLASS, write_rrd
+from platypose.exporters.rrd import camera_grid_columns, person_colour, video_stamps, write_rrd
 from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import BONES, NUM_JOINTS
 
@@ -71,7 +71,7 @@ def test_people_positions_equal_the_npz(result, recording):
         assert hyp["static:Points3D:keypoint_ids"][0] == np.tile(np.arange(NUM_JOINTS), N).tolist()
         median = entities[f"/world/people/p{track}/median"]
         np.testing.assert_array_equal(np.array(median["Points3D:positions"], dtype=np.float32), result.median[p][on])
-        assert set(median["static:Points3D:class_ids"][0]) == {MEDIAN_CLASS}
+        assert set(median["static:Points3D:class_ids"][0]) == {N}  # the class after the hypotheses
         bones = np.array(entities[f"/world/people/p{track}/median/bones"]["LineStrips3D:strips"], dtype=np.float32)
         assert bones.shape == (on.sum(), len(BONES), 2, 3)
         np.testing.assert_array_equal(bones[:, :, 0], result.median[p][on][:, [c for c, _ in BONES]])
@@ -84,6 +84,55 @@ def test_people_positions_equal_the_npz(result, recording):
         np.testing.assert_array_equal(centres, result.median[p][on])
         energy = np.array(entities[f"/plots/energy/p{track}"]["Scalars:scalars"])
         np.testing.assert_allclose(energy[:, 1], np.median(result.energy[p][:, on], axis=0), rtol=1e-5)
+
+
+def test_each_person_has_its_colour_and_label(result, recording):
+    entities = read_entities(recording)
+    medians = []
+    for p, track in enumerate(result.track_ids):
+        context = entities[f"/world/people/p{track}"]["static:AnnotationContext:context"][0][0]
+        classes = {c["class_id"]: c["class_description"]["info"] for c in context}
+        assert classes[result.num_hypotheses]["label"] == f"p{track} median"
+        medians.append(classes[result.num_hypotheses]["color"])
+        label = entities[f"/world/people/p{track}/label"]
+        assert label["static:Points3D:labels"][0][0].startswith(f"p{track}")
+        head = result.median[p][result.present()[p]][:, 10]
+        np.testing.assert_allclose(np.array(label["Points3D:positions"])[:, 0, 2], head[:, 2] + 0.25, atol=1e-6)
+        kp = entities[f"/world/cameras/cam01/keypoints/p{track}"]["static:AnnotationContext:context"][0][0]
+        assert kp[0]["class_description"]["info"]["color"] == medians[-1]
+    assert len(set(medians)) == len(medians)  # one colour per person
+    assert medians[0] == int.from_bytes(bytes(person_colour(0)), "big")
+    quality = entities["/quality"]["static:TextDocument:text"][0][0]
+    assert "p0" in quality and "p7" in quality
+
+
+def test_video_frames_share_the_skeletons_stamps_and_frames(result, data_dir, tmp_path):
+    """Video frames at the output frames' times carry exactly their stamps and indices, on both timelines."""
+    import dataclasses
+
+    with av.open(str(data_dir / CAM01)) as container:
+        stream = container.streams.video[0]
+        video_times = np.array([float(f.pts * stream.time_base) for f in container.decode(stream)])
+    T = result.num_frames
+    clip = dataclasses.replace(result, frame_times=video_times[10 : 10 + T], fps=60.0)
+    path = write_rrd(clip, tmp_path / "sync.rrd", "sync", {"cam01": data_dir / CAM01})
+    entities = read_entities(path)
+    video = entities["/world/cameras/cam01/video"]
+    skeleton = entities["/world/people/p0/median"]
+    on_frames = [(f, t) for f, t in zip(video["frame"], video["time"]) if f is not None]
+    assert [f for f, _ in on_frames] == list(range(T))
+    assert [t for _, t in on_frames] == skeleton["time"]  # exactly the same nanoseconds
+    assert len(video["VideoFrameReference:timestamp"]) == 100  # frames outside the output frames: time only
+    stamps, frames = video_stamps(np.array([0.0, 0.0049, 0.0101, 0.011, 1.0]), np.array([0.0, 0.01]), 100.0)
+    assert frames.tolist() == [0, -1, 1, -1, -1]  # the nearest of two close video frames, none beyond half a frame
+    assert stamps.tolist() == [0, 4_900_000, 10_000_000, 11_000_000, 1_000_000_000]
+
+
+def test_camera_grid_gives_the_largest_views():
+    assert camera_grid_columns([(1080, 1920)]) == 1
+    assert camera_grid_columns([(1080, 1920)] * 4) == 2
+    assert camera_grid_columns([(1920, 1080)] * 4) == 4  # portrait views side by side
+    assert camera_grid_columns([(1080, 1920)] * 2) == 1  # landscape views stacked
 
 
 def test_cameras_keypoints_and_video(result, recording, data_dir):
@@ -103,19 +152,27 @@ def test_cameras_keypoints_and_video(result, recording, data_dir):
     assert "/world/cameras/cam02/video" not in entities  # no video given for cam02
 
 
-def test_default_blueprint_has_3d_camera_and_plot_views(recording):
+def test_default_blueprint_has_3d_camera_and_per_person_plot_views(recording):
+    blueprint = read_entities(recording, "blueprint")
     views = {
         (cols["ViewBlueprint:class_identifier"][0][0], cols["ViewBlueprint:space_origin"][0][0])
-        for path, cols in read_entities(recording, "blueprint").items()
+        for path, cols in blueprint.items()
         if "ViewBlueprint:class_identifier" in cols
     }
     assert views == {
         ("3D", "world"),
         ("2D", "world/cameras/cam01"),
         ("2D", "world/cameras/cam02"),
-        ("TimeSeries", "plots/energy"),
-        ("TimeSeries", "plots/spread"),
+        ("TimeSeries", "plots/spread/p0"),
+        ("TimeSeries", "plots/spread/p7"),
+        ("TimeSeries", "plots/energy/p0"),
+        ("TimeSeries", "plots/energy/p7"),
+        ("TextDocument", "quality"),
     }
+    panel = next(cols for path, cols in blueprint.items() if path.endswith("time_panel"))
+    assert panel["TimePanelBlueprint:fps"] == [[pytest.approx(120.0)]]  # the frame timeline plays at the data's rate
+    assert panel["TimePanelBlueprint:timeline"] == [["time"]]
+    assert panel["static:TimePanelBlueprint:play_state"] == [[1]]  # paused
 
 
 def test_rerun_verifies_the_file(recording):
