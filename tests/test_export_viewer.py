@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from export_helpers import two_person_result
 
-from platypose.exporters.rrd import KEYPOINTS_RGBA, write_rrd
+from platypose.exporters.rrd import person_colour, write_rrd
 
 VENV_BIN = str(Path(sys.executable).parent)
 HAS_VULKAN = any(Path(d).is_dir() and any(Path(d).iterdir()) for d in ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d"))
@@ -49,6 +49,9 @@ def test_recording_opens_with_video_skeletons_and_plots(data_dir, tmp_path, monk
         try:
             viewer.open(str(path))
             time.sleep(3)
+            state = viewer.get_state()
+            assert state.recordings[0].current_timeline == "time"
+            assert state.recordings[0].current_time == 0  # opens at the first frame
             viewer.set_time("time", duration=0.1, play_state="paused")
             time.sleep(2)
             views = {(v.view_class, v.origin): v for v in viewer.get_state().views}
@@ -56,8 +59,11 @@ def test_recording_opens_with_video_skeletons_and_plots(data_dir, tmp_path, monk
                 ("3D", "/world"),
                 ("2D", "/world/cameras/cam01"),
                 ("2D", "/world/cameras/cam02"),
-                ("TimeSeries", "/plots/energy"),
-                ("TimeSeries", "/plots/spread"),
+                ("TimeSeries", "/plots/energy/p0"),
+                ("TimeSeries", "/plots/energy/p7"),
+                ("TimeSeries", "/plots/spread/p0"),
+                ("TimeSeries", "/plots/spread/p7"),
+                ("TextDocument", "/quality"),
             }
             assert all(v.visible and not v.reports for v in views.values())
             shot_3d = viewer.take_screenshot(views[("3D", "/world")].view_id)
@@ -67,4 +73,6 @@ def test_recording_opens_with_video_skeletons_and_plots(data_dir, tmp_path, monk
     assert _share_of_vivid(shot_3d) > 0.002  # skeletons are drawn
     cam = cv2.imdecode(np.frombuffer(shot_cam, np.uint8), cv2.IMREAD_COLOR)
     assert cam.std() > 20  # video pixels, not an empty view
-    assert _share_of_colour(shot_cam, KEYPOINTS_RGBA) > 0.0005  # 2D keypoints over it
+    assert _share_of_colour(shot_cam, person_colour(0)) > 0.0005  # 2D keypoints over it, in person 0's colour
+    for slot in (0, 1):  # each person drawn in its own colour (lit, so loosely)
+        assert _share_of_colour(shot_3d, person_colour(slot)) > 0.0001
