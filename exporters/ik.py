@@ -69,6 +69,7 @@ LIMBS: dict[int, tuple[int, int, tuple[int, int, int]]] = {
     _J("right_shoulder"): (_J("right_elbow"), _J("right_wrist"), (0, 1, 0)),
 }
 _LOWER = {lower: (upper, end, axis) for upper, (lower, end, axis) in LIMBS.items()}
+_LEGS = (_J("right_hip"), _J("left_hip"))
 
 # Intrinsic Euler order of each joint's local rotation (the BVH channel order). The middle axis is
 # the one where gimbal lock sits at 90 degrees: the bone's own axis (twist) for limbs and trunk,
@@ -167,10 +168,14 @@ def _ramp(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return w * w * (3 - 2 * w)
 
 
-def _hinge_axes(parent_rot: np.ndarray, rest_dir: np.ndarray, rest_axis: np.ndarray, upper, lower) -> np.ndarray:
+def _hinge_axes(
+    parent_rot: np.ndarray, rest_dir: np.ndarray, rest_axis: np.ndarray, upper, lower, projected: bool
+) -> np.ndarray:
     """Unit hinge axes (T, 3) of a limb, perpendicular to its upper bone.
 
-    The default is the parent's rest axis carried by the smallest rotation onto the upper bone.
+    The default is the parent's rest axis, either made perpendicular to the upper bone
+    (``projected``: legs, whose knee axis stays near the pelvis's left-right axis however far the
+    hip flexes) or carried by the smallest rotation onto it (arms, which swing in every direction).
     The plane's normal takes over, continuously, where the limb is clearly bent about an axis
     near the default one (a straight limb's plane, or a sideways bend, is noise); its sign is
     that of the default, so a hyperextended joint keeps its axis.
@@ -178,8 +183,11 @@ def _hinge_axes(parent_rot: np.ndarray, rest_dir: np.ndarray, rest_axis: np.ndar
     d1, d2 = _unit(upper), _unit(lower)
     normal = np.cross(d1, d2)
     sine = np.linalg.norm(normal, axis=-1, keepdims=True)
-    neutral = _apply(parent_rot, rest_dir)
-    default = _apply(rotation_between(_unit(neutral), d1), _apply(parent_rot, rest_axis))
+    carried = _apply(parent_rot, rest_axis)
+    if projected:
+        default = _unit(carried - np.sum(carried * d1, axis=-1, keepdims=True) * d1)
+    else:
+        default = _apply(rotation_between(_unit(_apply(parent_rot, rest_dir)), d1), carried)
     normal = normal / np.maximum(sine, 1e-12)
     agree = np.sum(normal * default, axis=-1, keepdims=True)
     w = _ramp(sine, *_BEND_SIN) * _ramp(np.abs(agree), *_AXIS_AGREE)
@@ -228,6 +236,7 @@ def fit_rotations(positions: np.ndarray, offsets: np.ndarray) -> np.ndarray:
                 rest_axis,
                 positions[:, lower] - positions[:, j],
                 positions[:, end] - positions[:, lower],
+                projected=j in _LEGS,
             )
             rest = two_vector_frame(offsets[lower], rest_axis)
             rot[:, j] = two_vector_frame(positions[:, lower] - fitted[:, j], hinge[j]) @ rest.T

@@ -112,6 +112,14 @@ def test_bvh_rotations_are_continuous(climb, tmp_path):
     assert fit.step_deg < 2 * data_step and fit.max_m < 0.04
 
 
+def test_high_step_keeps_the_thigh_roll(data_dir, tmp_path):
+    """Climbing: the left thigh flexed far past horizontal (a high step) turns smoothly, no roll flip."""
+    joints, fps = climb_joints(data_dir, 2050)
+    joints = joints[1900:]  # the climber's highest left step of this clip (frame 1963)
+    fit = write_bvh(joints, fps, tmp_path / "step.bvh")
+    assert fit.step_deg < 2 * _largest_bone_turn(joints)
+
+
 def _largest_bone_turn(joints: np.ndarray) -> float:
     """Largest angle (degrees) any bone of joints (T, 17, 3) turns between consecutive frames."""
     bones = np.stack([joints[:, c] - joints[:, p] for c, p in BONES], axis=1)
