@@ -23,6 +23,7 @@ clock stamp is that frame's exact stamp.
 from __future__ import annotations
 
 import colorsys
+import json
 import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -305,7 +306,7 @@ def _mean_spread(result: LiftResult, p: int) -> float:
 
 
 def quality_text(result: LiftResult, flags: dict[int, list[str]]) -> str:
-    """Markdown: per person frames, spread, BVH fit and flags; then the lift's warnings."""
+    """Markdown: per person frames, spread, BVH fit, flags and ``meta["plausibility"]`` entry; the lift's warnings."""
     lines = ["# Quality", ""]
     present = result.present()
     for p, track in enumerate(result.track_ids):
@@ -317,6 +318,9 @@ def quality_text(result: LiftResult, flags: dict[int, list[str]]) -> str:
             line += f", BVH fit {1000 * fit['mean_m']:.0f} mm mean / {1000 * fit['max_m']:.0f} mm max"
         lines.append(line)
         lines += [f"  - check: {f}" for f in flags.get(p, [])]
+        plausibility = result.meta.get("plausibility")
+        if isinstance(plausibility, dict) and plausibility.get(f"p{track}") is not None:
+            lines.append(f"  - plausibility: `{json.dumps(plausibility[f'p{track}'])}`")
     warnings = result.meta.get("warnings") or []
     if warnings:
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in warnings]

@@ -13,7 +13,14 @@ import pytest
 from export_helpers import two_person_result
 from rerun.chunk import RrdReader
 
-from platypose.exporters.rrd import camera_grid_columns, person_colour, video_stamps, write_rrd
+from platypose.exporters.rrd import (
+    camera_grid_columns,
+    person_colour,
+    quality_flags,
+    quality_text,
+    video_stamps,
+    write_rrd,
+)
 from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import BONES, NUM_JOINTS
 
@@ -208,3 +215,13 @@ def test_failed_export_leaves_no_file(result, data_dir, tmp_path):
     with pytest.raises(InputError, match="PROVENANCE.md: cannot read video"):
         write_rrd(result, tmp_path / "b.rrd", "b", {"cam01": not_video})
     assert list(tmp_path.iterdir()) == []
+
+
+def test_quality_text_lists_flags_warnings_and_plausibility(result):
+    fit = {"median": {"mean_m": 0.01, "max_m": 0.05, "stretch_m": 0.2}}
+    r = result.with_meta(plausibility={"p7": {"floor_m": 0.1}}, warnings=["a warning"], bvh_fit_error={"p7": fit})
+    flags = {p: quality_flags(r, p) for p in range(r.num_persons)}
+    assert flags[0] == [] and flags[1] == ["bones stretch by up to 200 mm (not a rigid body)"]
+    text = quality_text(r, flags)
+    assert "check: bones stretch by up to 200 mm" in text and '{"floor_m": 0.1}' in text and "- a warning" in text
+    assert "BVH fit 10 mm mean / 50 mm max" in text
