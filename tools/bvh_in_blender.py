@@ -8,7 +8,7 @@ wheel pins its own numpy), e.g.::
 Prints Blender's version, the scene's frame rate and range after the import (with the documented
 settings: Scale 0.01, Forward -Z, Up Y, Update Scene FPS), and the distance of every joint of the
 armature to the npz median of that person index (mean, max), and in how many frames the head is
-below the neck.
+below the neck, and the largest angle between the head bone and the npz neck-to-head line.
 """
 
 import sys
@@ -34,16 +34,24 @@ print("blender", bpy.app.version_string, "fps", fps, "frames", scene.frame_start
 with np.load(npz) as f:
     med = f["median"][person].astype(np.float64)
     names = [str(n) for n in f["joint_names"]]
-err = []
-head_below = 0
+err, head_angles = [], []
+head_below = npz_below = 0
+neck, head = names.index("neck"), names.index("head")
 for t in range(scene.frame_start, min(scene.frame_end + 1, scene.frame_start + len(med))):
     scene.frame_set(t)
     pos = np.array([list(arm.matrix_world @ arm.pose.bones[n].head) for n in names])
+    bone = arm.pose.bones["head"]
+    head_dir = np.array(list(arm.matrix_world @ bone.tail)) - pos[head]  # the head bone, towards its end site
     m = med[t - scene.frame_start]
     if np.isfinite(m).all():
         err.append(np.linalg.norm(pos - m, axis=1))
-        head_below += pos[names.index("head"), 2] < pos[names.index("neck"), 2]
+        head_below += pos[head, 2] < pos[neck, 2]
+        npz_below += m[head, 2] < m[neck, 2]
+        seen = m[head] - m[neck]
+        cos = head_dir @ seen / np.linalg.norm(head_dir) / np.linalg.norm(seen)
+        head_angles.append(np.degrees(np.arccos(np.clip(cos, -1, 1))))
 err = np.array(err)
 print(
-    f"joints vs npz: mean {1000 * err.mean():.1f} mm, max {1000 * err.max():.1f} mm; head below neck in {head_below} frames"
+    f"joints vs npz: mean {1000 * err.mean():.1f} mm, max {1000 * err.max():.1f} mm; head below neck in {head_below} "
+    f"frames (npz: {npz_below}); head bone vs the npz neck-to-head line: max {max(head_angles):.2f} deg"
 )
