@@ -25,14 +25,16 @@ from platypose.exporters.ik import (
     EULER_ORDERS,
     body_directions,
     continuous_euler,
+    euler_to_matrix,
     fit_rotations,
-    forward_kinematics,
     local_euler,
     local_rotations,
+    placed_offsets,
     refine_rotations,
     rest_offsets,
 )
 from platypose.lifting.atomic import atomic_open
+from platypose.lifting.motion_io.kinematics import forward_kinematics
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
 
 CM_PER_M = 100.0
@@ -165,8 +167,8 @@ def motion_channels(
 
 def channels_to_positions(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """World joints (T, 17, 3) metres from channel values (T, 54) and rest offsets (17, 3)."""
-    euler = values[:, 3:].reshape(len(values), NUM_JOINTS, 3)
-    return from_bvh_axes(forward_kinematics(euler, values[:, :3], offsets))
+    rotations = euler_to_matrix(values[:, 3:].reshape(len(values), NUM_JOINTS, 3))
+    return from_bvh_axes(forward_kinematics(PARENTS, placed_offsets(offsets, values[:, :3]), rotations))
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Inverse and forward kinematics of our 17-joint tree on a rigid skeleton (pure array maths).
+"""Inverse kinematics of our 17-joint tree on a rigid skeleton (pure array maths).
 
 Axes are BVH's (x left, y up, z forward, any unit). The rest pose stands upright
 facing +z with the arms out sideways; :func:`rest_offsets` fits its bone
@@ -28,7 +28,8 @@ Local rotations are written as Euler angles in a per-joint order
 (:data:`EULER_ORDERS`) chosen so that gimbal lock falls on a rotation the joint
 does not make (a bone's twist, or the root pitching to horizontal), and
 :func:`continuous_euler` picks, frame after frame, the equivalent angles
-nearest the previous frame's, so channels never wrap by 360 degrees.
+nearest the previous frame's, so channels never wrap by 360 degrees. Forward
+kinematics is the importers' (:func:`platypose.lifting.motion_io.kinematics.forward_kinematics`).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from platypose.lifting.motion_io.kinematics import forward_kinematics
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS
 
 CHILDREN: tuple[tuple[int, ...], ...] = tuple(
@@ -249,13 +251,11 @@ def fit_rotations(positions: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     return rot
 
 
-def _global_positions(rot: np.ndarray, root: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Joint positions (T, 17, 3) from global rotations (T, 17, 3, 3), root (T, 3) and offsets (17, 3)."""
-    pos = np.zeros(root.shape[:1] + (NUM_JOINTS, 3))
-    pos[:, 0] = root + offsets[0]
-    for j in range(1, NUM_JOINTS):
-        pos[:, j] = pos[:, PARENTS[j]] + _apply(rot[:, PARENTS[j]], offsets[j])
-    return pos
+def placed_offsets(offsets: np.ndarray, root: np.ndarray) -> np.ndarray:
+    """Per-frame offsets (T, 17, 3) with the root's replaced by its position ``root`` (T, 3), for forward kinematics."""
+    placed = np.broadcast_to(offsets, (len(root), NUM_JOINTS, 3)).copy()
+    placed[:, 0] += root
+    return placed
 
 
 def _ancestors(j: int) -> list[int]:
@@ -288,7 +288,7 @@ def refine_rotations(
     n = 3 + 3 * len(_MOVERS)
     paths = [_ancestors(j) for j in range(NUM_JOINTS)]
     for _ in range(iterations):
-        pos = _global_positions(rot, root, offsets)
+        pos = forward_kinematics(PARENTS, placed_offsets(offsets, root), local_rotations(rot))
         residual = (pos - positions).reshape(T, -1)  # (T, 51)
         jac = np.zeros((T, 3 * NUM_JOINTS, n))
         for j, path in enumerate(paths):
@@ -359,13 +359,3 @@ def euler_to_matrix(euler: np.ndarray) -> np.ndarray:
     for j, order in enumerate(EULER_ORDERS):
         out[:, j] = Rotation.from_euler(order, euler[:, j], degrees=True).as_matrix()
     return out
-
-
-def forward_kinematics(euler: np.ndarray, root: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """BVH-axes joint positions (T, 17, 3) from local Euler degrees (T, 17, 3), root (T, 3), offsets (17, 3)."""
-    local = euler_to_matrix(euler)
-    rot = np.zeros_like(local)
-    for j in range(NUM_JOINTS):
-        p = PARENTS[j]
-        rot[:, j] = local[:, j] if p < 0 else rot[:, p] @ local[:, j]
-    return _global_positions(rot, root, offsets)
