@@ -78,7 +78,11 @@ def info(path: Path = typer.Argument(..., help="A platypose result file (OUT/<na
 @app.command("export")
 def export_command(
     path: Path = typer.Argument(..., help="A platypose result file (.npz), the source of truth."),
-    formats: str = typer.Option("csv,bvh,rrd", "--formats", help="Comma-separated: npz, csv, bvh, rrd."),
+    formats: str = typer.Option(
+        "csv,bvh,rrd",
+        "--formats",
+        help="Comma-separated: npz, csv, bvh, trc, c3d, angles, report, rrd (docs/outputs.md).",
+    ),
     out: Path | None = typer.Option(None, "--out", help="Output folder (default: the npz's folder)."),
     name: str | None = typer.Option(None, "--name", help="Base name of the files (default: the npz's name)."),
     bvh: str = typer.Option("median", "--bvh", help="median: one BVH per person; all: also one per hypothesis."),

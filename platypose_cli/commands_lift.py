@@ -91,7 +91,11 @@ def lift(
     detector_format: str | None = typer.Option(None, "--detector-format", help="Model contract (default: recognised)."),
     person_detector: Path | None = typer.Option(None, "--person-detector", help="Person detector for top-down models."),
     out: Path = typer.Option(Path("out"), "--out", help="Output folder: OUT/<name>/ per input, OUT/summary.json."),
-    formats: str = typer.Option("npz,csv,bvh,rrd", "--formats", help="Comma-separated: npz, csv, bvh, rrd."),
+    formats: str = typer.Option(
+        "npz,csv,bvh,rrd",
+        "--formats",
+        help="Comma-separated: npz, csv, bvh, trc, c3d, angles, report, rrd (docs/outputs.md).",
+    ),
     persons: str = typer.Option("all", "--persons", help="Who to lift: all, largest, or N (the N largest)."),
     root: str = typer.Option(
         "auto", "--root", help="Root path: auto (triangulated with 2+ views, else solved), triangulate, solve."
