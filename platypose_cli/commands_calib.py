@@ -20,7 +20,10 @@ SUBJECT_HELP = "Human3.6M subject whose extrinsics to use (e.g. S9) when the fil
 def convert(
     source: Path = typer.Argument(
         ...,
-        help="Calibration (.toml, .yml, intri/extri folder, Human3.6M .json, .txt, calib.json) or a video (FOV prior).",
+        help=(
+            "Calibration (Pose2Sim/anipose/FreeMoCap/Caliscope .toml, Qualisys .qca.txt, .yml, intri/extri folder,"
+            " Human3.6M .json, .txt, calib.json) or a video (FOV prior)."
+        ),
     ),
     out: Path = typer.Option(..., "--out", "-o", help="Native calib.json to write."),
     world_up: str = typer.Option(None, "--world-up", help=WORLD_UP_HELP),
