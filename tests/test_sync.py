@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -59,3 +60,41 @@ def test_sample_at_interpolates_and_marks_gaps():
     out = sample_at(keypoints, np.array([0.0, 1.0, 2.0]), np.array([0.25, 1.5, 2.0, 3.0]))
     assert out[0, 0, 0] == pytest.approx(2.5) and out[3, 0, 2] == 0.0
     assert out[0, 0, 2] == 0.0 and out[2, 0, 2] == 1.0  # across the unseen frame: no confidence
+
+
+def _check(run_cli, data_dir: Path, sync: str):
+    take = data_dir / TAKE
+    args = ("calib", "check", str(take / "calib_pose2sim.toml"), "--keypoints", str(take / "openpose-body25b"))
+    return run_cli(*args, "--fps", "60", "--sync", sync)
+
+
+def test_calib_check_reports_offsets(run_cli, data_dir: Path, tmp_path: Path):
+    code, stdout, _ = _check(run_cli, data_dir, "auto")
+    assert code == 0 and stdout.count("confidence") == 3 and "sync cam_02:" in stdout
+    assert "px as recorded" in stdout
+    offsets = tmp_path / "offsets.json"
+    offsets.write_text('{"cam01": 0.0, "cam02": 0.0, "cam_03": -0.0833, "CAM-4": 0.0}')
+    code, stdout, _ = _check(run_cli, data_dir, str(offsets))
+    assert code == 0 and "cam_03: median reprojection error" in stdout and "time offset -0.083 s" not in stdout
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('{"cam01": 0.0, "cam02": 0.1, "cam03": 0.2}', "no view for camera.s. cam_04"),
+        ('{"cam01": "late"}', "camera name -> offset in seconds"),
+        ("[1, 2]", "camera name -> offset in seconds"),
+        ("{oops", "not valid JSON"),
+    ],
+)
+def test_bad_offsets_file(run_cli, data_dir: Path, tmp_path: Path, text: str, message: str):
+    offsets = tmp_path / "offsets.json"
+    offsets.write_text(text)
+    code, _, stderr = _check(run_cli, data_dir, str(offsets))
+    assert code == 2 and re.search(message, stderr) and f"error: {offsets}: " in stderr
+    assert len(stderr.strip().splitlines()) == 1
+
+
+def test_missing_offsets_file(run_cli, data_dir: Path, tmp_path: Path):
+    code, _, stderr = _check(run_cli, data_dir, str(tmp_path / "nope.json"))
+    assert code == 2 and "offsets file not found" in stderr
