@@ -163,24 +163,6 @@ def views_error(
     return float(np.median(errors[seen])) if seen.any() else float("nan")
 
 
-def _best_step(
-    views: Sequence[np.ndarray],
-    times: Sequence[np.ndarray],
-    cameras: Sequence[Camera],
-    offsets: np.ndarray,
-    c: int,
-    steps: np.ndarray,
-    at: np.ndarray,
-) -> float:
-    """The step (s) among ``steps`` added to view ``c``'s offset that gives the smallest joint reprojection error."""
-    errors = []
-    for step in steps:
-        trial = offsets.copy()
-        trial[c] += step
-        errors.append(views_error(views, times, cameras, trial, at))
-    return float(steps[int(np.nanargmin(errors))]) if np.isfinite(errors).any() else 0.0
-
-
 def _refine(
     views: Sequence[np.ndarray],
     times: Sequence[np.ndarray],
@@ -193,12 +175,13 @@ def _refine(
     Whole frames within ``REFINE_FRAMES`` first, then tenths of a frame within one frame of the best.
     """
     at = times[0][:: max(len(times[0]) // MAX_REFINE_FRAMES, 1)]
-    whole = np.arange(-REFINE_FRAMES, REFINE_FRAMES + 1) / rate
-    tenths = np.arange(-1.0, 1.0 + 1e-9, REFINE_STEP) / rate
     offsets = offsets.copy()
     for c in [*range(1, len(views))] * REFINE_PASSES:
-        offsets[c] += _best_step(views, times, cameras, offsets, c, whole, at)
-        offsets[c] += _best_step(views, times, cameras, offsets, c, tenths, at)
+        for steps in (np.arange(-REFINE_FRAMES, REFINE_FRAMES + 1), np.arange(-1.0, 1.0 + 1e-9, REFINE_STEP)):
+            trials = offsets[None] + np.outer(steps / rate, np.eye(len(views))[c])
+            errors = np.array([views_error(views, times, cameras, trial, at) for trial in trials])
+            if np.isfinite(errors).any():
+                offsets = trials[int(np.nanargmin(errors))]
     return offsets
 
 

@@ -75,20 +75,24 @@ def test_qualisys_projection_equals_opencv_from_raw_xml():
 
 
 @pytest.mark.parametrize(
-    ("old", "new", "message"),
+    ("source", "old", "new", "message"),
     [
-        ('focalLengthU="107599.671875" ', "", "intrinsic is missing focalLengthU"),
-        ('r11="0.5536380477336265"', 'r11="2.0"', "transform is not a rotation"),
-        ('viewrotation="0"', 'viewrotation="90"', "viewrotation 90"),
-        ('x="1460.2323709212087"', 'x="abc"', "non-numeric"),
-        ("</cameras>", "", "not valid Qualisys XML"),
-        ('serial="cam02"', 'serial="cam01"', "duplicate camera names"),
+        (QUALISYS, 'focalLengthU="107599.671875" ', "", "intrinsic is missing focalLengthU"),
+        (QUALISYS, 'r11="0.5536380477336265"', 'r11="2.0"', "transform is not a rotation"),
+        (QUALISYS, 'viewrotation="0"', 'viewrotation="90"', "viewrotation 90"),
+        (QUALISYS, 'x="1460.2323709212087"', 'x="abc"', "non-numeric"),
+        (QUALISYS, "</cameras>", "", "not valid Qualisys XML"),
+        (QUALISYS, 'serial="cam02"', 'serial="cam01"', "duplicate camera names"),
+        (CALISCOPE, "size = [1280, 720]", "size = [1280]", "size has 1 values"),
+        (CALISCOPE, "[0.0, 0.0, 1.0]]", "[0.0, 0.0, 2.0]]", "not a pinhole camera matrix"),
+        (CALISCOPE, "ignore = false", "ignore = false\nfisheye = true", "fisheye"),
+        (CALISCOPE, "[cameras.1]", "[cameras.1", "not valid TOML"),
     ],
 )
-def test_broken_qualisys(tmp_path: Path, old: str, new: str, message: str):
-    text = QUALISYS.read_text()
+def test_broken_files(tmp_path: Path, source: Path, old: str, new: str, message: str):
+    text = source.read_text()
     assert old in text
-    path = tmp_path / "broken.qca.txt"
+    path = tmp_path / source.name
     path.write_text(text.replace(old, new, 1))
     with pytest.raises(InputError, match=message) as err:
         load_calibration(path)
@@ -195,25 +199,6 @@ def test_overrides_beat_detection():
     assert "world up axis" not in " ".join(cal.meta["conversions"])
     with pytest.raises(InputError, match="units look wrong"):
         load_calibration(FREEMOCAP, units="m")
-
-
-@pytest.mark.parametrize(
-    ("old", "new", "message"),
-    [
-        ("size = [1280, 720]", "size = [1280]", "size has 1 values"),
-        ("[0.0, 0.0, 1.0]]", "[0.0, 0.0, 2.0]]", "not a pinhole camera matrix"),
-        ("ignore = false", "ignore = false\nfisheye = true", "fisheye"),
-        ("[cameras.1]", "[cameras.1", "not valid TOML"),
-    ],
-)
-def test_broken_caliscope(tmp_path: Path, old: str, new: str, message: str):
-    text = CALISCOPE.read_text()
-    assert old in text
-    path = tmp_path / "camera_array.toml"
-    path.write_text(text.replace(old, new, 1))
-    with pytest.raises(InputError, match=message) as err:
-        load_calibration(path)
-    assert str(path) in str(err.value)
 
 
 def test_caliscope_ignored_camera_left_out(tmp_path: Path):
