@@ -52,7 +52,10 @@ def open_video(path: str | Path) -> av.container.InputContainer:
 
 
 def upright(frame: av.VideoFrame, fmt: str = "bgr24") -> np.ndarray:
-    """The frame as an (H, W, 3) uint8 array in ``fmt``, turned by its display rotation (contiguous)."""
+    """The frame as an (H, W, 3) uint8 array in ``fmt`` (``bgr24`` or ``rgb24``), turned by its display rotation.
+
+    The colour conversion is FFmpeg's, so the pixels equal what OpenCV's reader gives.
+    """
     image = frame.to_ndarray(format=fmt)
     turns = int(round(getattr(frame, "rotation", 0) / 90.0)) % 4
     return np.ascontiguousarray(np.rot90(image, k=turns)) if turns else image

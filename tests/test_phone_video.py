@@ -118,3 +118,15 @@ def test_phone_videos_lift_like_upright(run_cli, prior_file, phone_videos, tmp_p
     # one uncalibrated view: seeds differ mostly in depth (about 200 mm); the same seed on the rotated
     # or VFR file gives the upright result to a few mm (2.1 and 4.0 mm when written)
     assert rotated_gap < min(0.1 * seed_gap, 15.0) and vfr_gap < min(0.1 * seed_gap, 15.0)
+
+
+def test_frames_equal_opencv_on_the_bundled_video(data_dir: Path):
+    """The shared reader's pixels are OpenCV's on an ordinary (unrotated, constant-rate) video."""
+    path = data_dir / TAKE / "cam02.mp4"
+    capture = cv2.VideoCapture(str(path))
+    for index, frame in iter_frames(path, stride=33):
+        capture.set(cv2.CAP_PROP_POS_FRAMES, index)
+        ok, expected = capture.read()
+        assert ok and np.array_equal(frame, expected), index
+    capture.release()
+    assert np.allclose(frame_times(path), np.arange(100) / 60, atol=1e-4)
