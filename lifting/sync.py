@@ -32,7 +32,7 @@ SMOOTH_S = 0.05  # moving-average width of the motion signal
 MIN_OVERLAP = 0.5  # a lag must overlap this fraction of the shorter signal
 MAX_OFFSET_S = 10.0  # default search range, also capped at half the shorter view
 DISTINCT_S = 0.15  # the runner-up peak is sought this far from the best lag
-REFINE_FRAMES = 3  # geometric refinement searches this many whole frames either side ...
+REFINE_FRAMES = 2  # geometric refinement stays within this many frames of the motion estimate ...
 REFINE_STEP = 0.1  # ... then steps of this many frames within one frame of the best
 REFINE_PASSES = 2  # every view is refined this many times, the others held at their latest offsets
 MAX_REFINE_FRAMES = 300  # reference frames used by the refinement (evenly spread)
@@ -42,8 +42,9 @@ MAX_REFINE_FRAMES = 300  # reference frames used by the refinement (evenly sprea
 class SyncEstimate:
     """Per view (C,): ``offsets_s`` to add to its frame times (reference 0), the coarse correlation peak,
     ``confidence`` in [0, 1] (how far that peak stands above the runner-up lag; 1 for the reference);
-    the median reprojection error of all views with no offsets and with these (pixels), and the
-    reference frame rate.
+    the median reprojection error of all views with no offsets and with these (pixels), the
+    reference frame rate, and ``at_limit`` (C,): the geometric refinement stopped at the edge of its
+    window around the motion estimate (the view's reprojection wants more: often a calibration error).
     """
 
     offsets_s: np.ndarray
@@ -52,6 +53,7 @@ class SyncEstimate:
     error_before_px: float
     error_after_px: float
     rate: float
+    at_limit: np.ndarray
 
     @property
     def offsets_frames(self) -> np.ndarray:
@@ -172,13 +174,16 @@ def _refine(
 ) -> np.ndarray:
     """Offsets moved, one view at a time, to the sub-frame value with the smallest joint reprojection error.
 
-    Whole frames within ``REFINE_FRAMES`` first, then tenths of a frame within one frame of the best.
+    Whole frames, then tenths of a frame within one frame of the best; never farther than
+    ``REFINE_FRAMES`` from the motion estimate (``offsets``), so that a view's calibration error
+    cannot pull its timing far from what the motion says.
     """
     at = times[0][:: max(len(times[0]) // MAX_REFINE_FRAMES, 1)]
-    offsets = offsets.copy()
+    coarse, offsets = offsets, offsets.copy()
     for c in [*range(1, len(views))] * REFINE_PASSES:
         for steps in (np.arange(-REFINE_FRAMES, REFINE_FRAMES + 1), np.arange(-1.0, 1.0 + 1e-9, REFINE_STEP)):
             trials = offsets[None] + np.outer(steps / rate, np.eye(len(views))[c])
+            trials = trials[np.abs(trials[:, c] - coarse[c]) <= (REFINE_FRAMES + 1e-6) / rate]
             errors = np.array([views_error(views, times, cameras, trial, at) for trial in trials])
             if np.isfinite(errors).any():
                 offsets = trials[int(np.nanargmin(errors))]
@@ -215,7 +220,8 @@ def estimate_offsets(
     offsets = _refine(views, times, cameras, coarse, rate)
     before = views_error(views, times, cameras, np.zeros(C), at)
     after = views_error(views, times, cameras, offsets, at)
-    return SyncEstimate(offsets, correlation, confidence, before, after, rate)
+    at_limit = np.abs(offsets - coarse) * rate >= REFINE_FRAMES - 0.5 * REFINE_STEP
+    return SyncEstimate(offsets, correlation, confidence, before, after, rate, at_limit)
 
 
 def with_offsets(cameras: Sequence[Camera], offsets_s: Sequence[float]) -> list[Camera]:

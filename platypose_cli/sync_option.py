@@ -79,13 +79,19 @@ def sync_cameras(
         return with_offsets(cameras, read_offsets(Path(mode), [c.name for c in cameras]))
     estimate = estimate_offsets([main_person(k) for k in keypoints], frame_times, cameras)
     synced = with_offsets(cameras, estimate.offsets_s)
-    for camera, frames, confidence in zip(synced[1:], estimate.offsets_frames[1:], estimate.confidence[1:]):
+    rows = zip(synced[1:], estimate.offsets_frames[1:], estimate.confidence[1:], estimate.at_limit[1:])
+    for camera, frames, confidence, at_limit in rows:
         log(
             f"sync {camera.name}: {camera.time_offset_s:+.3f} s ({frames:+.1f} frames) after {synced[0].name}, "
             f"confidence {confidence:.2f}"
         )
         if confidence < LOW_CONFIDENCE:
             warn(f"sync {camera.name}: low confidence {confidence:.2f}; check the offset or pass an offsets.json")
+        if at_limit:
+            warn(
+                f"sync {camera.name}: its reprojection error keeps falling beyond 2 frames from the motion estimate; "
+                "its calibration may be off (calib check)"
+            )
     log(
         f"sync: median reprojection error {estimate.error_before_px:.1f} px as recorded, "
         f"{estimate.error_after_px:.1f} px with the offsets"
