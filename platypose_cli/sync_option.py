@@ -89,8 +89,8 @@ def sync_cameras(
             warn(f"sync {camera.name}: low confidence {confidence:.2f}; check the offset or pass an offsets.json")
         if at_limit:
             warn(
-                f"sync {camera.name}: its reprojection error keeps falling beyond 2 frames from the motion estimate; "
-                "its calibration may be off (calib check)"
+                f"sync {camera.name}: the reprojection error still falls at 2 frames from the motion estimate, "
+                "where the search stops: the offset or the calibration may be off by that much"
             )
     log(
         f"sync: median reprojection error {estimate.error_before_px:.1f} px as recorded, "
