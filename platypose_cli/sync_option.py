@@ -54,6 +54,7 @@ def write_offsets(path: Path, cameras: Sequence[Camera], confidence: Sequence[fl
         "offsets_s": {c.name: c.time_offset_s for c in cameras},
         "confidence": {c.name: round(float(v), 3) for c, v in zip(cameras, confidence)},
     }
+    path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, json.dumps(data, indent=1) + "\n")
 
 
