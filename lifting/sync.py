@@ -3,15 +3,16 @@
 Two steps, each on arrays:
 
 1. **Coarse, by motion.** Per view, a one-dimensional signal: the confidence-weighted mean vertical
-   image velocity of the joints, in person heights per second (vertical motion looks alike from
-   every upright camera; horizontal motion depends on where the camera stands). The signals are
+   image speed of the joints, in person heights per second (vertical motion looks alike from every
+   upright camera; horizontal motion depends on where the camera stands). The signals are
    resampled on a common time grid at the reference view's frame rate, using each frame's own
    time, and each view's signal is cross-correlated (normalised, over the overlap) with the
-   reference's. The lag of the highest correlation is the coarse offset.
-2. **Fine, by geometry.** Around the coarse offset, sub-frame offsets are tried: the view's
-   keypoints are interpolated at the reference frames' times, triangulated with the reference
-   view, and the offset with the smallest median reprojection error wins. Wrongly timed views of a
-   moving person disagree on where the joints are; rightly timed ones agree.
+   reference's. The lag of the highest correlation is the motion estimate.
+2. **Fine, by geometry.** Each view's offset is moved by whole frames, then tenths of a frame, to
+   where all views triangulated together (keypoints interpolated at the reference frames' times)
+   reproject best, never more than ``REFINE_FRAMES`` from the motion estimate: wrongly timed views
+   of a moving person disagree on where the joints are, but a view's calibration error can also
+   be hidden by a wrong timing, so the motion estimate bounds it.
 
 The offsets follow ``Camera.time_offset_s``: a view that started recording 0.5 s after the
 reference gets +0.5 (its frame times plus the offset are on the reference's clock).
