@@ -20,7 +20,7 @@ from platypose.detectors.detector import Detector
 from platypose.detectors.keypoints import to_our_joints
 from platypose.detectors.tracking import TrackerConfig, track_detections
 from platypose.detectors.types import PoseTrack2D
-from platypose.detectors.video import iter_frames, video_info
+from platypose.detectors.video import iter_frames, processed_times, video_info
 
 Progress = Callable[[int, int], None]
 
@@ -74,4 +74,5 @@ def detect_video(
         if cache is not None:
             cache.save(key, detections, indices)
     ours = [to_our_joints(people, detector.layout) for people in detections]
-    return track_detections(ours, indices / info.fps, info.image_size, f"{video} ({detector.name})", tracker)
+    times = processed_times(video, indices, info.fps)
+    return track_detections(ours, times, info.image_size, f"{video} ({detector.name})", tracker)

@@ -1,79 +1,35 @@
-"""Streaming video decoding with OpenCV: one frame in memory at a time, clear errors for unreadable files."""
+"""Video input for the detectors: the shared reader (``platypose.media``: upright frames, each frame's own
+time) and the lookup of the video a keypoint file was made from."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from platypose.lifting.errors import InputError
+from platypose.media import VIDEO_SUFFIXES, VideoInfo, frame_times, iter_frames, video_info
 
-VIDEO_SUFFIXES: tuple[str, ...] = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg")
-
-
-@dataclass(frozen=True)
-class VideoInfo:
-    """What the container says: frames per second, (height, width) and frame count (may be an estimate)."""
-
-    fps: float
-    image_size: tuple[int, int]
-    frame_count: int
-
-
-def _open(path: Path):
-    import cv2
-
-    if not path.is_file():
-        raise InputError(f"{path}: video file not found")
-    capture = cv2.VideoCapture(str(path))
-    if not capture.isOpened():
-        raise InputError(f"{path}: OpenCV cannot open this file as a video")
-    return capture
+__all__ = [
+    "VIDEO_SUFFIXES",
+    "VideoInfo",
+    "frame_times",
+    "iter_frames",
+    "processed_times",
+    "sibling_video",
+    "timing_from_video",
+    "video_info",
+]
 
 
-def video_info(path: str | Path) -> VideoInfo:
-    """Read fps, size and frame count of a video; InputError if it is missing, unreadable or has no frames."""
-    import cv2
-
-    path = Path(path)
-    capture = _open(path)
-    try:
-        fps = capture.get(cv2.CAP_PROP_FPS)
-        count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
-        ok, frame = capture.read()  # the decoded frame's size, after any rotation OpenCV applies
-    finally:
-        capture.release()
-    if not ok or frame is None or frame.size == 0:
-        raise InputError(f"{path}: no decodable frame (corrupt or unsupported video)")
-    height, width = frame.shape[:2]
-    if not np.isfinite(fps) or fps <= 0:
-        raise InputError(f"{path}: the video does not state a frame rate")
-    return VideoInfo(float(fps), (height, width), max(count, 0))
-
-
-def iter_frames(path: str | Path, stride: int = 1, max_frames: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
-    """Yield ``(frame_index, BGR image (H, W, 3) uint8)`` one at a time, every ``stride``-th frame."""
-    path = Path(path)
-    capture = _open(path)
-    try:
-        index = emitted = 0
-        while max_frames is None or emitted < max_frames:
-            if index % stride:
-                if not capture.grab():
-                    break
-            else:
-                ok, frame = capture.read()
-                if not ok:
-                    break
-                yield index, frame
-                emitted += 1
-            index += 1
-    finally:
-        capture.release()
-    if index == 0:
-        raise InputError(f"{path}: no decodable frame (corrupt or unsupported video)")
+def processed_times(path: Path, indices: np.ndarray, fps: float) -> np.ndarray:
+    """Times (T,) in seconds of the frames ``indices`` of ``path``: each frame's own timestamp (variable
+    frame rate kept), or ``index / fps`` if the container's packets do not cover every decoded frame."""
+    times = frame_times(path)
+    indices = np.asarray(indices, dtype=np.int64)
+    if indices.size and indices.max() >= len(times):
+        return indices / fps
+    return times[indices]
 
 
 def sibling_video(path: Path) -> Path | None:

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from platypose.cli.app import app
+from platypose.cli.sync_option import SYNC_HELP
 
 calib_app = typer.Typer(help="Convert camera calibrations to calib.json and check them.", no_args_is_help=True)
 app.add_typer(calib_app, name="calib")
@@ -20,7 +21,10 @@ SUBJECT_HELP = "Human3.6M subject whose extrinsics to use (e.g. S9) when the fil
 def convert(
     source: Path = typer.Argument(
         ...,
-        help="Calibration (.toml, .yml, intri/extri folder, Human3.6M .json, .txt, calib.json) or a video (FOV prior).",
+        help=(
+            "Calibration (Pose2Sim/anipose/FreeMoCap/Caliscope .toml, Qualisys .qca.txt, .yml, intri/extri folder,"
+            " Human3.6M .json, .txt, calib.json) or a video (FOV prior)."
+        ),
     ),
     out: Path = typer.Option(..., "--out", "-o", help="Native calib.json to write."),
     world_up: str = typer.Option(None, "--world-up", help=WORLD_UP_HELP),
@@ -59,8 +63,9 @@ def _check_videos(calibration, videos: list[Path]) -> None:
         typer.echo(warning if warning else f"{camera_name} <- {video_name}: size matches")
 
 
-def _check_keypoints(calibration, folder: Path, fps: float | None) -> None:
-    """Triangulate multi-view 2D keypoints and print the median reprojection error."""
+def _check_keypoints(calibration, folder: Path, fps: float | None, sync: str) -> None:
+    """Triangulate multi-view 2D keypoints (on one clock as ``sync`` says) and print the median reprojection error."""
+    from platypose.cli.sync_option import sync_cameras
     from platypose.detectors.openpose import read_openpose_folder
     from platypose.lifting.calibration.matching import gather_views, match_views
     from platypose.lifting.errors import InputError
@@ -77,6 +82,9 @@ def _check_keypoints(calibration, folder: Path, fps: float | None) -> None:
     matched = match_views(calibration.names, list(views))
     cameras = [calibration.camera(name) for name in matched]
     tracks = [read_openpose_folder(views[matched[c.name]], fps=fps, image_size=c.size) for c in cameras]
+    cameras = sync_cameras(
+        sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, typer.echo, _warn
+    )
     period = min(float(t.frame_times[1] - t.frame_times[0]) if t.num_frames > 1 else 1.0 for t in tracks)
     candidates = gather_views([t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, 0.5 * period)
     keypoints = associate_single_person(candidates, cameras)
@@ -87,6 +95,10 @@ def _check_keypoints(calibration, folder: Path, fps: float | None) -> None:
     typer.echo(f"median reprojection error {median_reprojection_error(points, keypoints, cameras):.1f} px")
 
 
+def _warn(message: str) -> None:
+    typer.echo(f"warning: {message}")
+
+
 @calib_app.command("check")
 def check(
     calib: Path = typer.Argument(..., help="Calibration file in any supported format."),
@@ -95,6 +107,7 @@ def check(
         None, "--keypoints", help="Folder with one OpenPose JSON sub-folder per camera: report triangulation error."
     ),
     fps: float = typer.Option(None, "--fps", help="Frame rate of the keypoints when no video sits beside them."),
+    sync: str = typer.Option("none", "--sync", help=SYNC_HELP),
     world_up: str = typer.Option(None, "--world-up", help=WORLD_UP_HELP),
     units: str = typer.Option(None, "--units", help=UNITS_HELP),
     subject: str = typer.Option(None, "--subject", help=SUBJECT_HELP),
@@ -114,4 +127,4 @@ def check(
     if videos:
         _check_videos(calibration, videos)
     if keypoints is not None:
-        _check_keypoints(calibration, keypoints, fps)
+        _check_keypoints(calibration, keypoints, fps, sync)

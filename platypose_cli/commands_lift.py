@@ -10,6 +10,7 @@ import typer
 from platypose.cli.app import app
 from platypose.cli.detection import DetectOptions
 from platypose.cli.options import as_json, settings_options
+from platypose.cli.sync_option import SYNC_HELP
 
 if TYPE_CHECKING:
     from platypose.lifting.lift import WindowSettings
@@ -30,6 +31,7 @@ def lift_settings(
     root_file: Path | None,
     quiet: bool,
     arguments: dict,
+    sync: str = "none",
 ):
     """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
     from platypose.cli.lift_run import RunSettings
@@ -43,6 +45,8 @@ def lift_settings(
     resolve_device(prior.device)
     if root not in ROOT_MODES:
         raise InputError(f"root must be one of {', '.join(ROOT_MODES)}, got {root!r}", option="root")
+    if sync not in ("auto", "none") and not Path(sync).is_file():
+        raise InputError(f"{sync}: offsets file not found (--sync takes auto, none or an offsets .json)")
     return RunSettings(
         out=out,
         cams=cams,
@@ -56,6 +60,7 @@ def lift_settings(
         root_file=root_file,
         quiet=quiet,
         arguments=arguments,
+        sync=sync,
     )
 
 
@@ -103,6 +108,7 @@ def lift(
     root_trajectory: Path | None = typer.Option(
         None, "--root-trajectory", help="Known pelvis path: npz (frame_times, root) or CSV (time,x,y,z)."
     ),
+    sync: str = typer.Option("none", "--sync", help=SYNC_HELP),
     fps: float | None = typer.Option(None, "--fps", help="Frame rate of keypoints without a video beside them."),
     image_size: str | None = typer.Option(None, "--image-size", help="HEIGHTxWIDTH of keypoints without a video."),
     stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame."),
@@ -143,7 +149,7 @@ def lift(
         detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps, image_size=image_size
     )
     settings = lift_settings(
-        out, cams, prior, detect, sampler, windows, formats, persons, root, root_trajectory, quiet, arguments
+        out, cams, prior, detect, sampler, windows, formats, persons, root, root_trajectory, quiet, arguments, sync
     )
     if root_trajectory is not None and len(job_list) > 1:
         raise InputError(f"--root-trajectory {root_trajectory}: give it for one input, not {len(job_list)}")

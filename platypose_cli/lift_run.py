@@ -29,6 +29,7 @@ import typer
 from platypose.cli.detection import Detection, DetectOptions
 from platypose.cli.lift_jobs import Job
 from platypose.cli.options import as_json, cli_message
+from platypose.cli.sync_option import sync_cameras
 from platypose.lifting.errors import InputError
 from platypose.lifting.lift import WindowSettings
 from platypose.lifting.runtime import PriorSettings
@@ -37,6 +38,7 @@ from platypose.pipeline import JobLog, lift_take, match_cameras, view_cameras
 
 MANIFEST = "lift.json"
 FAILURE = "failed.json"
+SYNC_FILE = "sync_offsets.json"  # offsets estimated by --sync auto, for reuse as --sync FILE
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,7 @@ class RunSettings:
     root_file: Path | None = None
     quiet: bool = False
     arguments: dict = field(default_factory=dict)
+    sync: str = "none"
 
 
 _PRIORS: dict[PriorSettings, object] = {}
@@ -148,6 +151,9 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     timings["keypoints_s"] = time.perf_counter() - started
     names, sources = [v.name for v in job.views], [str(v.source) for v in job.views]
     cameras = view_cameras(calibrated, [t.image_size for t in views], names, sources, job.input, log, "--cams")
+    offsets_file = settings.out / job.name / SYNC_FILE if settings.sync == "auto" else None
+    keypoints_2d, frame_times = [t.keypoints for t in views], [t.frame_times for t in views]
+    cameras = sync_cameras(settings.sync, keypoints_2d, frame_times, cameras, log, log.warning, offsets_file)
     keypoints, times, track_ids = take_keypoints(views, cameras, settings.persons, job.input)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
     roots = root_paths(keypoints, times, cameras, settings, log)
@@ -230,8 +236,12 @@ def _stamp(path: Path) -> list:
 
 def fingerprint(job: Job, settings: RunSettings) -> str:
     """A digest of the job's input files and the settings that decide whether it can succeed."""
-    files = [v.source for v in job.views] + [p for p in (settings.cams, settings.root_file, settings.prior.path) if p]
+    sync_file = Path(settings.sync) if settings.sync not in ("auto", "none") else None
+    files = [v.source for v in job.views] + [
+        p for p in (settings.cams, settings.root_file, settings.prior.path, sync_file) if p
+    ]
     decisive = [
+        settings.sync,
         str(replace(settings.detect, threads=None)),
         settings.persons,
         settings.root,

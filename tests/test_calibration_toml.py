@@ -83,16 +83,17 @@ def test_world_up_override_rotates_world(data_dir: Path):
     assert "world up axis y rotated to +z" in y_up.meta["conversions"]
 
 
-def test_anipose_millimetre_file_needs_units(data_dir: Path):
+def test_anipose_millimetre_file_units_detected(data_dir: Path):
     path = Path(__file__).parent / "data/calib/anipose_mm.toml"
-    with pytest.raises(InputError, match="a camera is 3166 m from the origin; the units look wrong .file read as m."):
-        load_calibration(path)
-    cal = load_calibration(path, units="mm")
+    cal = load_calibration(path)
     reference = load_calibration(data_dir / POSE2SIM)
     assert cal.names == ("A", "B") and "units mm scaled to metres (x0.001)" in cal.meta["conversions"]
+    assert "millimetres detected (cameras a median 2854 units apart" in cal.meta["assumptions"][0]
     for ours, ref in zip(cal.cameras, reference.cameras):
         assert np.allclose(ours.t, ref.t) and np.array_equal(ours.K, ref.K) and ours.size == ref.size
         assert_matches_opencv(ours, cv2.Rodrigues(ref.R)[0], ref.t, ref.K, ref.dist)
+    with pytest.raises(InputError, match="a camera is 3166 m from the origin; the units look wrong .file read as m."):
+        load_calibration(path, units="m")
 
 
 def test_missing_intrinsics_and_extrinsics_use_defaults(data_dir: Path, tmp_path: Path):

@@ -1,9 +1,9 @@
 """Camera calibration: read every supported format, check it, express it Z-up in metres, write the native JSON.
 
 ``load_calibration`` dispatches on the path: a folder or ``intri.yml``/``extri.yml`` (EasyMocap),
-``.toml`` (Pose2Sim / anipose / FreeMoCap), ``.yml``/``.yaml``/``.xml`` (OpenCV FileStorage),
-``.json`` (native ``platypose-calib`` or Human3.6M cameras, told apart by content) and ``.txt``
-(intrinsics only).
+``.toml`` (Pose2Sim / anipose / FreeMoCap / Caliscope, told apart by content), ``.yml``/``.yaml``/``.xml``
+(OpenCV FileStorage), ``.json`` (native ``platypose-calib`` or Human3.6M cameras, told apart by content),
+``.qca.txt`` (Qualisys) and other ``.txt`` (intrinsics only).
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from platypose.lifting.calibration.intrinsics_only import read_intrinsics
 from platypose.lifting.calibration.model import Calibration
 from platypose.lifting.calibration.native import read_native, write_native
 from platypose.lifting.calibration.opencv_yml import is_easymocap, read_opencv_yml
+from platypose.lifting.calibration.qualisys import is_qualisys, read_qualisys
 from platypose.lifting.calibration.toml_format import read_toml
 from platypose.lifting.calibration.validate import read_json
 from platypose.lifting.calibration.world import to_z_up_metres
@@ -47,9 +48,13 @@ def _read_any(path: Path, subject: str | None) -> Calibration:
         return read_toml(path)
     if suffix == ".json":
         return _read_json(path, subject)
+    if is_qualisys(path):
+        return read_qualisys(path)
     if suffix == ".txt":
         return read_intrinsics(path)
-    raise InputError(f"{path}: unknown calibration format (expected .json, .toml, .yml, .txt or an EasyMocap folder)")
+    raise InputError(
+        f"{path}: unknown calibration format (expected .json, .toml, .yml, .qca.txt, .txt or an EasyMocap folder)"
+    )
 
 
 def _check_distances(path: Path, calibration: Calibration, units_read: str | float) -> None:

@@ -1,18 +1,30 @@
-"""Pose2Sim / anipose / FreeMoCap calibration ``.toml``: one table per camera plus ``[metadata]``.
+"""Calibration ``.toml`` of Pose2Sim, anipose, FreeMoCap and Caliscope: one table per camera.
 
-Per camera: ``name``, ``size`` [width, height], ``matrix`` 3x3, ``distortions`` [k1 k2 p1 p2 (k3)],
-``rotation`` (Rodrigues, world -> camera), ``translation``, ``fisheye``. The file states neither
-units nor up axis: we assume metres (Pose2Sim) and Z up (board on the floor), and say so in ``meta``.
+Pose2Sim / anipose / FreeMoCap: ``[cam_N]`` (or any name) tables with ``name``, ``size`` [width,
+height], ``matrix`` 3x3, ``distortions`` [k1 k2 p1 p2 (k3)], ``rotation`` (Rodrigues, world ->
+camera), ``translation``, ``fisheye``, plus ``[metadata]``; FreeMoCap's metadata names a charuco
+board. Caliscope ``camera_array.toml`` / ``config.toml``: ``[cameras.N]`` tables with ``cam_id``,
+``size``, ``matrix``, ``distortions``, ``rotation`` (3x3 or Rodrigues, world -> camera),
+``translation``, ``ignore``; workspace keys (``rotation_count``, ``exposure``, ``grid_count``,
+``error``) are not calibration and are ignored.
+
+None of these files states its units or up axis. Pose2Sim works in metres with Z up; anipose,
+FreeMoCap and Caliscope put the world in one camera's frame, FreeMoCap often in millimetres. So
+both are detected from the cameras (``plausible``) and stated in ``meta``; ``--units`` and
+``--world-up`` override.
 """
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import Any
 
 from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.defaults import complete_camera
 from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.calibration.plausible import detect_units, detect_up
+from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 
 if sys.version_info >= (3, 11):
@@ -21,37 +33,71 @@ else:
     import tomli as tomllib
 
 CAMERA_KEYS = frozenset({"name", "size", "matrix", "distortions", "rotation", "translation"})
-ASSUMED_FRAME = "world frame not stated by the file: assumed Z up and metres (Pose2Sim convention)"
+FREEMOCAP_METADATA = frozenset({"charuco_square_size", "charuco_board_object"})
+
+
+def _table_camera(table: dict[str, Any], name: str, source: str) -> tuple[Camera, list[str]]:
+    """One camera from a Pose2Sim/anipose/Caliscope table, with the notes of any defaults used."""
+    where = f"camera {name!r}"
+    if table.get("fisheye", False):
+        raise InputError(f"{source}: {where} uses the fisheye model, which platypose does not support")
+    if "size" not in table:
+        raise InputError(f"{source}: {where} is missing size")
+    width, height = validate.as_size(table["size"], source, f"{where} size")
+    K = validate.check_intrinsics(table["matrix"], source, f"{where} matrix") if "matrix" in table else None
+    dist = validate.as_distortion(table.get("distortions", []), source, f"{where} distortions")
+    if ("rotation" in table) != ("translation" in table):
+        raise InputError(f"{source}: {where} has only one of rotation and translation")
+    has_extrinsics = "rotation" in table
+    R = validate.as_rotation(table["rotation"], source, f"{where} rotation") if has_extrinsics else None
+    t = validate.as_array(table["translation"], (3,), source, f"{where} translation") if has_extrinsics else None
+    return complete_camera(name, (height, width), K, dist, R, t)
+
+
+def _caliscope_tables(data: dict[str, Any], source: str) -> list[tuple[str, dict[str, Any]]]:
+    """(name, table) per Caliscope camera, named ``cam_<id>``; ``ignore = true`` cameras are left out."""
+    cameras = data["cameras"]
+    if not isinstance(cameras, dict) or not all(isinstance(t, dict) for t in cameras.values()):
+        raise InputError(f"{source}: [cameras] must hold one table per camera")
+    return [(f"cam_{table.get('cam_id', key)}", table) for key, table in cameras.items() if not table.get("ignore")]
+
+
+def _layout(data: dict[str, Any]) -> str:
+    """Which tool wrote the file: ``caliscope``, ``freemocap`` or ``pose2sim`` (also anipose)."""
+    if isinstance(data.get("cameras"), dict):
+        return "caliscope"
+    metadata = data.get("metadata")
+    if isinstance(metadata, dict) and FREEMOCAP_METADATA & set(metadata):
+        return "freemocap"
+    return "pose2sim"
 
 
 def read_toml(path: Path) -> Calibration:
-    """Read every camera table of a Pose2Sim-style ``.toml``; tables with no camera key (``metadata``) are skipped."""
+    """Read every camera of a calibration ``.toml``, detecting units and up axis from the cameras."""
     source = str(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
         raise InputError(f"{source}: not valid TOML ({err})") from None
-    meta = new_meta("pose2sim-toml", source, "z", "m")
-    meta["assumptions"].append(ASSUMED_FRAME)
-    cameras = []
-    for key, table in data.items():
-        if not isinstance(table, dict) or not CAMERA_KEYS & set(table):
-            continue
-        name = str(table.get("name", key))
-        where = f"camera {name!r}"
-        if table.get("fisheye", False):
-            raise InputError(f"{source}: {where} uses the fisheye model, which platypose does not support")
-        if "size" not in table:
-            raise InputError(f"{source}: {where} is missing size")
-        width, height = validate.as_size(table["size"], source, f"{where} size")
-        K = validate.check_intrinsics(table["matrix"], source, f"{where} matrix") if "matrix" in table else None
-        dist = validate.as_distortion(table.get("distortions", []), source, f"{where} distortions")
-        has_extrinsics = "rotation" in table and "translation" in table
-        if ("rotation" in table) != ("translation" in table):
-            raise InputError(f"{source}: {where} has only one of rotation and translation")
-        R = validate.as_rotation(table["rotation"], source, f"{where} rotation") if has_extrinsics else None
-        t = validate.as_array(table["translation"], (3,), source, f"{where} translation") if has_extrinsics else None
-        camera, notes = complete_camera(name, (height, width), K, dist, R, t)
+    layout = _layout(data)
+    if layout == "caliscope":
+        tables = _caliscope_tables(data, source)
+    else:
+        tables = [
+            (str(t.get("name", key)), t) for key, t in data.items() if isinstance(t, dict) and CAMERA_KEYS & set(t)
+        ]
+    cameras, notes = [], []
+    for name, table in tables:
+        camera, camera_notes = _table_camera(table, name, source)
         cameras.append(camera)
-        meta["assumptions"].extend(notes)
-    return Calibration(cameras=validate.check_cameras(cameras, source), meta=meta)
+        notes.extend(camera_notes)
+    cameras = validate.check_cameras(cameras, source)
+    units, units_note = detect_units(cameras)
+    up, up_note = detect_up(cameras)
+    meta = new_meta(f"{layout}-toml", source, up, units)
+    meta["assumptions"] = [n for n in (units_note, up_note) if n] + notes
+    if not units_note and not up_note:
+        meta["assumptions"].insert(
+            0, "world frame not stated by the file: assumed Z up and metres (they fit the cameras)"
+        )
+    return Calibration(cameras=cameras, meta=meta)

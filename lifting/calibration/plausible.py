@@ -1,0 +1,63 @@
+"""Guess what a calibration file leaves unsaid (length unit, up axis) from where its cameras are.
+
+Both guesses rest on how capture rigs are built: cameras stand between a few decimetres and some
+tens of metres apart, and are mounted roughly upright (the image's up is near the world's up).
+Each guess returns a sentence for ``meta["assumptions"]`` so the user sees what was decided.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from platypose.lifting.camera import Camera
+
+MAX_RIG_SPREAD_M = 50.0  # a larger median spacing in file units means the file is not in metres
+MAX_UP_ANGLE_DEG = 35.0  # the mean image-up must lie this close to one world axis to be taken as up
+AXIS_NAMES = ("x", "y", "z")
+
+
+def camera_spread(cameras: Sequence[Camera]) -> float | None:
+    """Median distance between camera centres in file units, or None with fewer than two distinct centres."""
+    centres = np.stack([c.center for c in cameras])
+    if len(centres) < 2:
+        return None
+    gaps = np.linalg.norm(centres[:, None] - centres[None], axis=-1)[np.triu_indices(len(centres), 1)]
+    return float(np.median(gaps)) if gaps.max() > 0 else None
+
+
+def detect_units(cameras: Sequence[Camera]) -> tuple[str, str | None]:
+    """``"mm"`` when the cameras are implausibly far apart in metres (median spacing over 50), else ``"m"``.
+
+    Returns the unit and, when millimetres were chosen, the sentence saying why.
+    """
+    spread = camera_spread(cameras)
+    if spread is None or spread <= MAX_RIG_SPREAD_M:
+        return "m", None
+    return "mm", (
+        f"units not stated: millimetres detected (cameras a median {spread:.0f} units apart, "
+        f"{spread / 1000:.2f} m in mm); pass --units to override"
+    )
+
+
+def detect_up(cameras: Sequence[Camera]) -> tuple[str, str | None]:
+    """The signed world axis nearest the cameras' mean image-up direction, and a sentence when it is not +z.
+
+    Falls back to ``"z"`` when the mean direction is more than 35 degrees from every axis.
+    """
+    ups = np.stack([-c.R[1] for c in cameras])  # image y points down: the camera's up is -y
+    mean = ups.sum(axis=0)
+    norm = float(np.linalg.norm(mean))
+    if norm < 1e-9:
+        return "z", None
+    mean /= norm
+    axis = int(np.argmax(np.abs(mean)))
+    angle = float(np.degrees(np.arccos(np.clip(abs(mean[axis]), -1.0, 1.0))))
+    name = ("-" if mean[axis] < 0 else "") + AXIS_NAMES[axis]
+    if angle > MAX_UP_ANGLE_DEG or name == "z":
+        return "z", None
+    return name, (
+        f"world up not stated: {name} detected from the cameras' image-up directions "
+        f"(mean {angle:.0f} degrees from {name}); pass --world-up to override"
+    )
