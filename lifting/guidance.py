@@ -16,6 +16,7 @@ from platypose.lifting.energy import (
     reprojection_terms,
     symmetry_energy,
 )
+from platypose.lifting.grounding import CONTACT_BAND, Grounding
 from platypose.lifting.linalg import add_to_diagonal_, rigid_motion, solve_symmetric3
 from platypose.lifting.placement import Anchor, continuation_ramp, continued_offset, typical_size
 from platypose.lifting.prior import PriorBundle
@@ -44,11 +45,16 @@ class GuidedProblem:
         anchor: Anchor | None = None,
         size_factors: torch.Tensor | None = None,
         views: OneView | SeveralViews | None = None,
+        stance_heights: torch.Tensor | None = None,
     ) -> None:
         if rays is None and root_trajectory is None:
             raise ValueError("either ray constraints (to solve the root) or a known root trajectory is needed")
         self.prior, self.obs, self.rays, self.config = prior, obs, rays, config
         self.views = views_for(obs.cameras) if views is None else views
+        self.grounding = (
+            None if config.floor is None else Grounding(config.floor, obs, config, prior.fps, stance_heights)
+        )
+        self.floor_state: tuple[torch.Tensor, torch.Tensor, float] | None = None  # stance, floor in guidance frame
         self.root_trajectory = root_trajectory
         self.anchor = anchor
         self.size_factors = size_factors
@@ -69,6 +75,8 @@ class GuidedProblem:
         placed = typical_size(local, self.size_factors) if self.config.size_prior else local
         offset = solve_translation(placed, self.rays, self.obs.cameras, self.config.translation_smoothness)
         offset = self.views.limit_offset(local[..., 0, :], offset)
+        if self.grounding is not None:  # windows seen by one camera: stance ankles' rays meet the floor
+            offset = self.grounding.place(placed, offset)
         if self.anchor is not None:  # continuation: start on the anchor, return to the rays' placement by the end
             offset = continued_offset(offset, local, self.anchor)
         return offset
@@ -156,7 +164,8 @@ class GuidedProblem:
         return features_to_joints(grad_x * -self.std).reshape(B, N, F, -1, 3).movedim(-1, 0)
 
     def add_extra_terms(self, joints, energy, grad, curvature, anchor: torch.Tensor | None = None):
-        """Add the structural energies (autograd, small) and the anchor (analytic) to the reprojection terms.
+        """Add the structural energies (autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
+        to the reprojection terms.
 
         ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
         :func:`lifting.energy.reprojection_terms` returns them, in the frame of ``joints`` and of
@@ -169,6 +178,8 @@ class GuidedProblem:
                 extra = c.bone_weight * bone_constancy_energy(j) + c.symmetry_weight * symmetry_energy(j)
                 (extra_grad,) = torch.autograd.grad(extra.sum(), j)
             energy, grad = energy + extra.detach(), grad + extra_grad.movedim(-1, 0)
+        if self.floor_state is not None:
+            energy, grad, curvature = self.grounding.add_terms(joints, energy, grad, curvature, *self.floor_state)
         if self.anchor is not None:  # isotropic curvature: the same in any axes
             mask = self.anchor.mask[:, None, :]
             gap = joints - anchor
@@ -194,6 +205,10 @@ class GuidedProblem:
             start = rigid_motion(start, *frame)
             anchor = None if anchor is None else rigid_motion(anchor.movedim(-1, 0), *frame).movedim(0, -1)
         start = start.contiguous()
+        if self.grounding is not None:  # stance detected per hypothesis from where guidance starts
+            normal, level = self.grounding.frame(*(frame or (None, None)))
+            stance = self.grounding.stance(start.movedim(0, -1), normal, level, CONTACT_BAND)
+            self.floor_state = (stance, normal, level)
         moved = torch.zeros_like(start)
         rows = (1, self.batch, -1, 1, 1)  # one hypothesis per row of the component-first arrays
         step = torch.full((x0.shape[0],), c.energy_scale, dtype=x0.dtype, device=x0.device)

@@ -33,6 +33,11 @@ class SamplerConfig:
     ``symmetry_weight`` switch on the structural energies (metres squared). With one camera,
     ``depth_smoothness`` smooths every joint's depth path along its ray after each diffusion
     step's guidance (:mod:`lifting.depth_smoothing`; 0: off).
+    ``floor`` ``(nx, ny, nz, d)`` (world metres, ``n`` up; None: no floor) grounds every hypothesis inside the
+    sampler (:mod:`lifting.grounding`): ``floor_weight`` per squared metre of a joint below it, ``contact_weight``
+    holding stance ankles on it, ``slide_weight`` against stance ankles sliding along it; and a window seen by
+    one camera is placed where its stance ankles' rays meet it, where that keeps an adult's size; each
+    hypothesis's stance ankles stand ``ANKLE_HEIGHT`` plus ``support_spread`` times a standard normal draw above it.
     ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
     took a step gaining less than ``guidance_tol`` of its energy at the start of this
     diffusion step's guidance, or its step has shrunk to nothing (0: always k).
@@ -60,6 +65,11 @@ class SamplerConfig:
     bone_weight: float = 0.0
     symmetry_weight: float = 0.0
     depth_smoothness: float = 10.0
+    floor: tuple[float, float, float, float] | None = None
+    floor_weight: float = 1.0
+    contact_weight: float = 0.1
+    slide_weight: float = 1.0
+    support_spread: float = 0.03
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -82,6 +92,9 @@ class SamplerConfig:
             (0 <= self.size_spread <= 0.5, f"size spread must be in [0, 0.5], got {self.size_spread}"),
             (self.bone_weight >= 0 and self.symmetry_weight >= 0, "structural energy weights must be >= 0"),
             (self.depth_smoothness >= 0, f"depth smoothness must be >= 0, got {self.depth_smoothness}"),
+            (self.floor is None or len(self.floor) == 4, f"floor must be (nx, ny, nz, d), got {self.floor}"),
+            (min(self.floor_weight, self.contact_weight, self.slide_weight) >= 0, "floor weights must be >= 0"),
+            (0 <= self.support_spread <= 0.2, f"support spread must be in [0, 0.2] m, got {self.support_spread}"),
         ]
         for ok, message in checks:
             if not ok:

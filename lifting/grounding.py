@@ -1,0 +1,169 @@
+"""Grounding inside the sampler: the floor as energies in guidance and as a constraint on the closed-form placement.
+
+Given a floor ``n . x + d = 0`` (world metres, ``n`` up; :mod:`lifting.floor`):
+
+- placement (:meth:`Grounding.place`): a window seen by one camera only is placed by the size prior,
+  which leaves its depth and size to one typical adult. Scaling the placed motion about that camera's
+  centre keeps every projection and changes depth and size together; the scale that puts the stance
+  ankles (the lower ankle of slow frames, median over the window) at their stance height above the
+  floor fixes both. The stance height is ``ANKLE_HEIGHT`` plus a draw of ``support_spread`` per
+  hypothesis: shoes, mats, force plates and where a detector puts the ankle differ by centimetres, and
+  each centimetre moves a one-view placement by several. Support is a prior, not a clamp: the floor reading is taken only where it keeps the
+  person's size within ``SCALE_LIMITS`` of the size prior's and the stance ankles are below the
+  camera; otherwise (a person on a roof or a platform, airborne windows) the size prior's placement
+  stays.
+- energies (:meth:`Grounding.add_terms`), per hypothesis, in the guidance frame: penetration (every
+  joint below the floor, ``floor_weight`` per squared metre), contact (stance ankles held at
+  their stance height, ``contact_weight``) and sliding (a stance ankle's move along the floor between two
+  stance frames, ``slide_weight``). Stance is detected from each hypothesis itself (:meth:`Grounding.stance`):
+  its lower ankle, slower than ``STANCE_SPEED`` and within ``CONTACT_BAND`` of the stance height.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from platypose.lifting.energy import Observations
+from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, STANCE_SPEED
+from platypose.lifting.linalg import SYMMETRIC_PAIRS
+
+CONTACT_BAND = 0.1  # metres: a stance ankle this far from ANKLE_HEIGHT is not standing on the floor
+SCALE_LIMITS = (1 / 1.4, 1.4)  # the floor's placement never sizes a person further from the size prior's
+MIN_DROP = 0.05  # metres: a stance ankle must be this far below the camera for its ray to meet the floor
+
+
+class Grounding:
+    """The floor's terms for a batch of windows seen through ``obs`` (see the module)."""
+
+    def __init__(
+        self,
+        plane: tuple[float, float, float, float],
+        obs: Observations,
+        weights,
+        fps: float,
+        stance_heights: torch.Tensor | None = None,
+    ) -> None:
+        dtype, device = obs.keypoints.dtype, obs.keypoints.device
+        heights = torch.zeros(1) if stance_heights is None else stance_heights
+        self.stance_height = (ANKLE_HEIGHT + heights.to(dtype=dtype, device=device)).reshape(1, -1, 1, 1)  # per hyp.
+        self.normal = torch.tensor(plane[:3], dtype=dtype, device=device)
+        self.offset = float(plane[3])
+        self.weights, self.fps = weights, fps
+        cameras = obs.cameras
+        self.centers = -torch.einsum("cij,ci->cj", cameras.R, cameras.t)  # (C, 3) camera centres in the world
+        seen = (obs.confidence > 0).flatten(2).any(-1)  # (C, B): which cameras see each window
+        self.single = seen.sum(0) == 1  # (B,) windows seen by exactly one camera
+        self.viewer = seen.float().argmax(0)  # (B,) that camera (meaningless where not single)
+
+    def frame(self, rotation: torch.Tensor | None, translation: torch.Tensor | None) -> tuple[torch.Tensor, float]:
+        """The floor ``(normal, offset)`` in the guidance frame ``x_c = R x + t`` (world if ``rotation`` is None)."""
+        if rotation is None:
+            return self.normal, self.offset
+        normal = rotation @ self.normal
+        return normal, self.offset - float(normal @ translation)
+
+    def stance(self, joints: torch.Tensor, normal: torch.Tensor, offset: float, band: float | None) -> torch.Tensor:
+        """Stance ankles ``(B, N, F, 2)`` (1 standing, 0 not) of joints ``(B, N, F, 17, 3)``: the lower ankle of each
+        frame, slower than ``STANCE_SPEED`` along the floor, and (``band`` given) within ``band`` of the stance height."""
+        ankles = joints[..., list(ANKLES), :]  # (B, N, F, 2, 3)
+        height = ankles @ normal + offset  # (B, N, F, 2)
+        lower = height == height.min(dim=-1, keepdim=True).values
+        stance = lower & torch.isfinite(height)
+        if ankles.shape[2] > 1:
+            step = ankles.diff(dim=2)
+            along = step - (step @ normal)[..., None] * normal
+            speed = along.norm(dim=-1) * self.fps
+            speed = torch.cat([speed[:, :, :1], torch.minimum(speed[:, :, 1:], speed[:, :, :-1]), speed[:, :, -1:]], 2)
+            stance = stance & (speed < STANCE_SPEED)
+        if band is not None:
+            stance = stance & ((height - self.stance_height).abs() < band)
+        return stance.to(joints.dtype)
+
+    def place(self, placed: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
+        """Offsets ``(B, N, F, 3)`` of the placed poses ``placed`` ``(B, N, F, 17, 3)`` (world, before the offset),
+        rescaled about the camera of windows seen by one camera so that their stance ankles stand on the floor."""
+        if not bool(self.single.any()):
+            return offset
+        world = placed + offset[..., None, :]
+        center = self.centers[self.viewer][:, None, None, :]  # (B, 1, 1, 3)
+        stance = self.stance(world, self.normal, self.offset, None) > 0  # (B, N, F, 2)
+        ankles = world[..., list(ANKLES), :]
+        drop = (ankles - center[..., None, :]) @ self.normal  # (B, N, F, 2): below the camera is negative
+        camera_height = center[..., 0, :] @ self.normal + self.offset  # (B, 1)
+        scale = (self.stance_height - camera_height[..., None, None]) / drop.clamp(max=-MIN_DROP)
+        usable = stance & (drop < -MIN_DROP)
+        per_frame = torch.where(usable, scale, torch.nan).flatten(2)  # (B, N, 2F)
+        frames = placed.shape[2]
+        enough = usable.flatten(2).sum(-1) >= max(1, math.ceil(0.25 * frames))
+        window_scale = torch.nan_to_num(per_frame.nanmedian(dim=-1).values, nan=1.0)  # (B, N)
+        plausible = enough & (window_scale >= SCALE_LIMITS[0]) & (window_scale <= SCALE_LIMITS[1])
+        window_scale = torch.where(plausible & self.single[:, None], window_scale, torch.ones_like(window_scale))
+        root = world[..., 0, :]
+        moved_root = center + window_scale[..., None, None] * (root - center)
+        return offset + (moved_root - root)
+
+    def add_terms(
+        self,
+        joints: torch.Tensor,
+        energy: torch.Tensor,
+        grad: torch.Tensor,
+        curvature: torch.Tensor,
+        stance: torch.Tensor,
+        normal: torch.Tensor,
+        offset: float,
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Add penetration, contact and sliding to energy ``(B, N, F)``, gradient ``(3, B, N, F, 17)`` and packed
+        curvature ``(6, B, N, F, 17)`` at joints ``(B, N, F, 17, 3)`` with stance ankles ``stance`` ``(B, N, F, 2)``,
+        all in the frame of the floor ``(normal, offset)``."""
+        w = self.weights
+        height = joints @ normal + offset  # (B, N, F, 17)
+        below = height.clamp(max=0.0)
+        slope = 2 * w.floor_weight * below  # d energy / d height
+        stiffness = 2 * w.floor_weight * (height < 0).to(height.dtype)
+        energy = energy + w.floor_weight * (below**2).sum(-1)
+        ankle_gap = height[..., list(ANKLES)] - self.stance_height  # (B, N, F, 2)
+        energy = energy + w.contact_weight * (stance * ankle_gap**2).sum(-1)
+        ankle_slope = 2 * w.contact_weight * stance * ankle_gap
+        slope = slope.index_add(-1, _ankle_index(joints), ankle_slope)
+        stiffness = stiffness.index_add(-1, _ankle_index(joints), 2 * w.contact_weight * stance)
+        grad = grad + slope.unsqueeze(0) * normal.reshape(3, 1, 1, 1, 1)
+        curvature = _add_outer(curvature, normal, stiffness)
+        if joints.shape[2] > 1 and w.slide_weight > 0:
+            energy, grad, curvature = self._add_sliding(joints, energy, grad, curvature, stance, normal)
+        return energy, grad, curvature
+
+    def _add_sliding(self, joints, energy, grad, curvature, stance, normal):
+        """The sliding term: ``slide_weight`` times a stance ankle's squared move along the floor between frames."""
+        w = self.weights.slide_weight
+        ankles = joints[..., list(ANKLES), :]  # (B, N, F, 2, 3)
+        step = ankles.diff(dim=2)
+        along = step - (step @ normal)[..., None] * normal  # (B, N, F-1, 2, 3)
+        pair = stance[:, :, 1:] * stance[:, :, :-1]  # (B, N, F-1, 2)
+        energy = energy + torch.nn.functional.pad(w * (pair * (along**2).sum(-1)).sum(-1), (0, 1))
+        pull = 2 * w * pair[..., None] * along  # d energy / d later frame; minus that for the earlier
+        per_frame = torch.nn.functional.pad(pull, (0, 0, 0, 0, 1, 0)) - torch.nn.functional.pad(
+            pull, (0, 0, 0, 0, 0, 1)
+        )
+        ankle_grad = torch.zeros_like(joints).index_add(-2, _ankle_index(joints), per_frame)  # (B, N, F, 17, 3)
+        grad = grad + ankle_grad.movedim(-1, 0)
+        # a diagonal bound of the chain's curvature (twice each frame's pairs): steps never overshoot along the floor
+        pairs = torch.nn.functional.pad(pair, (0, 0, 1, 0)) + torch.nn.functional.pad(pair, (0, 0, 0, 1))
+        stiffness = torch.zeros_like(joints[..., 0]).index_add(-1, _ankle_index(joints), 4 * w * pairs)
+        curvature = _add_outer(curvature, normal, -stiffness)
+        for entry, (k, m) in zip(curvature, SYMMETRIC_PAIRS):
+            if k == m:
+                entry.add_(stiffness)
+        return energy, grad, curvature
+
+
+def _ankle_index(joints: torch.Tensor) -> torch.Tensor:
+    """The ankles' joint indices as a tensor on ``joints``' device."""
+    return torch.tensor(ANKLES, device=joints.device)
+
+
+def _add_outer(curvature: torch.Tensor, normal: torch.Tensor, scale: torch.Tensor) -> torch.Tensor:
+    """``curvature + scale * n n^T`` for packed curvature ``(6, ...)`` and ``scale`` ``(...)``."""
+    outer = torch.stack([normal[k] * normal[m] for k, m in SYMMETRIC_PAIRS]).reshape(6, *([1] * scale.dim()))
+    return curvature + outer * scale.unsqueeze(0)
