@@ -67,9 +67,13 @@ def look_target(cameras: Sequence[Camera]) -> np.ndarray:
     return np.linalg.solve(A, b)
 
 
-def place_window(window: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """Translate a window so its mean pelvis is at ``target``."""
-    return window - window[:, 0].mean(0) + target
+def place_window(window: np.ndarray, target: np.ndarray, on_floor: bool = False) -> np.ndarray:
+    """Translate a window so its mean pelvis is at ``target``; ``on_floor``: only along the floor (x, y), so a
+    motion recorded on the floor z = 0 stays on it."""
+    shift = target - window[:, 0].mean(0)
+    if on_floor:
+        shift[2] = 0.0
+    return window + shift
 
 
 def score(hypotheses: np.ndarray, truth: np.ndarray) -> dict:
@@ -140,14 +144,18 @@ def evaluate(
     baseline: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> list[EvalRow]:
-    """The evaluation table: one row per method x frames x samples for these cameras."""
+    """The evaluation table: one row per method x frames x samples for these cameras.
+
+    With ``config.floor`` set, every window stays on its floor (the clips' z = 0) and is moved only along it.
+    """
     target = look_target(cameras)
+    on_floor = config.floor is not None
     rows = []
     for frames in frames_list:
         windows, clip_of_window = cut_windows(clips, frames, windows_per_clip)
         if not windows:
             continue
-        truth = np.stack([place_window(w, target) for w in windows])
+        truth = np.stack([place_window(w, target, on_floor) for w in windows])
         for samples in samples_list:
             methods = [("platypose", False)] + ([("frame-by-frame", True)] if baseline and frames > 1 else [])
             for method, per_frame in methods:

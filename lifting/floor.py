@@ -6,10 +6,14 @@ mocap systems define them so): ``n = (0, 0, 1)``, ``d = 0``.
 
 Without a calibration (the default camera: level, at the origin) the floor is estimated from a
 lift: the stance ankles (the lower ankle of slow frames) of every person's median motion lie on
-one plane ``ANKLE_HEIGHT`` above the floor. The camera's pitch is the one that makes the most of
-them agree on one height (raised supports, a person standing on a roof, agree among themselves
-at any pitch, a walker only at the true one); the floor is the lowest height that a fifth of
-them share. Roll is taken as level.
+one plane ``ANKLE_HEIGHT`` above the floor. One view places each ankle on its ray at a depth known
+only up to the size prior's scale, which jitters along the ray; a plane fitted to the points
+directly would tilt along the rays. So the pitch is the one under which each person's stance
+ankles' drops below the camera agree best in logarithm (a depth scale is a constant there; ankles
+above the camera do not count; a weak prior prefers a level camera where the drops cannot tell, as
+when everyone stays at about one distance), and the floor is the lowest drop that a fifth of them
+share (a person on a roof stands higher). Roll is taken as level, and the scale is the size
+prior's (an adult of typical size).
 """
 
 from __future__ import annotations
@@ -23,8 +27,8 @@ from platypose.lifting.errors import InputError
 
 ANKLE_HEIGHT = 0.1  # metres: an ankle keypoint above the floor, foot flat (bundled mocap 0.07-0.11, shoes add more)
 ANKLES = (3, 6)  # right and left ankle (lifting.skeleton order)
-STANCE_SPEED = 0.6  # m/s: an ankle slower than this, and the lower one, is taken as standing
-MAX_STANCE_POINTS = 1500
+STANCE_SPEED = 1.5  # m/s: the lower ankle, slower than this, is taken as standing (one view's depth jitter included)
+LEVEL_PRIOR = 1e-3  # weight of a pitch of 10 degrees against the log drops' variance (one view: often flat)
 FLOOR_SPECS = "auto, none, z=H (a height) or nx,ny,nz,d (a plane n.x + d = 0, n up)"
 
 
@@ -78,9 +82,9 @@ def parse_floor(text: str) -> Floor | str | None:
 CALIBRATED_FLOOR = Floor((0.0, 0.0, 1.0), 0.0, "calibration")
 
 
-def stance_points(joints: np.ndarray, fps: float) -> np.ndarray:
-    """Stance ankles ``(M, 3)`` of motions ``(P, T, 17, 3)``: per frame the lower ankle (along world z), if it moves
-    slower than ``STANCE_SPEED``; frames with missing joints are skipped."""
+def stance_points(joints: np.ndarray, fps: float) -> list[np.ndarray]:
+    """Stance ankles ``(M_p, 3)`` of each person's motion ``(P, T, 17, 3)``: per frame the lower ankle (along world
+    z), if it moves slower than ``STANCE_SPEED``; frames with missing joints are skipped."""
     points = []
     for person in joints:
         ankles = person[:, list(ANKLES)]  # (T, 2, 3)
@@ -92,39 +96,43 @@ def stance_points(joints: np.ndarray, fps: float) -> np.ndarray:
         chosen, chosen_speed = ankles[frames, lower], speed[frames, lower]
         keep = np.isfinite(chosen).all(-1) & (chosen_speed < STANCE_SPEED)
         points.append(chosen[keep])
-    return np.concatenate(points) if points else np.zeros((0, 3))
+    return points
 
 
 def estimate_floor(
-    joints: np.ndarray, camera: Camera, fps: float, pitch_range_deg: float = 40.0
+    joints: np.ndarray, camera: Camera, fps: float, pitch_range_deg: float = 30.0
 ) -> tuple[Floor, dict] | None:
     """The floor under median motions ``(P, T, 17, 3)`` lifted with the level default ``camera`` (see the module),
     and what was found: camera height above it (m), pitch (degrees, positive looking down), stance points used.
 
-    None when fewer than 10 stance frames are found.
+    None when fewer than 10 stance ankles are found below the camera.
     """
-    points = stance_points(joints, fps)
-    if len(points) < 10:
-        return None
-    points = points[:: max(1, len(points) // MAX_STANCE_POINTS)]  # the pairwise agreement is quadratic in them
+    persons = stance_points(joints, fps)
     center = camera.center
     up = np.array([0.0, 0.0, 1.0])
-    right = camera.R[0]  # the camera's x axis: pitch turns the world's up about it
+    toward = np.cross(camera.R[0], up)  # pitch turns the world's up about the camera's x axis
     best = None
-    for pitch in np.deg2rad(np.arange(-pitch_range_deg, pitch_range_deg + 0.25, 0.25)):
-        normal = np.cos(pitch) * up + np.sin(pitch) * np.cross(right, up)
-        heights = (points - center) @ normal
-        spread = np.abs(heights[:, None] - heights[None, :])
-        agreement = np.exp(-0.5 * (spread / 0.03) ** 2).sum()  # pairs of stance points at one height
-        if best is None or agreement > best[0]:
-            best = (agreement, pitch, normal, heights)
-    _, pitch, normal, heights = best
-    level = _lowest_shared_height(heights, share=0.2)
+    for pitch in np.deg2rad(np.arange(-pitch_range_deg, pitch_range_deg + 0.125, 0.25)):
+        normal = np.cos(pitch) * up + np.sin(pitch) * toward
+        drops = [(center - person) @ normal for person in persons]  # stance ankles below the camera
+        below = [d[d > 0.05] for d in drops]
+        count = sum(len(d) for d in below)
+        if count < 10:
+            continue
+        # one view gets depth (and so each drop) only up to a scale that jitters along the rays: compare logs
+        spread = sum(((np.log(d) - np.log(d).mean()) ** 2).sum() for d in below if len(d)) / count
+        score = spread + LEVEL_PRIOR * (pitch / np.deg2rad(10.0)) ** 2  # most cameras are near level
+        if best is None or score < best[0]:
+            best = (score, pitch, normal, np.concatenate(below))
+    if best is None:
+        return None
+    _, pitch, normal, drops = best
+    level = _lowest_shared_height(-drops, share=0.2)  # stance ankles' height relative to the camera
     offset = -(center @ normal) - (level - ANKLE_HEIGHT)  # so that stance ankles stand ANKLE_HEIGHT above it
     floor = Floor(tuple(float(v) for v in normal), float(offset), "estimated")
     camera_height = float(floor.height(center))
     down_pitch = float(np.degrees(np.arcsin(np.clip(camera.R[2] @ -np.asarray(normal), -1, 1))))
-    info = {"camera_height_m": camera_height, "camera_pitch_deg": down_pitch, "stance_points": int(len(points))}
+    info = {"camera_height_m": camera_height, "camera_pitch_deg": down_pitch, "stance_points": int(len(drops))}
     return floor, info
 
 

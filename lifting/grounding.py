@@ -14,9 +14,10 @@ Given a floor ``n . x + d = 0`` (world metres, ``n`` up; :mod:`lifting.floor`):
   stays.
 - energies (:meth:`Grounding.add_terms`), per hypothesis, in the guidance frame: penetration (every
   joint below the floor, ``floor_weight`` per squared metre), contact (stance ankles held at
-  their stance height, ``contact_weight``) and sliding (a stance ankle's move along the floor between two
-  stance frames, ``slide_weight``). Stance is detected from each hypothesis itself (:meth:`Grounding.stance`):
-  its lower ankle, slower than ``STANCE_SPEED`` and within ``CONTACT_BAND`` of the stance height.
+  their stance height, ``contact_weight``) and sliding (a stance ankle's distance along the floor from where
+  it stands over its run of stance frames, ``slide_weight``). Stance is detected from each hypothesis itself (:meth:`Grounding.stance`):
+  its lower ankle, slower than ``STANCE_SPEED``. Sliding holds stance ankles wherever they stand (a roof
+  too); contact pulls only those within ``CONTACT_BAND`` of their stance height on the floor.
 """
 
 from __future__ import annotations
@@ -26,9 +27,10 @@ import math
 import torch
 
 from platypose.lifting.energy import Observations
-from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, STANCE_SPEED
+from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES
 from platypose.lifting.linalg import SYMMETRIC_PAIRS
 
+STANCE_SPEED = 1.5  # m/s: a lower ankle slower than this stands (jitter and sliding included; a swing is faster)
 CONTACT_BAND = 0.1  # metres: a stance ankle this far from ANKLE_HEIGHT is not standing on the floor
 SCALE_LIMITS = (1 / 1.4, 1.4)  # the floor's placement never sizes a person further from the size prior's
 MIN_DROP = 0.05  # metres: a stance ankle must be this far below the camera for its ray to meet the floor
@@ -64,9 +66,9 @@ class Grounding:
         normal = rotation @ self.normal
         return normal, self.offset - float(normal @ translation)
 
-    def stance(self, joints: torch.Tensor, normal: torch.Tensor, offset: float, band: float | None) -> torch.Tensor:
+    def stance(self, joints: torch.Tensor, normal: torch.Tensor, offset: float) -> torch.Tensor:
         """Stance ankles ``(B, N, F, 2)`` (1 standing, 0 not) of joints ``(B, N, F, 17, 3)``: the lower ankle of each
-        frame, slower than ``STANCE_SPEED`` along the floor, and (``band`` given) within ``band`` of the stance height."""
+        frame, slower than ``STANCE_SPEED`` along the floor (on the floor or on a raised support)."""
         ankles = joints[..., list(ANKLES), :]  # (B, N, F, 2, 3)
         height = ankles @ normal + offset  # (B, N, F, 2)
         lower = height == height.min(dim=-1, keepdim=True).values
@@ -77,9 +79,12 @@ class Grounding:
             speed = along.norm(dim=-1) * self.fps
             speed = torch.cat([speed[:, :, :1], torch.minimum(speed[:, :, 1:], speed[:, :, :-1]), speed[:, :, -1:]], 2)
             stance = stance & (speed < STANCE_SPEED)
-        if band is not None:
-            stance = stance & ((height - self.stance_height).abs() < band)
         return stance.to(joints.dtype)
+
+    def standing_joints(self, stance: torch.Tensor) -> torch.Tensor:
+        """Boolean ``(1, B, N, F, 17)`` (component-first broadcast): the stance ankles of ``stance`` ``(B, N, F, 2)``."""
+        joints = stance.new_zeros(*stance.shape[:-1], 17).index_add(-1, _ankle_index(stance), stance)
+        return (joints > 0)[None]
 
     def place(self, placed: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
         """Offsets ``(B, N, F, 3)`` of the placed poses ``placed`` ``(B, N, F, 17, 3)`` (world, before the offset),
@@ -88,7 +93,7 @@ class Grounding:
             return offset
         world = placed + offset[..., None, :]
         center = self.centers[self.viewer][:, None, None, :]  # (B, 1, 1, 3)
-        stance = self.stance(world, self.normal, self.offset, None) > 0  # (B, N, F, 2)
+        stance = self.stance(world, self.normal, self.offset) > 0  # (B, N, F, 2)
         ankles = world[..., list(ANKLES), :]
         drop = (ankles - center[..., None, :]) @ self.normal  # (B, N, F, 2): below the camera is negative
         camera_height = center[..., 0, :] @ self.normal + self.offset  # (B, 1)
@@ -124,10 +129,11 @@ class Grounding:
         stiffness = 2 * w.floor_weight * (height < 0).to(height.dtype)
         energy = energy + w.floor_weight * (below**2).sum(-1)
         ankle_gap = height[..., list(ANKLES)] - self.stance_height  # (B, N, F, 2)
-        energy = energy + w.contact_weight * (stance * ankle_gap**2).sum(-1)
-        ankle_slope = 2 * w.contact_weight * stance * ankle_gap
+        on_floor = stance * (ankle_gap.abs() < CONTACT_BAND).to(stance.dtype)  # stance on a raised support: no pull
+        energy = energy + w.contact_weight * (on_floor * ankle_gap**2).sum(-1)
+        ankle_slope = 2 * w.contact_weight * on_floor * ankle_gap
         slope = slope.index_add(-1, _ankle_index(joints), ankle_slope)
-        stiffness = stiffness.index_add(-1, _ankle_index(joints), 2 * w.contact_weight * stance)
+        stiffness = stiffness.index_add(-1, _ankle_index(joints), 2 * w.contact_weight * on_floor)
         grad = grad + slope.unsqueeze(0) * normal.reshape(3, 1, 1, 1, 1)
         curvature = _add_outer(curvature, normal, stiffness)
         if joints.shape[2] > 1 and w.slide_weight > 0:
@@ -135,23 +141,30 @@ class Grounding:
         return energy, grad, curvature
 
     def _add_sliding(self, joints, energy, grad, curvature, stance, normal):
-        """The sliding term: ``slide_weight`` times a stance ankle's squared move along the floor between frames."""
+        """The sliding term: ``slide_weight`` times each stance ankle's squared distance along the floor from its
+        mean over its stance (a run of consecutive stance frames). Its gradient is exact without the means'
+        derivatives (the distances sum to zero over a run), so one Gauss-Newton step reaches the mean."""
         w = self.weights.slide_weight
-        ankles = joints[..., list(ANKLES), :]  # (B, N, F, 2, 3)
-        step = ankles.diff(dim=2)
-        along = step - (step @ normal)[..., None] * normal  # (B, N, F-1, 2, 3)
-        pair = stance[:, :, 1:] * stance[:, :, :-1]  # (B, N, F-1, 2)
-        energy = energy + torch.nn.functional.pad(w * (pair * (along**2).sum(-1)).sum(-1), (0, 1))
-        pull = 2 * w * pair[..., None] * along  # d energy / d later frame; minus that for the earlier
-        per_frame = torch.nn.functional.pad(pull, (0, 0, 0, 0, 1, 0)) - torch.nn.functional.pad(
-            pull, (0, 0, 0, 0, 0, 1)
-        )
-        ankle_grad = torch.zeros_like(joints).index_add(-2, _ankle_index(joints), per_frame)  # (B, N, F, 17, 3)
-        grad = grad + ankle_grad.movedim(-1, 0)
-        # a diagonal bound of the chain's curvature (twice each frame's pairs): steps never overshoot along the floor
-        pairs = torch.nn.functional.pad(pair, (0, 0, 1, 0)) + torch.nn.functional.pad(pair, (0, 0, 0, 1))
-        stiffness = torch.zeros_like(joints[..., 0]).index_add(-1, _ankle_index(joints), 4 * w * pairs)
-        curvature = _add_outer(curvature, normal, -stiffness)
+        ankles = joints[..., list(ANKLES), :].movedim(-2, 2)  # (B, N, 2, F, 3)
+        standing = stance.movedim(-1, 2)  # (B, N, 2, F)
+        frames = standing.shape[-1]
+        starts = standing.clone()
+        starts[..., 1:] = standing[..., 1:] * (1 - standing[..., :-1])
+        run = starts.cumsum(-1).long()  # run number per frame, counted within each ankle's path
+        series = torch.arange(run[..., 0].numel(), device=joints.device).reshape(run.shape[:-1])[..., None]
+        index = (series * (frames + 1) + run).flatten()
+        size = run[..., 0].numel() * (frames + 1)
+        weight = standing.flatten()
+        sums = joints.new_zeros(size, 3).index_add(0, index, ankles.reshape(-1, 3) * weight[:, None])
+        counts = joints.new_zeros(size).index_add(0, index, weight)
+        mean = (sums / counts.clamp(min=1)[:, None])[index].reshape(ankles.shape)
+        gap = ankles - mean
+        along = gap - (gap @ normal)[..., None] * normal  # (B, N, 2, F, 3)
+        energy = energy + w * (standing[..., None] * along**2).sum(dim=(-1, 2)).reshape(energy.shape)
+        ankle_grad = (2 * w * standing[..., None] * along).movedim(2, -2)  # (B, N, F, 2, 3)
+        grad = grad + torch.zeros_like(joints).index_add(-2, _ankle_index(joints), ankle_grad).movedim(-1, 0)
+        stiffness = torch.zeros_like(joints[..., 0]).index_add(-1, _ankle_index(joints), 2 * w * stance)
+        curvature = _add_outer(curvature, normal, -stiffness)  # 2 w (I - n n^T) on stance ankles
         for entry, (k, m) in zip(curvature, SYMMETRIC_PAIRS):
             if k == m:
                 entry.add_(stiffness)

@@ -16,7 +16,7 @@ from platypose.lifting.energy import (
     reprojection_terms,
     symmetry_energy,
 )
-from platypose.lifting.grounding import CONTACT_BAND, Grounding
+from platypose.lifting.grounding import Grounding
 from platypose.lifting.linalg import add_to_diagonal_, rigid_motion, solve_symmetric3
 from platypose.lifting.placement import Anchor, continuation_ramp, continued_offset, typical_size
 from platypose.lifting.prior import PriorBundle
@@ -207,7 +207,7 @@ class GuidedProblem:
         start = start.contiguous()
         if self.grounding is not None:  # stance detected per hypothesis from where guidance starts
             normal, level = self.grounding.frame(*(frame or (None, None)))
-            stance = self.grounding.stance(start.movedim(0, -1), normal, level, CONTACT_BAND)
+            stance = self.grounding.stance(start.movedim(0, -1), normal, level)
             self.floor_state = (stance, normal, level)
         moved = torch.zeros_like(start)
         rows = (1, self.batch, -1, 1, 1)  # one hypothesis per row of the component-first arrays
@@ -232,7 +232,10 @@ class GuidedProblem:
             if c.guidance_tol > 0 and bool(converged.all()):
                 break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
         anchored = None if self.anchor is None else self.anchor.mask
-        moved = self.views.settle_move(start, moved, frame is not None, anchored, c)
+        settled = self.views.settle_move(start, moved, frame is not None, anchored, c)
+        if self.floor_state is not None:  # standing ankles stay where guidance held them
+            settled = torch.where(self.grounding.standing_joints(self.floor_state[0]), moved, settled)
+        moved = settled
         if frame is not None:  # the move back in world axes
             moved = rigid_motion(moved, frame[0].T)
         return self.absorb(x0, offset, moved)

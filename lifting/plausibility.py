@@ -1,0 +1,110 @@
+"""Plausibility of each person's hypotheses: under the floor, sliding feet, spread over metres, one view only.
+
+Measured on the lifted hypotheses ``(P, N, T, 17, 3)`` (world metres) after lifting; a flag says a
+person's hypotheses stay implausible, so a user knows which persons not to trust:
+
+- ``under floor``: more than ``UNDER_SHARE`` of hypothesis-frames have their lowest ankle more than
+  ``UNDER_FLOOR`` below the floor;
+- ``sliding``: stance ankles (each hypothesis's lower ankle within ``STANCE_BAND`` of its own standing
+  height, in two consecutive frames) move along the floor by more than ``SLIDE`` per frame (median);
+- ``spread``: the hypotheses' pelvises lie more than ``SPREAD`` from their median (90 % of them, median
+  over frames);
+- ``one view``: the person is seen by fewer than two cameras in most frames they are present.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from platypose.lifting.floor import ANKLES, Floor
+
+UNDER_FLOOR = 0.03  # metres below the floor
+UNDER_SHARE = 0.01  # share of hypothesis-frames
+SLIDE = 0.02  # metres per frame
+SPREAD = 1.0  # metres
+STANCE_BAND = 0.05  # metres above a hypothesis's standing height (5th percentile of its lower ankle)
+
+UP = Floor((0.0, 0.0, 1.0), 0.0, "world")  # heights along world z when no floor is known
+
+
+def lowest_ankle(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
+    """Height of the lower ankle above the floor (or world z = 0), ``(..., T)`` for joints ``(..., T, 17, 3)``."""
+    return (floor or UP).height(hypotheses[..., list(ANKLES), :]).min(axis=-1)
+
+
+def stance_slides(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
+    """Moves along the floor (m) of stance ankles between consecutive frames, pooled over hypotheses ``(N, T, 17, 3)``.
+
+    A hypothesis's stance ankle is its lower ankle while within ``STANCE_BAND`` of its standing height (the 5th
+    percentile of its lower ankle's height); a move counts when the same ankle stands in both frames.
+    """
+    plane = floor or UP
+    normal = np.asarray(plane.normal)
+    ankles = hypotheses[..., list(ANKLES), :]  # (N, T, 2, 3)
+    height = plane.height(ankles)  # (N, T, 2)
+    if height.shape[1] < 2:
+        return np.zeros(0)
+    lower = np.nanmin(height, axis=-1)  # (N, T)
+    standing = np.nanpercentile(lower, 5, axis=-1)[:, None, None]  # (N, 1, 1)
+    stance = (height == lower[..., None]) & (height < standing + STANCE_BAND)
+    step = np.diff(ankles, axis=1)
+    along = np.linalg.norm(step - (step @ normal)[..., None] * normal, axis=-1)  # (N, T-1, 2)
+    both = stance[:, 1:] & stance[:, :-1] & np.isfinite(along)
+    return along[both]
+
+
+def person_plausibility(hypotheses: np.ndarray, views_seen: np.ndarray, floor: Floor | None) -> dict:
+    """Figures and flags of one person: hypotheses ``(N, T, 17, 3)`` (NaN where absent), ``views_seen`` ``(T,)``
+    the number of cameras seeing the person per frame (0 where absent)."""
+    present = np.isfinite(hypotheses).all(axis=(0, -1, -2))
+    hyps = hypotheses[:, present]
+    report: dict = {"frames": int(present.sum())}
+    flags = []
+    if hyps.shape[1] == 0:
+        return {**report, "flags": flags}
+    if floor is not None:
+        low = lowest_ankle(hyps, floor)
+        report["under_floor_share"] = float(np.mean(low < -UNDER_FLOOR))
+        report["lowest_ankle_median_m"] = float(np.median(low))
+        if report["under_floor_share"] > UNDER_SHARE:
+            flags.append("under floor")
+    slides = stance_slides(hyps, floor)
+    report["stance_slide_median_m"] = float(np.median(slides)) if len(slides) else 0.0
+    if report["stance_slide_median_m"] > SLIDE:
+        flags.append("sliding")
+    pelvis = hyps[:, :, 0]
+    radius = np.linalg.norm(pelvis - np.median(pelvis, axis=0), axis=-1)  # (N, T)
+    report["pelvis_spread_m"] = float(np.median(np.percentile(radius, 90, axis=0)))
+    if report["pelvis_spread_m"] > SPREAD:
+        flags.append("spread")
+    seen = views_seen[present]
+    report["several_views_share"] = float(np.mean(seen >= 2))
+    if report["several_views_share"] < 0.5:
+        flags.append("one view")
+    return {**report, "flags": flags}
+
+
+def plausibility(hypotheses: np.ndarray, keypoints: np.ndarray, floor: Floor | None) -> list[dict]:
+    """:func:`person_plausibility` of every person: hypotheses ``(P, N, T, 17, 3)``, keypoints ``(C, T, P, 17, 3)``
+    (x, y, confidence) on the same frames."""
+    seen = ((keypoints[..., 2] > 0).sum(axis=-1) >= 4).sum(axis=0)  # (T, P) cameras seeing 4+ joints
+    return [person_plausibility(hypotheses[p], seen[:, p], floor) for p in range(hypotheses.shape[0])]
+
+
+def format_flags(reports: list[dict], track_ids: list | np.ndarray) -> list[str]:
+    """One console line per person with a flag: what is implausible and the figure behind it."""
+    lines = []
+    for track, report in zip(track_ids, reports):
+        if not report["flags"]:
+            continue
+        details = []
+        if "under floor" in report["flags"]:
+            details.append(f"{report['under_floor_share']:.0%} of hypothesis-frames under the floor")
+        if "sliding" in report["flags"]:
+            details.append(f"stance feet slide {100 * report['stance_slide_median_m']:.1f} cm per frame")
+        if "spread" in report["flags"]:
+            details.append(f"hypotheses spread over {report['pelvis_spread_m']:.1f} m")
+        if "one view" in report["flags"]:
+            details.append("seen by one camera: depth and size from the prior")
+        lines.append(f"person {track}: implausible ({', '.join(report['flags'])}): {'; '.join(details)}")
+    return lines
