@@ -28,7 +28,7 @@ from platypose.lifting.errors import InputError
 ANKLE_HEIGHT = 0.1  # metres: an ankle keypoint above the floor, foot flat (bundled mocap 0.07-0.11, shoes add more)
 ANKLES = (3, 6)  # right and left ankle (lifting.skeleton order)
 STANCE_SPEED = 1.5  # m/s: the lower ankle, slower than this, is taken as standing (one view's depth jitter included)
-LEVEL_PRIOR = 1e-3  # weight of a pitch of 10 degrees against the log drops' variance (one view: often flat)
+LEVEL_PRIOR = 1e-4  # weight of a pitch of 10 degrees against the log drops' variance (one view: often flat)
 FLOOR_SPECS = "auto, none, z=H (a height) or nx,ny,nz,d (a plane n.x + d = 0, n up)"
 
 
