@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from platypose.lifting.calibration.defaults import NO_EXTRINSICS_NOTE
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 
@@ -80,6 +81,19 @@ def parse_floor(text: str) -> Floor | str | None:
 
 
 CALIBRATED_FLOOR = Floor((0.0, 0.0, 1.0), 0.0, "calibration")
+ESTIMATE = "estimate"
+
+
+def floor_for_lift(spec: Floor | str | None, calibration_meta: dict | None) -> Floor | str | None:
+    """The floor a lift uses for ``spec`` (:func:`parse_floor`): a given plane as it is, None for none, and for
+    "auto" the calibration's z = 0 when its cameras are placed in a world (``calibration_meta`` of a file whose
+    extrinsics were all given), else ``ESTIMATE`` (no calibration, or cameras at the default pose)."""
+    if spec != "auto":
+        return spec
+    if calibration_meta is None:
+        return ESTIMATE
+    assumptions = " ".join(calibration_meta.get("assumptions", []))
+    return ESTIMATE if NO_EXTRINSICS_NOTE in assumptions else CALIBRATED_FLOOR
 
 
 def stance_points(joints: np.ndarray, fps: float) -> list[np.ndarray]:

@@ -24,6 +24,7 @@ SLIDE = 0.02  # metres per frame
 SPREAD = 1.0  # metres
 STANCE_BAND = 0.05  # metres above a hypothesis's standing height (5th percentile of its lower ankle)
 
+CHUNK = 1024  # frames read at a time
 UP = Floor((0.0, 0.0, 1.0), 0.0, "world")  # heights along world z when no floor is known
 
 
@@ -53,41 +54,50 @@ def stance_slides(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
     return along[both]
 
 
-def person_plausibility(hypotheses: np.ndarray, views_seen: np.ndarray, floor: Floor | None) -> dict:
-    """Figures and flags of one person: hypotheses ``(N, T, 17, 3)`` (NaN where absent), ``views_seen`` ``(T,)``
-    the number of cameras seeing the person per frame (0 where absent)."""
-    present = np.isfinite(hypotheses).all(axis=(0, -1, -2))
-    hyps = hypotheses[:, present]
-    report: dict = {"frames": int(present.sum())}
-    flags = []
-    if hyps.shape[1] == 0:
+def person_plausibility(hypotheses, views_seen: np.ndarray, floor: Floor | None, chunk: int = CHUNK) -> dict:
+    """Figures and flags of one person: hypotheses ``(N, T, 17, 3)`` (NaN where absent; an array or a memory map,
+    read ``chunk`` frames at a time), ``views_seen`` ``(T,)`` the number of cameras seeing the person per frame."""
+    under, counted, slides, spreads, lows = 0, 0, [], [], []
+    for start in range(0, hypotheses.shape[1], chunk):
+        block = np.asarray(hypotheses[:, start : start + chunk], dtype=np.float64)
+        block = block[:, np.isfinite(block).all(axis=(0, -1, -2))]
+        if block.shape[1] == 0:
+            continue
+        if floor is not None:
+            low = lowest_ankle(block, floor)
+            under, counted = under + int((low < -UNDER_FLOOR).sum()), counted + low.size
+            lows.append(np.median(low, axis=0))
+        slides.append(stance_slides(block, floor))
+        pelvis = block[:, :, 0]
+        radius = np.linalg.norm(pelvis - np.median(pelvis, axis=0), axis=-1)  # (N, t)
+        spreads.append(np.percentile(radius, 90, axis=0))
+    present = np.isfinite(np.asarray(views_seen, dtype=np.float64)) & (np.asarray(views_seen) > 0)
+    report: dict = {"frames": int(sum(len(s) for s in spreads))}
+    flags: list[str] = []
+    if not spreads:
         return {**report, "flags": flags}
     if floor is not None:
-        low = lowest_ankle(hyps, floor)
-        report["under_floor_share"] = float(np.mean(low < -UNDER_FLOOR))
-        report["lowest_ankle_median_m"] = float(np.median(low))
+        report["under_floor_share"] = under / max(counted, 1)
+        report["lowest_ankle_median_m"] = float(np.median(np.concatenate(lows)))
         if report["under_floor_share"] > UNDER_SHARE:
             flags.append("under floor")
-    slides = stance_slides(hyps, floor)
-    report["stance_slide_median_m"] = float(np.median(slides)) if len(slides) else 0.0
+    pooled = np.concatenate(slides)
+    report["stance_slide_median_m"] = float(np.median(pooled)) if len(pooled) else 0.0
     if report["stance_slide_median_m"] > SLIDE:
         flags.append("sliding")
-    pelvis = hyps[:, :, 0]
-    radius = np.linalg.norm(pelvis - np.median(pelvis, axis=0), axis=-1)  # (N, T)
-    report["pelvis_spread_m"] = float(np.median(np.percentile(radius, 90, axis=0)))
+    report["pelvis_spread_m"] = float(np.median(np.concatenate(spreads)))
     if report["pelvis_spread_m"] > SPREAD:
         flags.append("spread")
-    seen = views_seen[present]
-    report["several_views_share"] = float(np.mean(seen >= 2))
+    report["several_views_share"] = float(np.mean(np.asarray(views_seen)[present] >= 2)) if present.any() else 0.0
     if report["several_views_share"] < 0.5:
         flags.append("one view")
     return {**report, "flags": flags}
 
 
-def plausibility(hypotheses: np.ndarray, keypoints: np.ndarray, floor: Floor | None) -> list[dict]:
-    """:func:`person_plausibility` of every person: hypotheses ``(P, N, T, 17, 3)``, keypoints ``(C, T, P, 17, 3)``
-    (x, y, confidence) on the same frames."""
-    seen = ((keypoints[..., 2] > 0).sum(axis=-1) >= 4).sum(axis=0)  # (T, P) cameras seeing 4+ joints
+def plausibility(hypotheses, keypoints: np.ndarray, floor: Floor | None) -> list[dict]:
+    """:func:`person_plausibility` of every person: hypotheses ``(P, N, T, 17, 3)`` (array or memory map), keypoints
+    ``(C, T, P, 17, 3)`` (x, y, confidence) on the same frames."""
+    seen = ((np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= 4).sum(axis=0)  # (T, P) cameras seeing 4+ joints
     return [person_plausibility(hypotheses[p], seen[:, p], floor) for p in range(hypotheses.shape[0])]
 
 
