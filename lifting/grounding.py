@@ -7,17 +7,23 @@ Given a floor ``n . x + d = 0`` (world metres, ``n`` up; :mod:`lifting.floor`):
   centre keeps every projection and changes depth and size together; the scale that puts the stance
   ankles (the lower ankle of slow frames, median over the window) at their stance height above the
   floor fixes both. The stance height is ``ANKLE_HEIGHT`` plus a draw of ``support_spread`` per
-  hypothesis: shoes, mats, force plates and where a detector puts the ankle differ by centimetres, and
-  each centimetre moves a one-view placement by several. Support is a prior, not a clamp: the floor reading is taken only where it keeps the
-  person's size within ``SCALE_LIMITS`` of the size prior's and the stance ankles are below the
-  camera; otherwise (a person on a roof or a platform, airborne windows) the size prior's placement
-  stays.
+  hypothesis: shoes, mats, force plates and where a detector puts the ankle differ by centimetres,
+  and each centimetre moves a one-view placement by several.
+  Support is a prior, not a clamp: where one image cannot tell a near person on the floor from a far
+  one on a step, both readings are kept as hypotheses. Every hypothesis takes the floor reading where
+  it brings the person nearer (the size prior's feet were under the floor) or sizes them up by less
+  than ``SURE_SCALE``, none where it sizes them up by more than ``MAX_SCALE`` (a person on a roof or a
+  platform, a climber on a wall), a share in between (each hypothesis's own uniform draw against it);
+  airborne windows and stance ankles above the camera keep the size prior's placement.
 - energies (:meth:`Grounding.add_terms`), per hypothesis, in the guidance frame: penetration (every
-  joint below the floor, ``floor_weight`` per squared metre), contact (stance ankles held at
-  their stance height, ``contact_weight``) and sliding (a stance ankle's distance along the floor from where
-  it stands over its run of stance frames, ``slide_weight``). Stance is detected from each hypothesis itself (:meth:`Grounding.stance`):
-  its lower ankle, slower than ``STANCE_SPEED``. Sliding holds stance ankles wherever they stand (a roof
-  too); contact pulls only those within ``CONTACT_BAND`` of their stance height on the floor.
+  joint below the floor, ``floor_weight`` per squared metre, however many cameras see it); and where
+  one camera sees the window, contact (stance ankles held at their stance height, ``contact_weight``)
+  and sliding (a stance ankle's distance along the floor from where it stands over its run of stance
+  frames, ``slide_weight``). Several cameras measure the feet themselves (an ankle rolls over its
+  stance; pinning it cost 4-view accuracy). Stance is detected from each hypothesis itself
+  (:meth:`Grounding.stance`): its lower ankle, slower than ``STANCE_SPEED``. Sliding holds stance ankles
+  wherever they stand (a roof too); contact pulls only those within ``CONTACT_BAND`` of their stance
+  height on the floor.
 """
 
 from __future__ import annotations
@@ -32,7 +38,8 @@ from platypose.lifting.linalg import SYMMETRIC_PAIRS
 
 STANCE_SPEED = 1.5  # m/s: a lower ankle slower than this stands (jitter and sliding included; a swing is faster)
 CONTACT_BAND = 0.1  # metres: a stance ankle this far from ANKLE_HEIGHT is not standing on the floor
-SCALE_LIMITS = (1 / 1.4, 1.4)  # the floor's placement never sizes a person further from the size prior's
+SURE_SCALE = 1.15  # a floor reading that sizes a person up by less than this: every hypothesis takes it
+MAX_SCALE = 1.4  # by more than this: none (a raised support); in between a share falling linearly in log scale
 MIN_DROP = 0.05  # metres: a stance ankle must be this far below the camera for its ray to meet the floor
 
 
@@ -46,6 +53,7 @@ class Grounding:
         weights,
         fps: float,
         stance_heights: torch.Tensor | None = None,
+        choices: torch.Tensor | None = None,
     ) -> None:
         dtype, device = obs.keypoints.dtype, obs.keypoints.device
         heights = torch.zeros(1) if stance_heights is None else stance_heights
@@ -58,6 +66,7 @@ class Grounding:
         seen = (obs.confidence > 0).flatten(2).any(-1)  # (C, B): which cameras see each window
         self.single = seen.sum(0) == 1  # (B,) windows seen by exactly one camera
         self.viewer = seen.float().argmax(0)  # (B,) that camera (meaningless where not single)
+        self.choices = (torch.full((1,), 0.5) if choices is None else choices).to(dtype=dtype, device=device)[None]
 
     def frame(self, rotation: torch.Tensor | None, translation: torch.Tensor | None) -> tuple[torch.Tensor, float]:
         """The floor ``(normal, offset)`` in the guidance frame ``x_c = R x + t`` (world if ``rotation`` is None)."""
@@ -103,8 +112,10 @@ class Grounding:
         frames = placed.shape[2]
         enough = usable.flatten(2).sum(-1) >= max(1, math.ceil(0.25 * frames))
         window_scale = torch.nan_to_num(per_frame.nanmedian(dim=-1).values, nan=1.0)  # (B, N)
-        plausible = enough & (window_scale >= SCALE_LIMITS[0]) & (window_scale <= SCALE_LIMITS[1])
-        window_scale = torch.where(plausible & self.single[:, None], window_scale, torch.ones_like(window_scale))
+        log_scale = window_scale.log().clamp(min=0)  # nearer than the size prior's: its feet were under the floor
+        share = ((math.log(MAX_SCALE) - log_scale) / (math.log(MAX_SCALE) - math.log(SURE_SCALE))).clamp(0, 1)
+        floor_reading = enough & (self.choices < share) & self.single[:, None]  # (B, N)
+        window_scale = torch.where(floor_reading, window_scale, torch.ones_like(window_scale))
         root = world[..., 0, :]
         moved_root = center + window_scale[..., None, None] * (root - center)
         return offset + (moved_root - root)
@@ -129,6 +140,7 @@ class Grounding:
         stiffness = 2 * w.floor_weight * (height < 0).to(height.dtype)
         energy = energy + w.floor_weight * (below**2).sum(-1)
         ankle_gap = height[..., list(ANKLES)] - self.stance_height  # (B, N, F, 2)
+        stance = stance * self.single.to(stance.dtype)[:, None, None, None]  # several views measure the feet
         on_floor = stance * (ankle_gap.abs() < CONTACT_BAND).to(stance.dtype)  # stance on a raised support: no pull
         energy = energy + w.contact_weight * (on_floor * ankle_gap**2).sum(-1)
         ankle_slope = 2 * w.contact_weight * on_floor * ankle_gap

@@ -46,13 +46,16 @@ class GuidedProblem:
         size_factors: torch.Tensor | None = None,
         views: OneView | SeveralViews | None = None,
         stance_heights: torch.Tensor | None = None,
+        floor_choices: torch.Tensor | None = None,
     ) -> None:
         if rays is None and root_trajectory is None:
             raise ValueError("either ray constraints (to solve the root) or a known root trajectory is needed")
         self.prior, self.obs, self.rays, self.config = prior, obs, rays, config
         self.views = views_for(obs.cameras) if views is None else views
         self.grounding = (
-            None if config.floor is None else Grounding(config.floor, obs, config, prior.fps, stance_heights)
+            None
+            if config.floor is None
+            else Grounding(config.floor, obs, config, prior.fps, stance_heights, floor_choices)
         )
         self.floor_state: tuple[torch.Tensor, torch.Tensor, float] | None = None  # stance, floor in guidance frame
         self.root_trajectory = root_trajectory

@@ -91,13 +91,14 @@ def sample(
         else None
     )
     draws = antithetic_normal(config.samples, generator)  # the noise spread's, one (17, 3) per hypothesis
-    support = None  # each hypothesis's stance height above the floor, drawn after the other draws
-    if config.floor is not None and config.support_spread > 0:
+    support = choices = None  # each hypothesis's stance height and floor-reading draw, after the other draws
+    if config.floor is not None:
         support = config.support_spread * torch.randn(config.samples, generator=generator)
+        choices = torch.rand(config.samples, generator=generator)
     raw = obs  # the reported energy is against the keypoints as given
     views = views_for(obs.cameras)
     obs, rays = views.prepare(obs, rays, config)
-    problem = GuidedProblem(prior, obs, rays, config, root_trajectory, anchor, sizes, views, support)
+    problem = GuidedProblem(prior, obs, rays, config, root_trajectory, anchor, sizes, views, support, choices)
     x_t = schedule.add_noise(torch.zeros_like(noise), int(steps[0]), noise)
     x0 = x_t
     for i, t in enumerate(steps):
