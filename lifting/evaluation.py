@@ -67,13 +67,23 @@ def look_target(cameras: Sequence[Camera]) -> np.ndarray:
     return np.linalg.solve(A, b)
 
 
-def place_window(window: np.ndarray, target: np.ndarray, on_floor: bool = False) -> np.ndarray:
-    """Translate a window so its mean pelvis is at ``target``; ``on_floor``: only along the floor (x, y), so a
-    motion recorded on the floor z = 0 stays on it."""
+def place_window(window: np.ndarray, target: np.ndarray, floor_height: float | None = None) -> np.ndarray:
+    """Translate a window so its mean pelvis is at ``target``; with ``floor_height`` only along the floor (x, y),
+    and up by that height, so a motion recorded on the floor z = 0 stands on the floor z = ``floor_height``."""
     shift = target - window[:, 0].mean(0)
-    if on_floor:
-        shift[2] = 0.0
+    if floor_height is not None:
+        shift[2] = floor_height
     return window + shift
+
+
+def floor_height(plane: tuple[float, float, float, float] | None) -> float | None:
+    """The height of a level floor ``(nx, ny, nz, d)`` (None: none); ValueError for a tilted one."""
+    if plane is None:
+        return None
+    nx, ny, nz, d = plane
+    if abs(nx) > 1e-9 or abs(ny) > 1e-9 or nz <= 0:
+        raise ValueError(f"floor {plane}: evaluation places motion on a level floor only (z = H)")
+    return -d / nz
 
 
 def score(hypotheses: np.ndarray, truth: np.ndarray) -> dict:
@@ -146,16 +156,17 @@ def evaluate(
 ) -> list[EvalRow]:
     """The evaluation table: one row per method x frames x samples for these cameras.
 
-    With ``config.floor`` set, every window stays on its floor (the clips' z = 0) and is moved only along it.
+    With ``config.floor`` set (a level floor), every window stands on it (the clips' floor is z = 0) and is
+    moved only along it.
     """
     target = look_target(cameras)
-    on_floor = config.floor is not None
+    height = floor_height(config.floor)
     rows = []
     for frames in frames_list:
         windows, clip_of_window = cut_windows(clips, frames, windows_per_clip)
         if not windows:
             continue
-        truth = np.stack([place_window(w, target, on_floor) for w in windows])
+        truth = np.stack([place_window(w, target, height) for w in windows])
         for samples in samples_list:
             methods = [("platypose", False)] + ([("frame-by-frame", True)] if baseline and frames > 1 else [])
             for method, per_frame in methods:

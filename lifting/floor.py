@@ -159,3 +159,22 @@ def _lowest_shared_height(heights: np.ndarray, share: float, band: float = 0.05)
         if len(near) >= need:
             return float(np.median(near))
     return float(np.median(ordered))
+
+
+def floor_after_lift(
+    choice: Floor | str | None, median: np.ndarray, cameras: list[Camera], fps: float
+) -> tuple[Floor | None, dict | None]:
+    """The floor a lift made with ``choice`` (:func:`floor_for_lift`) stands on, and its ``meta`` entry: the floor
+    itself, none, or (``ESTIMATE``, one camera) the floor estimated under the median motions ``(P, T, 17, 3)``
+    with the camera's height and pitch above it; None when too few stance ankles are found."""
+    if choice is None:
+        return None, None
+    if isinstance(choice, Floor):
+        return choice, choice.as_dict()
+    if len(cameras) != 1:
+        return None, None
+    found = estimate_floor(np.asarray(median, dtype=np.float64), cameras[0], fps)
+    if found is None:
+        return None, None
+    floor, info = found
+    return floor, {**floor.as_dict(), **info}

@@ -14,6 +14,8 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from platypose.lifting.floor import ANKLES, Floor
@@ -54,12 +56,12 @@ def stance_slides(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
     return along[both]
 
 
-def person_plausibility(hypotheses, views_seen: np.ndarray, floor: Floor | None, chunk: int = CHUNK) -> dict:
-    """Figures and flags of one person: hypotheses ``(N, T, 17, 3)`` (NaN where absent; an array or a memory map,
-    read ``chunk`` frames at a time), ``views_seen`` ``(T,)`` the number of cameras seeing the person per frame."""
+def person_plausibility(blocks: Iterable[np.ndarray], views_seen: np.ndarray, floor: Floor | None) -> dict:
+    """Figures and flags of one person: their hypotheses as consecutive blocks of frames ``(N, t, 17, 3)`` (NaN
+    where absent), ``views_seen`` ``(T,)`` the number of cameras seeing the person per frame."""
     under, counted, slides, spreads, lows = 0, 0, [], [], []
-    for start in range(0, hypotheses.shape[1], chunk):
-        block = np.asarray(hypotheses[:, start : start + chunk], dtype=np.float64)
+    for block in blocks:
+        block = np.asarray(block, dtype=np.float64)
         block = block[:, np.isfinite(block).all(axis=(0, -1, -2))]
         if block.shape[1] == 0:
             continue
@@ -94,14 +96,20 @@ def person_plausibility(hypotheses, views_seen: np.ndarray, floor: Floor | None,
     return {**report, "flags": flags}
 
 
-def plausibility(hypotheses, keypoints: np.ndarray, floor: Floor | None) -> list[dict]:
-    """:func:`person_plausibility` of every person: hypotheses ``(P, N, T, 17, 3)`` (array or memory map), keypoints
-    ``(C, T, P, 17, 3)`` (x, y, confidence) on the same frames."""
+def plausibility(hypotheses, keypoints: np.ndarray, floor: Floor | None, chunk: int = CHUNK) -> list[dict]:
+    """:func:`person_plausibility` of every person: hypotheses ``(P, N, T, 17, 3)`` (an array, or anything indexed
+    like one, read ``chunk`` frames at a time), keypoints ``(C, T, P, 17, 3)`` (x, y, confidence) on the same
+    frames."""
     seen = ((np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= 4).sum(axis=0)  # (T, P) cameras seeing 4+ joints
-    return [person_plausibility(hypotheses[p], seen[:, p], floor) for p in range(hypotheses.shape[0])]
+    P, T = hypotheses.shape[0], hypotheses.shape[2]
+    reports = []
+    for p in range(P):
+        blocks = (hypotheses[p, :, start : start + chunk] for start in range(0, T, chunk))
+        reports.append(person_plausibility(blocks, seen[:, p], floor))
+    return reports
 
 
-def format_flags(reports: list[dict], track_ids: list | np.ndarray) -> list[str]:
+def plausibility_lines(reports: list[dict], track_ids: list | np.ndarray) -> list[str]:
     """One console line per person with a flag: what is implausible and the figure behind it."""
     lines = []
     for track, report in zip(track_ids, reports):
@@ -116,5 +124,5 @@ def format_flags(reports: list[dict], track_ids: list | np.ndarray) -> list[str]
             details.append(f"hypotheses spread over {report['pelvis_spread_m']:.1f} m")
         if "one view" in report["flags"]:
             details.append("seen by one camera: depth and size from the prior")
-        lines.append(f"person {track}: implausible ({', '.join(report['flags'])}): {'; '.join(details)}")
+        lines.append(f"person {track}: flagged ({', '.join(report['flags'])}): {'; '.join(details)}")
     return lines

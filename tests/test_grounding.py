@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -104,3 +105,37 @@ def test_floor_is_estimated_from_a_real_one_view_lift(shipped_prior, cameras, at
     assert floor.source == "estimated" and info["stance_points"] >= 50
     assert abs(info["camera_height_m"] - true_height) < 0.8, (info, true_height)
     assert abs(info["camera_pitch_deg"] - true_pitch) < 10.0, (info, true_pitch)
+
+
+@pytest.mark.slow
+def test_lift_reports_floor_and_flags_in_summary_meta_and_console(run_cli, data_dir: Path, tmp_path: Path):
+    from platypose.exporters.npz import read_npz
+
+    take = data_dir / TAKE
+    args = [
+        "lift",
+        "--keypoints",
+        str(take / "openpose-body25b/cam01_json"),
+        "--cams",
+        str(take / "calib_pose2sim.toml"),
+    ]
+    args += ["--persons", "largest", "--formats", "npz", "--samples", "5", "--threads", "1", "--quiet"]
+    code, _, err = run_cli(*args, "--out", str(tmp_path))
+    assert code == 0, err
+    entry = json.loads((tmp_path / "summary.json").read_text())["inputs"][0]
+    assert entry["floor"]["source"] == "calibration" and entry["plausibility"][0]["flags"] == ["one view"]
+    assert entry["plausibility"][0]["under_floor_share"] < 0.01
+    assert "cam01: person 0: flagged (one view)" in err  # on the console, --quiet or not
+    meta = read_npz(tmp_path / "cam01" / "cam01.npz").meta
+    assert meta["floor"] == entry["floor"] and meta["plausibility"] == entry["plausibility"]
+    code, _, err = run_cli(*args, "--out", str(tmp_path / "none"), "--floor", "none")
+    entry = json.loads((tmp_path / "none" / "summary.json").read_text())["inputs"][0]
+    assert code == 0 and entry["floor"] is None and "under_floor_share" not in entry["plausibility"][0]
+
+
+def test_bad_floor_options_are_refused(run_cli, data_dir: Path, tmp_path: Path):
+    take = data_dir / TAKE
+    code, _, err = run_cli("lift", "--keypoints", str(take / "openpose-body25b/cam01_json"), "--floor", "up")
+    assert code == 2 and "floor 'up'" in err
+    code, _, err = run_cli("eval", str(data_dir / "motion/deepmimic"), "--floor", "1,0,0,0", "--frames", "16")
+    assert code == 2 and "level floor" in err
