@@ -96,11 +96,12 @@ def floor_for_lift(spec: Floor | str | None, calibration_meta: dict | None) -> F
     return ESTIMATE if NO_EXTRINSICS_NOTE in assumptions else CALIBRATED_FLOOR
 
 
-def stance_points(joints: np.ndarray, fps: float) -> list[np.ndarray]:
+def stance_points(joints: np.ndarray, fps: float, seen: np.ndarray | None = None) -> list[np.ndarray]:
     """Stance ankles ``(M_p, 3)`` of each person's motion ``(P, T, 17, 3)``: per frame the lower ankle (along world
-    z), if it moves slower than ``STANCE_SPEED``; frames with missing joints are skipped."""
+    z), if it moves slower than ``STANCE_SPEED``; frames with missing joints, or not ``seen`` ``(P, T)``, are
+    skipped."""
     points = []
-    for person in joints:
+    for p, person in enumerate(joints):
         ankles = person[:, list(ANKLES)]  # (T, 2, 3)
         if len(ankles) < 2:
             continue
@@ -109,19 +110,22 @@ def stance_points(joints: np.ndarray, fps: float) -> list[np.ndarray]:
         frames = np.arange(len(ankles))
         chosen, chosen_speed = ankles[frames, lower], speed[frames, lower]
         keep = np.isfinite(chosen).all(-1) & (chosen_speed < STANCE_SPEED)
+        if seen is not None:
+            keep &= seen[p]
         points.append(chosen[keep])
     return points
 
 
 def estimate_floor(
-    joints: np.ndarray, camera: Camera, fps: float, pitch_range_deg: float = 30.0
+    joints: np.ndarray, camera: Camera, fps: float, seen: np.ndarray | None = None, pitch_range_deg: float = 30.0
 ) -> tuple[Floor, dict] | None:
     """The floor under median motions ``(P, T, 17, 3)`` lifted with the level default ``camera`` (see the module),
     and what was found: camera height above it (m), pitch (degrees, positive looking down), stance points used.
+    ``seen`` ``(P, T)``: the frames whose ankles the camera saw (the others' rays are the prior's guess).
 
     None when fewer than 10 stance ankles are found below the camera.
     """
-    persons = stance_points(joints, fps)
+    persons = stance_points(joints, fps, seen)
     center = camera.center
     up = np.array([0.0, 0.0, 1.0])
     toward = np.cross(camera.R[0], up)  # pitch turns the world's up about the camera's x axis
@@ -162,18 +166,20 @@ def _lowest_shared_height(heights: np.ndarray, share: float, band: float = 0.05)
 
 
 def floor_after_lift(
-    choice: Floor | str | None, median: np.ndarray, cameras: list[Camera], fps: float
+    choice: Floor | str | None, median: np.ndarray, cameras: list[Camera], fps: float, keypoints: np.ndarray
 ) -> tuple[Floor | None, dict | None]:
     """The floor a lift made with ``choice`` (:func:`floor_for_lift`) stands on, and its ``meta`` entry: the floor
     itself, none, or (``ESTIMATE``, one camera) the floor estimated under the median motions ``(P, T, 17, 3)``
-    with the camera's height and pitch above it; None when too few stance ankles are found."""
+    where the camera saw both ankles (``keypoints`` ``(C, T, P, 17, 3)``), with the camera's height and pitch
+    above it; None when too few stance ankles are found."""
     if choice is None:
         return None, None
     if isinstance(choice, Floor):
         return choice, choice.as_dict()
     if len(cameras) != 1:
         return None, None
-    found = estimate_floor(np.asarray(median, dtype=np.float64), cameras[0], fps)
+    seen = (np.nan_to_num(keypoints[0][..., list(ANKLES), 2]) > 0).all(axis=-1).T  # (P, T)
+    found = estimate_floor(np.asarray(median, dtype=np.float64), cameras[0], fps, seen)
     if found is None:
         return None, None
     floor, info = found

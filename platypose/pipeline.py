@@ -160,7 +160,7 @@ def lift_take(
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
     report = report_reprojection(median, keypoints, cameras, log)
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
-    standing, floor_meta = floor_after_lift(floor, median, list(cameras), fps)
+    standing, floor_meta = floor_after_lift(floor, median, list(cameras), fps, keypoints)
     if floor == ESTIMATE:
         log(
             "floor: too few standing ankles to estimate it"
