@@ -14,6 +14,8 @@ Entity paths (all under a Z-up ``world``):
 - ``plots/energy/p<id>``: energy over hypotheses (5%, median, 95%) per frame;
   ``plots/spread/p<id>``: mean per-joint spread in millimetres, one plot each.
 - ``quality``: a Markdown summary per person (frames, spread, BVH fit, flags) and the warnings.
+- ``world/floor`` and ``world/people/p<id>/plausibility``: the floor (given or estimated) and each person's
+  plausibility report, from the lift's meta (:mod:`exporters.rrd_floor`).
 
 Videos are shown on both timelines: a video frame is put on the ``frame``
 timeline at the output frame whose time it has (within half a frame), and its
@@ -23,7 +25,6 @@ clock stamp is that frame's exact stamp.
 from __future__ import annotations
 
 import colorsys
-import json
 import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -33,6 +34,7 @@ import numpy as np
 from platypose.exporters import rerun_adapter as rra
 from platypose.exporters.frames import frame_chunks
 from platypose.exporters.result import LiftResult
+from platypose.exporters.rrd_floor import log_floor_and_plausibility
 from platypose.exporters.video import jpeg_frames, needs_reencode, reencode_h264
 from platypose.lifting.atomic import atomic_path
 from platypose.lifting.errors import InputError
@@ -276,9 +278,16 @@ def _log_video(
             rra.send_jpeg_frames(rec, entity, stamps, frames, blobs)
 
 
+def person_report(result: LiftResult, p: int) -> dict | None:
+    """Person ``p``'s entry of ``meta["plausibility"]`` (one dict per person, :mod:`lifting.plausibility`), if any."""
+    reports = result.meta.get("plausibility") or []
+    return reports[p] if p < len(reports) and isinstance(reports[p], dict) else None
+
+
 def quality_flags(result: LiftResult, p: int) -> list[str]:
-    """Reasons to check person ``p`` (empty when none): a large spread, a stretching skeleton, few frames."""
-    flags = []
+    """Reasons to check person ``p`` (empty when none): a large spread, a stretching skeleton, few frames, and the
+    lift's own plausibility flags (under the floor, sliding, one view)."""
+    flags = [f"plausibility: {flag}" for flag in (person_report(result, p) or {}).get("flags", [])]
     present = result.present()[p]
     track = f"p{result.track_ids[p]}"
     spread = _mean_spread(result, p)
@@ -318,13 +327,20 @@ def quality_text(result: LiftResult, flags: dict[int, list[str]]) -> str:
             line += f", BVH fit {1000 * fit['mean_m']:.0f} mm mean / {1000 * fit['max_m']:.0f} mm max"
         lines.append(line)
         lines += [f"  - check: {f}" for f in flags.get(p, [])]
-        plausibility = result.meta.get("plausibility")
-        if isinstance(plausibility, dict) and plausibility.get(f"p{track}") is not None:
-            lines.append(f"  - plausibility: `{json.dumps(plausibility[f'p{track}'])}`")
+        report = person_report(result, p)
+        if report is not None:
+            lines.append(f"  - plausibility: {', '.join(report.get('flags', [])) or 'no flags'}")
     warnings = result.meta.get("warnings") or []
     if warnings:
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in warnings]
     return "\n".join(lines) + "\n"
+
+
+def people_centre(result: LiftResult) -> np.ndarray:
+    """The mean pelvis of every present person over the clip (the origin when nobody is present), metres."""
+    pelvis = np.asarray(result.median[:, :, 0], np.float64).reshape(-1, 3)
+    pelvis = pelvis[np.isfinite(pelvis).all(axis=1)]
+    return pelvis.mean(axis=0) if len(pelvis) else np.zeros(3)
 
 
 def check_videos(result: LiftResult, video_paths: Mapping[str, Path], mode: str) -> None:
@@ -368,6 +384,8 @@ def write_rrd(
             for p in flags:
                 label = f"p{result.track_ids[p]}" + (" (check)" if flags[p] else "")
                 _log_person(rec, result, p, p, label)
+            reports = [person_report(result, p) or {} for p in range(result.num_persons)]
+            log_floor_and_plausibility(rec, result.meta.get("floor"), reports, result.track_ids, people_centre(result))
         finally:
             rra.close_recording(rec)
     return path

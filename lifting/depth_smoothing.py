@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import torch
 
-from platypose.lifting.translation import acceleration_penalty
+from platypose.lifting.linalg import acceleration_penalty
 
 ANCHORED_WEIGHT = 1e4  # an anchored frame's depth barely moves
 MIN_DEPTH = 0.05  # metres: a joint this near the camera (or behind it) keeps its place

@@ -14,6 +14,9 @@ import numpy as np
 import torch
 
 from platypose.lifting.camera import CameraBatch, undistort_normalized
+from platypose.lifting.linalg import SYMMETRIC_PAIRS
+from platypose.lifting.linalg import add_to_diagonal_ as add_to_diagonal_  # re-exported
+from platypose.lifting.linalg import solve_symmetric3 as solve_symmetric3  # re-exported
 from platypose.lifting.skeleton import BONES, SYMMETRIC_BONES
 
 ROBUST_LOSSES = ("l2", "geman-mcclure")
@@ -90,9 +93,6 @@ def robust_slope(squared: torch.Tensor, loss: str, scale: float) -> torch.Tensor
         return squared.new_ones(())  # a scalar: broadcasts without a full-size array of ones
     c2 = scale * scale
     return (c2 / (squared + c2)) ** 2
-
-
-SYMMETRIC_PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # packed 3x3: xx, xy, xz, yy, yz, zz
 
 
 @dataclass(frozen=True)
@@ -202,48 +202,6 @@ def _camera_frame_terms(view: ViewResiduals) -> tuple[torch.Tensor, torch.Tensor
     torch.mul(yy, v, out=yz).neg_()
     torch.mul(xz, u, out=zz).addcmul_(yz, v).neg_()
     return view.energy, grad, curvature
-
-
-def unpack_symmetric(packed: torch.Tensor) -> torch.Tensor:
-    """Packed 3x3 matrices ``(6, ...)`` in ``SYMMETRIC_PAIRS`` order -> ``(..., 3, 3)``."""
-    rows = [[None] * 3 for _ in range(3)]
-    for entry, (k, m) in zip(packed, SYMMETRIC_PAIRS):
-        rows[k][m] = rows[m][k] = entry
-    return torch.stack([torch.stack(row, dim=-1) for row in rows], dim=-2)
-
-
-def add_to_diagonal_(packed: torch.Tensor, scale: torch.Tensor) -> torch.Tensor:
-    """Add ``scale * I`` in place to packed 3x3 matrices ``(6, ...)`` (``SYMMETRIC_PAIRS`` order); ``scale``
-    broadcasts against ``(...)``. Returns ``packed``."""
-    for entry, (k, m) in zip(packed, SYMMETRIC_PAIRS):
-        if k == m:
-            entry.add_(scale)
-    return packed
-
-
-def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor, scale: float = 1.0) -> torch.Tensor:
-    """``scale`` times the solutions of many symmetric positive definite 3x3 systems, by the adjugate
-    (fast on CPU), component-first.
-
-    ``matrix`` ``(6, ...)`` packed in ``SYMMETRIC_PAIRS`` order (xx, xy, xz, yy, yz, zz), ``rhs`` ``(3, ...)``;
-    returns ``(3, ...)``. Fused multiply-adds, written in place (about 30 passes over the arrays).
-    """
-    a, b, c, d, e, f = matrix
-    x, y, z = rhs
-
-    def cofactor(p: torch.Tensor, q: torch.Tensor, r: torch.Tensor, s: torch.Tensor) -> torch.Tensor:
-        """``p q - r s``, two passes."""
-        return torch.mul(p, q).addcmul_(r, s, value=-1)
-
-    A, B, C = cofactor(d, f, e, e), cofactor(c, e, b, f), cofactor(b, e, c, d)
-    D, E, F = cofactor(a, f, c, c), cofactor(b, c, a, e), cofactor(a, d, b, b)
-    inv_det = torch.mul(a, A).addcmul_(b, B).addcmul_(c, C).reciprocal_()
-    if scale != 1.0:
-        inv_det.mul_(scale)
-    solution = torch.empty_like(rhs)
-    for row, (p, q, r) in zip(solution, ((A, B, C), (B, D, E), (C, E, F))):
-        torch.mul(p, x, out=row).addcmul_(q, y).addcmul_(r, z).mul_(inv_det)
-    return solution
 
 
 def bone_lengths_torch(joints: torch.Tensor) -> torch.Tensor:

@@ -67,9 +67,23 @@ def look_target(cameras: Sequence[Camera]) -> np.ndarray:
     return np.linalg.solve(A, b)
 
 
-def place_window(window: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """Translate a window so its mean pelvis is at ``target``."""
-    return window - window[:, 0].mean(0) + target
+def place_window(window: np.ndarray, target: np.ndarray, floor_height: float | None = None) -> np.ndarray:
+    """Translate a window so its mean pelvis is at ``target``; with ``floor_height`` only along the floor (x, y),
+    and up by that height, so a motion recorded on the floor z = 0 stands on the floor z = ``floor_height``."""
+    shift = target - window[:, 0].mean(0)
+    if floor_height is not None:
+        shift[2] = floor_height
+    return window + shift
+
+
+def floor_height(plane: tuple[float, float, float, float] | None) -> float | None:
+    """The height of a level floor ``(nx, ny, nz, d)`` (None: none); ValueError for a tilted one."""
+    if plane is None:
+        return None
+    nx, ny, nz, d = plane
+    if abs(nx) > 1e-9 or abs(ny) > 1e-9 or nz <= 0:
+        raise ValueError(f"floor {plane}: evaluation places motion on a level floor only (z = H)")
+    return -d / nz
 
 
 def score(hypotheses: np.ndarray, truth: np.ndarray) -> dict:
@@ -140,14 +154,19 @@ def evaluate(
     baseline: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> list[EvalRow]:
-    """The evaluation table: one row per method x frames x samples for these cameras."""
+    """The evaluation table: one row per method x frames x samples for these cameras.
+
+    With ``config.floor`` set (a level floor), every window stands on it (the clips' floor is z = 0) and is
+    moved only along it.
+    """
     target = look_target(cameras)
+    height = floor_height(config.floor)
     rows = []
     for frames in frames_list:
         windows, clip_of_window = cut_windows(clips, frames, windows_per_clip)
         if not windows:
             continue
-        truth = np.stack([place_window(w, target) for w in windows])
+        truth = np.stack([place_window(w, target, height) for w in windows])
         for samples in samples_list:
             methods = [("platypose", False)] + ([("frame-by-frame", True)] if baseline and frames > 1 else [])
             for method, per_frame in methods:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import torch
 
-from platypose.lifting.energy import unpack_symmetric
+from platypose.lifting.linalg import unpack_symmetric
 
 
 def unit_weight_variance(energy: torch.Tensor, confidence: torch.Tensor) -> torch.Tensor:

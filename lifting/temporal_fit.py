@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import torch
 
-from platypose.lifting.energy import Observations, reprojection_terms, unpack_symmetric
+from platypose.lifting.energy import Observations, reprojection_terms
+from platypose.lifting.linalg import acceleration_penalty, second_difference, solve_smoothed, unpack_symmetric
 from platypose.lifting.skeleton import TYPICAL_ACCELERATIONS
-from platypose.lifting.translation import acceleration_penalty, second_difference, solve_smoothed
 
 MAD_TO_SIGMA = 1.4826  # median absolute deviation -> standard deviation of a normal distribution
 

@@ -21,6 +21,8 @@ import torch
 
 from platypose.lifting.camera import CameraBatch
 from platypose.lifting.energy import Observations
+from platypose.lifting.linalg import solve_block_tridiagonal as solve_block_tridiagonal  # re-exported
+from platypose.lifting.linalg import solve_smoothed
 
 
 @dataclass(frozen=True)
@@ -55,10 +57,6 @@ def ray_constraints(obs: Observations) -> RayConstraints:
     )
 
 
-BLOCK_FRAMES = 8  # frames per block of the block-tridiagonal solve (at least COUPLED_FRAMES)
-COUPLED_FRAMES = 2  # accelerations couple each frame with the two before and after it
-
-
 def solve_translation(
     joints: torch.Tensor, rays: RayConstraints, cameras: CameraBatch, smoothness: float
 ) -> torch.Tensor:
@@ -84,82 +82,3 @@ def solve_translation(
     if smoothness <= 0 or F < 3:
         return torch.linalg.solve(normal, rhs.unsqueeze(-1)).squeeze(-1)
     return solve_smoothed(normal, rhs, smoothness * data_scale)
-
-
-def second_difference(values: torch.Tensor, dim: int = 2) -> torch.Tensor:
-    """``x(t+1) - 2 x(t) + x(t-1)`` along ``dim`` (one shorter by two there): accelerations per frame squared."""
-    frames_first = values.movedim(dim, 0)
-    return (frames_first[2:] - 2 * frames_first[1:-1] + frames_first[:-2]).movedim(0, dim)
-
-
-def acceleration_penalty(frames: int, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
-    """``D^T D`` ``(F, F)`` for the second-difference operator ``D``: the sum of squared accelerations."""
-    second_difference = torch.zeros(frames - 2, frames, dtype=dtype, device=device)
-    rows = torch.arange(frames - 2, device=device)
-    second_difference[rows, rows] = 1.0
-    second_difference[rows, rows + 1] = -2.0
-    second_difference[rows, rows + 2] = 1.0
-    return second_difference.T @ second_difference
-
-
-def solve_smoothed(normal: torch.Tensor, rhs: torch.Tensor, mu: torch.Tensor) -> torch.Tensor:
-    """Solve ``(blockdiag(normal) + mu D^T D (x) I3) d = rhs`` for ``normal`` ``(B, N, F, 3, 3)``, ``rhs`` ``(B, N, F, 3)``.
-
-    The system is banded (accelerations couple frames two apart): it is cut into blocks
-    of ``BLOCK_FRAMES`` frames, which makes it block-tridiagonal, and solved by block
-    Cholesky. Frames padded at the end (identity, no coupling) are dropped. It is solved in
-    float64 and returned in ``rhs``'s dtype: frames without evidence leave only a tiny ridge and
-    the acceleration penalty (free on straight lines), a condition float32 Cholesky cannot take
-    (it failed on windows seen once or never, at smoothness 10).
-    """
-    dtype = rhs.dtype
-    normal, rhs, mu = normal.double(), rhs.double(), mu.double()
-    B, N, F = normal.shape[:3]
-    size = BLOCK_FRAMES
-    blocks = -(-F // size)
-    padded = blocks * size
-    eye = torch.eye(3, dtype=normal.dtype, device=normal.device)
-    normal = torch.cat([normal, eye.expand(B, N, padded - F, 3, 3)], dim=2)
-    rhs = torch.cat([rhs, rhs.new_zeros(B, N, padded - F, 3)], dim=2)
-    penalty = torch.zeros(padded, padded, dtype=normal.dtype, device=normal.device)
-    penalty[:F, :F] = acceleration_penalty(F, normal.dtype, normal.device)
-    penalty = torch.kron(penalty, eye).reshape(blocks, 3 * size, blocks, 3 * size)  # frames x axes, per block
-    ks = torch.arange(blocks, device=normal.device)
-    mu = mu.reshape(B * N, 1, 1, 1)
-    diag = mu * penalty[ks, :, ks, :]  # (B*N, K, 3 size, 3 size)
-    frame_blocks = diag.view(B * N, blocks, size, 3, size, 3).diagonal(dim1=2, dim2=4)  # (B*N, K, 3, 3, size)
-    frame_blocks += normal.reshape(B * N, blocks, size, 3, 3).permute(0, 1, 3, 4, 2)
-    band = 3 * COUPLED_FRAMES  # accelerations couple a block's last frames only with the next block's first ones
-    corner = mu * penalty[ks[1:], :band, ks[:-1], -band:]
-    solution = solve_block_tridiagonal(diag, corner, rhs.reshape(B * N, blocks, 3 * size))
-    return solution.reshape(B, N, padded, 3)[:, :, :F].to(dtype)
-
-
-def solve_block_tridiagonal(diag: torch.Tensor, corner: torch.Tensor, rhs: torch.Tensor) -> torch.Tensor:
-    """Solve symmetric positive definite block-tridiagonal systems by block Cholesky.
-
-    ``diag`` ``(M, K, n, n)`` diagonal blocks; the blocks below them (row k+1, column k) are
-    zero but for their top-right ``w x w`` corner, ``corner`` ``(M, K-1, w, w)`` (``w <= n``;
-    ``w = n`` is any block); ``rhs`` ``(M, K, n)``. Returns ``(M, K, n)``. One pass over the K
-    blocks, every operation batched over the M systems; the couplings between blocks stay
-    ``w x w`` (the factor's corner solves only them).
-    """
-    n, w = diag.shape[-1], corner.shape[-1]
-    pad = torch.nn.functional.pad  # puts a w-row part at the top (rows, columns: (0, n - w)) or the bottom (n - w, 0)
-    factors, couplings, forward = [], [None], []
-    for k in range(diag.shape[1]):
-        block, right = diag[:, k], rhs[:, k, :, None]
-        if k > 0:  # the factor's coupling block, L_{k-1}^-1 lower^T, is zero but for its bottom-left w x w: g
-            g = torch.linalg.solve_triangular(factors[-1][:, -w:, -w:], corner[:, k - 1].mT, upper=False)
-            block = block - pad(g.mT @ g, (0, n - w, 0, n - w))
-            right = right - pad(g.mT @ forward[-1][:, -w:], (0, 0, 0, n - w))
-            couplings.append(g)
-        factors.append(torch.linalg.cholesky(block))
-        forward.append(torch.linalg.solve_triangular(factors[-1], right, upper=False))
-    solution = [None] * len(factors)
-    for k in reversed(range(len(factors))):
-        right = forward[k]
-        if k + 1 < len(factors):
-            right = right - pad(couplings[k + 1] @ solution[k + 1][:, :w], (0, 0, n - w, 0))
-        solution[k] = torch.linalg.solve_triangular(factors[k].mT, right, upper=True)
-    return torch.cat(solution, dim=-1).mT.reshape(rhs.shape)

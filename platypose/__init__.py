@@ -23,7 +23,7 @@ _API = {
     "load_result": "platypose.api",
     "Prior": "platypose.api",
     "LiftResult": "platypose.exporters.result",
-    "SamplerConfig": "platypose.lifting.sampler",
+    "SamplerConfig": "platypose.lifting.sampler_config",
     "WindowSettings": "platypose.lifting.lift",
     "InputError": "platypose.lifting.errors",
 }

@@ -41,6 +41,7 @@ def lift(
     persons: str = "all",
     root: str = "auto",
     root_trajectory: str | Path | None = None,
+    floor: str = "auto",
     detector: str | Path | None = None,
     threads: int | None = None,
     say: Callable[[str], None] | None = None,
@@ -57,7 +58,9 @@ def lift(
     prior). ``sampler`` / ``windows``: settings objects; keyword arguments named after
     :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
     ``persons``: all, largest or N; ``root``: auto, triangulate or solve;
-    ``root_trajectory``: a known pelvis path file. ``say`` receives the log's lines.
+    ``root_trajectory``: a known pelvis path file. ``floor``: auto (the calibration's z = 0; without one,
+    estimated after the lift and reported), z=H, nx,ny,nz,d or none, as ``--floor``. ``say`` receives the
+    log's lines.
 
     Returns the LiftResult (hypotheses (P, N, T, 17, 3) world metres, median, 2D keypoints,
     cameras, ``meta`` with the log's warnings); InputError for bad input, as the CLI.
@@ -65,6 +68,7 @@ def lift(
     from platypose import __version__
     from platypose.detectors.sources import view_name
     from platypose.detectors.take import take_keypoints
+    from platypose.lifting.floor import floor_for_lift, parse_floor
     from platypose.lifting.take import root_kinds, root_paths
     from platypose.pipeline import lift_take, match_cameras, view_cameras
 
@@ -79,7 +83,9 @@ def lift(
     log = _Log(say)
     names = [view_name(s) for s in sources]
     what = ", ".join(map(str, sources))
-    cameras = None if cams is None else match_cameras(_calibration(cams), names, what, _described(cams))
+    calibration = None if cams is None else _calibration(cams)
+    cameras = None if calibration is None else match_cameras(calibration, names, what, _described(cams))
+    standing = floor_for_lift(parse_floor(floor), None if calibration is None else calibration.meta)
     started = time.perf_counter()
     read = _ViewReader(detector, threads, log)
     tracks = [read(source) for source in sources]
@@ -96,7 +102,7 @@ def lift(
     roots = root_paths(keypoints, times, cameras, root, given, say=log)
     bundle = prior if isinstance(prior, PriorBundle) else PriorBundle.load(prior)
     started = time.perf_counter()
-    result = lift_take(bundle, keypoints, times, track_ids, cameras, roots, sampler, windows, log=log)
+    result = lift_take(bundle, keypoints, times, track_ids, cameras, roots, sampler, windows, log=log, floor=standing)
     timings["lift_s"] = time.perf_counter() - started
     return result.with_meta(
         version=__version__,

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +26,9 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.floor import ESTIMATE, Floor, floor_after_lift
 from platypose.lifting.lift import WindowSettings
+from platypose.lifting.plausibility import plausibility, plausibility_lines
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.root import presence
 from platypose.lifting.sampler import SamplerConfig
@@ -129,14 +132,22 @@ def lift_take(
     arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
     progress: Callable[[list[int], int, int], None] | None = None,
     log: JobLog | None = None,
+    floor: Floor | str | None = None,
 ) -> LiftResult:
     """The LiftResult of a take: keypoints (C, T, P, 17, 3) on ``times`` (T,) of persons ``track_ids`` (P,),
     seen by ``cameras``, each person's root path known (T, 3) or None (solved per hypothesis).
 
     ``arrays(shape, name)`` makes the result's long arrays (default: in memory; the CLI's are files).
-    The result's ``meta`` holds ``prior_sha256`` and ``reprojection_px`` (per view); the caller adds its own.
+    ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
+    sampler; ``ESTIMATE`` finds the floor under the lift afterwards (one camera; reported, not used to ground
+    it); None: no floor. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view),
+    ``floor`` and ``plausibility`` (per person, :mod:`platypose.lifting.plausibility`; each flag is also a
+    warning); the caller adds its own.
     """
     log = log if log is not None else JobLog()
+    if isinstance(floor, Floor):
+        sampler = replace(sampler, floor=floor.plane)
+        log(f"floor ({floor.source}): {' '.join(f'{v:g}' for v in floor.plane)} (n . x + d = 0), grounding on")
     started = time.perf_counter()
     absent = ~presence(keypoints, times)  # (P, T)
     (P, T), N = absent.shape, sampler.samples
@@ -149,7 +160,21 @@ def lift_take(
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
     report = report_reprojection(median, keypoints, cameras, log)
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
-    meta = {"prior_sha256": prior.checksum, "reprojection_px": report}
+    standing, floor_meta = floor_after_lift(floor, median, list(cameras), fps, keypoints)
+    if floor == ESTIMATE:
+        log(
+            "floor: too few standing ankles to estimate it"
+            if standing is None
+            else f"floor estimated under the lift: camera {floor_meta['camera_height_m']:.2f} m above it, "
+            f"pitched {floor_meta['camera_pitch_deg']:.1f} degrees down ({floor_meta['stance_points']} standing "
+            "ankles; reported, not used to ground this lift: --floor z=H or a calibration does)"
+        )
+    persons = plausibility(hypotheses, keypoints, standing)
+    for track, person in zip(track_ids, persons):
+        person["track_id"] = int(track)
+    for line in plausibility_lines(persons, track_ids):
+        log.warning(line)
+    meta = {"prior_sha256": prior.checksum, "reprojection_px": report, "floor": floor_meta, "plausibility": persons}
     return LiftResult(
         hypotheses=hypotheses,
         median=median,

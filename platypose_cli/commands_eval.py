@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -17,6 +18,20 @@ from platypose.lifting.errors import InputError
 if TYPE_CHECKING:
     from platypose.lifting.runtime import PriorSettings
     from platypose.lifting.sampler import SamplerConfig
+
+
+def floor_plane(text: str) -> tuple[float, float, float, float] | None:
+    """The level floor ``--floor`` gives evaluation: auto is the motion's z = 0; InputError for a tilted plane."""
+    from platypose.lifting.evaluation import floor_height
+    from platypose.lifting.floor import CALIBRATED_FLOOR, parse_floor
+
+    floor = parse_floor(text)
+    plane = CALIBRATED_FLOOR.plane if floor == "auto" else (None if floor is None else floor.plane)
+    try:
+        floor_height(plane)
+    except ValueError as err:
+        raise InputError(f"--{err}") from None
+    return plane
 
 
 @app.command("eval")
@@ -33,18 +48,25 @@ def evaluate_command(
     heldout: bool = typer.Option(False, "--heldout", help="Only clips the prior held out of training (its manifest)."),
     baseline: bool = typer.Option(True, help="Also run the frame-by-frame baseline."),
     json_out: Path = typer.Option(None, "--json", help="Also write the table as JSON here."),
+    floor: str = typer.Option(
+        "auto",
+        "--floor",
+        help="auto (the motion's floor z = 0, known to the sampler), z=H (the motion stood on that floor), or none "
+        "(motion placed by its pelvis, no floor).",
+    ),
     prior: PriorSettings = None,
     sampler: SamplerConfig = None,
 ) -> None:
     """Project motion through cameras, lift it, and print minMPJPE, minMPSPE, PA-*, MPJVE, ECE."""
     from platypose.lifting.camera_rigs import ring_cameras
-    from platypose.lifting.evaluation import evaluate, format_header
+    from platypose.lifting.evaluation import evaluate, floor_height, format_header
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.timebase import resample
 
     frames_list = int_list(frames, "--frames")
     samples_list = int_list(samples, "--samples")
-    config = sampler
+    plane = floor_plane(floor)
+    config = replace(sampler, floor=plane)
     bundle = prior.load()
     if max(frames_list) > bundle.config.max_frames:
         raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")
@@ -68,7 +90,7 @@ def evaluate_command(
         raise InputError(f"{', '.join(map(str, motion))}: no complete (full-body) clips to evaluate")
     typer.echo(
         f"{len(clips)} clips, prior {bundle.checksum[:12]}, {len(cameras)} cameras, noise {noise_px} px, "
-        f"{os.cpu_count()} CPUs"
+        f"floor {'none' if plane is None else f'z = {floor_height(plane):g}'}, {os.cpu_count()} CPUs"
     )
     typer.echo(format_header())
     rows = evaluate(

@@ -32,17 +32,20 @@ def lift_settings(
     quiet: bool,
     arguments: dict,
     sync: str = "none",
+    floor: str = "auto",
 ):
     """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
     from platypose.cli.lift_run import RunSettings
     from platypose.detectors.tracking import persons_count
     from platypose.exporters.export import parse_formats
     from platypose.lifting.errors import InputError
+    from platypose.lifting.floor import parse_floor
     from platypose.lifting.runtime import resolve_device
     from platypose.lifting.take import ROOT_MODES
 
     persons_count(persons)
     resolve_device(prior.device)
+    parse_floor(floor)
     if root not in ROOT_MODES:
         raise InputError(f"root must be one of {', '.join(ROOT_MODES)}, got {root!r}", option="root")
     if sync not in ("auto", "none") and not Path(sync).is_file():
@@ -61,6 +64,7 @@ def lift_settings(
         quiet=quiet,
         arguments=arguments,
         sync=sync,
+        floor=floor,
     )
 
 
@@ -121,6 +125,12 @@ def lift(
     ),
     retry_failed: bool = typer.Option(False, "--retry-failed", help="With --resume: run failed inputs again."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
+    floor: str = typer.Option(
+        "auto",
+        "--floor",
+        help="auto (the calibration's z = 0; without one: estimated after the lift and reported), z=H, "
+        "nx,ny,nz,d (the plane n.x + d = 0), or none. Grounds every hypothesis (docs/lift.md).",
+    ),
     prior: PriorSettings = None,
     sampler: SamplerConfig = None,
     windows: WindowSettings = None,
@@ -149,7 +159,20 @@ def lift(
         detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps, image_size=image_size
     )
     settings = lift_settings(
-        out, cams, prior, detect, sampler, windows, formats, persons, root, root_trajectory, quiet, arguments, sync
+        out,
+        cams,
+        prior,
+        detect,
+        sampler,
+        windows,
+        formats,
+        persons,
+        root,
+        root_trajectory,
+        quiet,
+        arguments,
+        sync=sync,
+        floor=floor,
     )
     if root_trajectory is not None and len(job_list) > 1:
         raise InputError(f"--root-trajectory {root_trajectory}: give it for one input, not {len(job_list)}")

@@ -25,6 +25,7 @@ from platypose.cli.lift_run import (
     job_entry,
     run_job,
 )
+from platypose.lifting.plausibility import plausibility_lines
 
 SUMMARY = "summary.json"
 
@@ -93,6 +94,9 @@ def run_batch(
         write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
         line = f"{jobs[index].name}: {entry['status']} in {entry['seconds']:.1f} s"
         say(line + (f": {entry['error']}" if entry["error"] else ""))
+        persons = entry.get("plausibility", [])
+        for flagged in plausibility_lines(persons, [p["track_id"] for p in persons]):  # shown even with --quiet
+            typer.echo(f"  {jobs[index].name}: {flagged}", err=True)
 
     settings.out.mkdir(parents=True, exist_ok=True)
     write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)

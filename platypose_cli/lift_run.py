@@ -58,6 +58,7 @@ class RunSettings:
     quiet: bool = False
     arguments: dict = field(default_factory=dict)
     sync: str = "none"
+    floor: str = "auto"
 
 
 _PRIORS: dict[PriorSettings, object] = {}
@@ -70,11 +71,13 @@ def _prior(settings: PriorSettings):
     return _PRIORS[settings]
 
 
-def calibrated_cameras(job: Job, cams: Path) -> list:
-    """The camera of ``cams`` matching each view by name; InputError (calibration mismatch) when one has none."""
+def calibrated_cameras(job: Job, cams: Path) -> tuple[list, dict]:
+    """The camera of ``cams`` matching each view by name (InputError, calibration mismatch, when one has none),
+    and the calibration's meta."""
     from platypose.lifting.calibration import load_calibration
 
-    return match_cameras(load_calibration(cams), [v.name for v in job.views], job.input, str(cams))
+    calibration = load_calibration(cams)
+    return match_cameras(calibration, [v.name for v in job.views], job.input, str(cams)), calibration.meta
 
 
 def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) -> list[np.ndarray | None]:
@@ -133,11 +136,13 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     from platypose import __version__
     from platypose.detectors.take import take_keypoints
     from platypose.exporters.frames import FrameArray
+    from platypose.lifting.floor import floor_for_lift, parse_floor
     from platypose.lifting.take import root_kinds
 
     timings: dict[str, float] = {}
     started = time.perf_counter()
-    calibrated = calibrated_cameras(job, settings.cams) if settings.cams is not None else None
+    calibrated, calibration_meta = calibrated_cameras(job, settings.cams) if settings.cams is not None else (None, None)
+    floor = floor_for_lift(parse_floor(settings.floor), calibration_meta)
     detection = Detection(settings.detect)
     views = []
     for view in job.views:
@@ -173,6 +178,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
             lambda shape, name: FrameArray.create(staging / f".{name}.npy", shape, np.float32),
             bars.update,
             log,
+            floor,
         )
     finally:
         bars.close()
@@ -245,6 +251,7 @@ def fingerprint(job: Job, settings: RunSettings) -> str:
         str(replace(settings.detect, threads=None)),
         settings.persons,
         settings.root,
+        settings.floor,
         as_json(settings.sampler),
         as_json(settings.windows),
         [_stamp(Path(f)) for f in files],
@@ -264,7 +271,7 @@ def earlier_failure(folder: Path, digest: str) -> str | None:
 def job_entry(
     job: Job, status: str, outputs: list[str] | None = None, seconds: float = 0.0, error: str | None = None
 ) -> dict:
-    """A summary.json entry for ``job``."""
+    """A summary.json entry for ``job`` (a lifted one gains ``floor`` and ``plausibility``, as in its meta)."""
     return {
         "input": job.input,
         "name": job.name,
@@ -292,7 +299,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         manifest = {"input": job.input, "formats": list(settings.formats), "outputs": outputs}
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
         (folder / FAILURE).unlink(missing_ok=True)
-        entry.update(status="ok", outputs=outputs)
+        entry.update(status="ok", outputs=outputs, floor=result.meta["floor"], plausibility=result.meta["plausibility"])
     except Exception as err:
         message = cli_message(err) if isinstance(err, InputError) else f"{type(err).__name__}: {err}"
         entry["error"] = " ".join(message.split())

@@ -1,7 +1,7 @@
 """Command-line options shared by several commands, built from the library's settings dataclasses.
 
 One table per settings class names the flags of its fields (:data:`SAMPLER_FLAGS` for
-:class:`~platypose.lifting.sampler.SamplerConfig`, :data:`WINDOW_FLAGS` for
+:class:`~platypose.lifting.sampler_config.SamplerConfig`, :data:`WINDOW_FLAGS` for
 :class:`~platypose.lifting.lift.WindowSettings`, :data:`PRIOR_FLAGS` for
 :class:`~platypose.lifting.runtime.PriorSettings`). A command decorated with
 ``@settings_options("sampler")`` gets one typer option per row and receives the built
@@ -67,7 +67,7 @@ PRIOR_FLAGS = (
     Flag("runtime", str, ("--runtime",), "Denoiser runtime: float32, bfloat16 or onnx (CPU; docs/bench.md)."),
 )
 SETTINGS = {  # the settings class of each table, imported when a command runs (torch stays out of --help)
-    "sampler": ("platypose.lifting.sampler", "SamplerConfig", SAMPLER_FLAGS),
+    "sampler": ("platypose.lifting.sampler_config", "SamplerConfig", SAMPLER_FLAGS),
     "windows": ("platypose.lifting.lift", "WindowSettings", WINDOW_FLAGS),
     "prior": ("platypose.lifting.runtime", "PriorSettings", PRIOR_FLAGS),
 }

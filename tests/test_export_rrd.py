@@ -219,9 +219,22 @@ def test_failed_export_leaves_no_file(result, data_dir, tmp_path):
 
 def test_quality_text_lists_flags_warnings_and_plausibility(result):
     fit = {"median": {"mean_m": 0.01, "max_m": 0.05, "stretch_m": 0.2}}
-    r = result.with_meta(plausibility={"p7": {"floor_m": 0.1}}, warnings=["a warning"], bvh_fit_error={"p7": fit})
+    reports = [{"flags": []}, {"flags": ["under floor"], "track_id": 7}]  # one per person, as the lift writes them
+    r = result.with_meta(plausibility=reports, warnings=["a warning"], bvh_fit_error={"p7": fit})
     flags = {p: quality_flags(r, p) for p in range(r.num_persons)}
-    assert flags[0] == [] and flags[1] == ["bones stretch by up to 200 mm (not a rigid body)"]
+    assert flags[0] == []
+    assert flags[1] == ["plausibility: under floor", "bones stretch by up to 200 mm (not a rigid body)"]
     text = quality_text(r, flags)
-    assert "check: bones stretch by up to 200 mm" in text and '{"floor_m": 0.1}' in text and "- a warning" in text
-    assert "BVH fit 10 mm mean / 50 mm max" in text
+    assert "check: bones stretch by up to 200 mm" in text and "plausibility: under floor" in text
+    assert "- a warning" in text and "BVH fit 10 mm mean / 50 mm max" in text
+
+
+def test_floor_and_plausibility_from_meta_are_in_the_recording(result, tmp_path):
+    floor = {"normal": [0.0, 0.0, 1.0], "offset_m": 0.0, "source": "calibration"}
+    reports = [{"flags": []}, {"flags": ["sliding"], "track_id": 7}]
+    path = write_rrd(result.with_meta(floor=floor, plausibility=reports), tmp_path / "floor.rrd", "floor")
+    entities = read_entities(path)
+    strips = entities["/world/floor"]["static:LineStrips3D:strips"][0]
+    assert np.allclose([p[2] for strip in strips for p in strip], 0.0)
+    assert "sliding" in entities["/world/people/p7/plausibility"]["static:TextDocument:text"][0][0]
+    assert "p7 (check)" in str(entities["/world/people/p7/label"])

@@ -13,10 +13,14 @@ by frame where the reference has all 17 joints, and printed as a Markdown table 
 - median vs triangulation: mean / median over joints and frames of the distance from
   the hypotheses' median to the reference (mm); and the pelvis alone;
 - best hypothesis per joint: for each joint and frame the nearest hypothesis (mm, mean);
+- hip-centred best hypothesis per frame: per frame the hypothesis whose pelvis-relative joints are nearest the
+  reference's (mean over joints), mean over frames (mm);
 - inside box: share of reference joints inside the hypotheses' per-axis min-max box;
 - pelvis depth: 5 / 50 / 95 % of the hypotheses' pelvis depth from the first camera
   of the lift against the reference's median depth, and the share of frames whose
-  reference depth lies within the hypotheses' 5-95 % range.
+  reference depth lies within the hypotheses' 5-95 % range;
+- under floor: share of hypothesis-frames whose lowest ankle is more than 3 cm under the calibration's floor
+  z = 0 (the reference's own lowest ankle, median over frames, in brackets).
 """
 
 from __future__ import annotations
@@ -58,11 +62,15 @@ def compare(path: Path, reference: np.ndarray) -> str:
     low, mid, high = np.percentile(depth, [5, 50, 95])
     lo_t, hi_t = np.percentile(depth, [5, 95], axis=0)
     within = ((lo_t <= ref_depth) & (ref_depth <= hi_t)).mean()
+    centred = np.linalg.norm((hyps - hyps[..., :1, :]) - (ref - ref[:, :1])[None], axis=-1).mean(-1) * 1000
+    lowest = hyps[..., [3, 6], 2].min(-1)  # (N, T') lowest ankle height
+    ref_lowest = np.median(ref[:, [3, 6], 2].min(-1))
     return (
         f"| {path.parent.parent.name} ({len(result.cameras)} view(s), {hyps.shape[0]} hypotheses, {frames.sum()} frames) "
         f"| {to_median.mean():.1f} / {np.median(to_median):.1f} mm | {to_median[:, 0].mean():.1f} mm "
-        f"| {best.mean():.1f} mm | {100 * inside:.0f} % "
-        f"| {low:.2f} / {mid:.2f} / {high:.2f} m vs {np.median(ref_depth):.2f} m ({100 * within:.0f} % of frames inside) |"
+        f"| {best.mean():.1f} mm | {centred.min(axis=0).mean():.1f} mm | {100 * inside:.0f} % "
+        f"| {low:.2f} / {mid:.2f} / {high:.2f} m vs {np.median(ref_depth):.2f} m ({100 * within:.0f} % of frames inside) "
+        f"| {100 * np.mean(lowest < -0.03):.1f} % ({100 * ref_lowest:.0f} cm) |"
     )
 
 
@@ -74,10 +82,11 @@ def main() -> None:
     lifts = [path for path in args.lifts if not path.name.endswith(".detections.npz")]  # a glob's detection caches
     reference = reference_joints(lifts[0])
     print(
-        "| lift | median vs triangulation (mean / median) | pelvis | best hypothesis per joint | inside min-max box "
-        "| pelvis depth 5 / 50 / 95 % |"
+        "| lift | median vs triangulation (mean / median) | pelvis | best hypothesis per joint "
+        "| hip-centred best hypothesis per frame | inside min-max box | pelvis depth 5 / 50 / 95 % "
+        "| lowest ankle under -3 cm (reference's) |"
     )
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for path in lifts:
         print(compare(path, reference))
 

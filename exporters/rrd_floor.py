@@ -1,0 +1,52 @@
+"""The floor and each person's plausibility in a rerun recording (logged by :func:`exporters.rrd.write_rrd`).
+
+Entity paths (static, under the Z-up ``world``):
+
+- ``world/floor``: the floor plane as a grid of lines (``GRID_EXTENT`` metres either way of the point of
+  the floor nearest the people's mean pelvis, a line every ``GRID_STEP``), labelled with where it came from;
+- ``world/people/p<id>/plausibility``: a text document with the person's plausibility figures and flags
+  (:mod:`lifting.plausibility`).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import rerun as rr
+
+GRID_EXTENT = 5.0  # metres
+GRID_STEP = 0.5  # metres
+FLOOR_RGBA = (150, 150, 150, 255)
+
+
+def floor_grid(normal: np.ndarray, offset: float, center: np.ndarray) -> np.ndarray:
+    """Line segments ``(L, 2, 3)`` of a square grid on the plane ``normal . x + offset = 0`` about ``center``'s foot."""
+    normal = np.asarray(normal, dtype=np.float64)
+    foot = center - (center @ normal + offset) * normal
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    ticks = np.arange(-GRID_EXTENT, GRID_EXTENT + 1e-9, GRID_STEP)
+    lines = [[foot + a * u - GRID_EXTENT * v, foot + a * u + GRID_EXTENT * v] for a in ticks]
+    lines += [[foot + a * v - GRID_EXTENT * u, foot + a * v + GRID_EXTENT * u] for a in ticks]
+    return np.asarray(lines)
+
+
+def log_floor_and_plausibility(
+    rec: rr.RecordingStream, floor: dict | None, plausibility: list[dict], track_ids, center: np.ndarray
+) -> None:
+    """Log the floor (``{"normal", "offset_m", "source"}`` as in ``meta["floor"]``, or None: nothing) and each
+    person's plausibility report (``meta["plausibility"]``, one per track id) into ``rec``, statically."""
+    if floor is not None:
+        segments = floor_grid(np.asarray(floor["normal"]), float(floor["offset_m"]), np.asarray(center, float))
+        rec.log(
+            "world/floor",
+            rr.LineStrips3D(segments, colors=[FLOOR_RGBA], radii=[0.004], labels=[f"floor ({floor['source']})"]),
+            static=True,
+        )
+    for track, report in zip(track_ids, plausibility):
+        flags = ", ".join(report.get("flags", [])) or "none"
+        text = f"flags: {flags}\n\n```json\n{json.dumps(report, indent=2)}\n```"
+        rec.log(f"world/people/p{track}/plausibility", rr.TextDocument(text, media_type="text/markdown"), static=True)

@@ -1,0 +1,186 @@
+"""The floor: a plane in world metres, given (calibration, ``--floor``) or estimated from a lift's foot contacts.
+
+A floor is ``n . x + d = 0`` with ``n`` the unit normal pointing up; ``n . x + d`` is a point's
+height above it. Calibrated worlds are Z up with the floor at z = 0 (Pose2Sim, anipose and
+mocap systems define them so): ``n = (0, 0, 1)``, ``d = 0``.
+
+Without a calibration (the default camera: level, at the origin) the floor is estimated from a
+lift: the stance ankles (the lower ankle of slow frames) of every person's median motion lie on
+one plane ``ANKLE_HEIGHT`` above the floor. One view places each ankle on its ray at a depth known
+only up to the size prior's scale, which jitters along the ray; a plane fitted to the points
+directly would tilt along the rays. So the pitch is the one under which each person's stance
+ankles' drops below the camera agree best in logarithm (a depth scale is a constant there; ankles
+above the camera do not count; a weak prior prefers a level camera where the drops cannot tell, as
+when everyone stays at about one distance), and the floor is the lowest drop that a fifth of them
+share (a person on a roof stands higher). Roll is taken as level, and the scale is the size
+prior's (an adult of typical size).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from platypose.lifting.calibration.defaults import NO_EXTRINSICS_NOTE
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
+
+ANKLE_HEIGHT = 0.1  # metres: an ankle keypoint above the floor, foot flat (bundled mocap 0.07-0.11, shoes add more)
+ANKLES = (3, 6)  # right and left ankle (lifting.skeleton order)
+STANCE_SPEED = 1.5  # m/s: the lower ankle, slower than this, is taken as standing (one view's depth jitter included)
+LEVEL_PRIOR = 1e-4  # weight of a pitch of 10 degrees against the log drops' variance (one view: often flat)
+FLOOR_SPECS = "auto, none, z=H (a height) or nx,ny,nz,d (a plane n.x + d = 0, n up)"
+
+
+@dataclass(frozen=True)
+class Floor:
+    """The plane ``normal . x + offset = 0`` (``normal`` unit, up), and where it came from."""
+
+    normal: tuple[float, float, float]
+    offset: float
+    source: str
+
+    def height(self, points: np.ndarray) -> np.ndarray:
+        """Heights above the floor of points ``(..., 3)``, ``(...)``."""
+        return np.asarray(points) @ np.asarray(self.normal) + self.offset
+
+    @property
+    def plane(self) -> tuple[float, float, float, float]:
+        """``(nx, ny, nz, d)``."""
+        return (*self.normal, self.offset)
+
+    def as_dict(self) -> dict:
+        """Plain dict for JSON: normal, offset (m), source."""
+        return {"normal": list(self.normal), "offset_m": self.offset, "source": self.source}
+
+
+def plane_floor(nx: float, ny: float, nz: float, d: float, source: str) -> Floor:
+    """The floor ``n . x + d = 0`` with ``n`` scaled to unit length; ValueError for a zero normal."""
+    normal = np.array([nx, ny, nz], dtype=np.float64)
+    length = float(np.linalg.norm(normal))
+    if not np.isfinite(length) or length < 1e-9 or not np.isfinite(d):
+        raise ValueError(f"floor plane {nx},{ny},{nz},{d}: the normal must be finite and non-zero")
+    return Floor(tuple(float(v) for v in normal / length), float(d) / length, source)
+
+
+def parse_floor(text: str) -> Floor | str | None:
+    """A floor specification: "auto" (returned as is), "none" (None), "z=H" or "nx,ny,nz,d"; InputError otherwise."""
+    spec = text.strip().lower()
+    if spec in ("auto", "none"):
+        return None if spec == "none" else "auto"
+    try:
+        if spec.startswith("z="):
+            return plane_floor(0.0, 0.0, 1.0, -float(spec[2:]), "given")
+        values = [float(v) for v in spec.split(",")]
+        if len(values) == 4:
+            return plane_floor(*values, "given")
+    except ValueError as err:
+        raise InputError(f"floor {text!r}: {err}; use {FLOOR_SPECS}") from None
+    raise InputError(f"floor {text!r}: not understood; use {FLOOR_SPECS}")
+
+
+CALIBRATED_FLOOR = Floor((0.0, 0.0, 1.0), 0.0, "calibration")
+ESTIMATE = "estimate"
+
+
+def floor_for_lift(spec: Floor | str | None, calibration_meta: dict | None) -> Floor | str | None:
+    """The floor a lift uses for ``spec`` (:func:`parse_floor`): a given plane as it is, None for none, and for
+    "auto" the calibration's z = 0 when its cameras are placed in a world (``calibration_meta`` of a file whose
+    extrinsics were all given), else ``ESTIMATE`` (no calibration, or cameras at the default pose)."""
+    if spec != "auto":
+        return spec
+    if calibration_meta is None:
+        return ESTIMATE
+    assumptions = " ".join(calibration_meta.get("assumptions", []))
+    return ESTIMATE if NO_EXTRINSICS_NOTE in assumptions else CALIBRATED_FLOOR
+
+
+def stance_points(joints: np.ndarray, fps: float, seen: np.ndarray | None = None) -> list[np.ndarray]:
+    """Stance ankles ``(M_p, 3)`` of each person's motion ``(P, T, 17, 3)``: per frame the lower ankle (along world
+    z), if it moves slower than ``STANCE_SPEED``; frames with missing joints, or not ``seen`` ``(P, T)``, are
+    skipped."""
+    points = []
+    for p, person in enumerate(joints):
+        ankles = person[:, list(ANKLES)]  # (T, 2, 3)
+        if len(ankles) < 2:
+            continue
+        speed = np.linalg.norm(np.gradient(ankles, axis=0), axis=-1) * fps  # (T, 2)
+        lower = np.nanargmin(np.where(np.isfinite(ankles[..., 2]), ankles[..., 2], np.inf), axis=1)
+        frames = np.arange(len(ankles))
+        chosen, chosen_speed = ankles[frames, lower], speed[frames, lower]
+        keep = np.isfinite(chosen).all(-1) & (chosen_speed < STANCE_SPEED)
+        if seen is not None:
+            keep &= seen[p]
+        points.append(chosen[keep])
+    return points
+
+
+def estimate_floor(
+    joints: np.ndarray, camera: Camera, fps: float, seen: np.ndarray | None = None, pitch_range_deg: float = 30.0
+) -> tuple[Floor, dict] | None:
+    """The floor under median motions ``(P, T, 17, 3)`` lifted with the level default ``camera`` (see the module),
+    and what was found: camera height above it (m), pitch (degrees, positive looking down), stance points used.
+    ``seen`` ``(P, T)``: the frames whose ankles the camera saw (the others' rays are the prior's guess).
+
+    None when fewer than 10 stance ankles are found below the camera.
+    """
+    persons = stance_points(joints, fps, seen)
+    center = camera.center
+    up = np.array([0.0, 0.0, 1.0])
+    toward = np.cross(camera.R[0], up)  # pitch turns the world's up about the camera's x axis
+    best = None
+    for pitch in np.deg2rad(np.arange(-pitch_range_deg, pitch_range_deg + 0.125, 0.25)):
+        normal = np.cos(pitch) * up + np.sin(pitch) * toward
+        drops = [(center - person) @ normal for person in persons]  # stance ankles below the camera
+        below = [d[d > 0.05] for d in drops]
+        count = sum(len(d) for d in below)
+        if count < 10:
+            continue
+        # one view gets depth (and so each drop) only up to a scale that jitters along the rays: compare logs
+        spread = sum(((np.log(d) - np.log(d).mean()) ** 2).sum() for d in below if len(d)) / count
+        score = spread + LEVEL_PRIOR * (pitch / np.deg2rad(10.0)) ** 2  # most cameras are near level
+        if best is None or score < best[0]:
+            best = (score, pitch, normal, np.concatenate(below))
+    if best is None:
+        return None
+    _, pitch, normal, drops = best
+    level = _lowest_shared_height(-drops, share=0.2)  # stance ankles' height relative to the camera
+    offset = -(center @ normal) - (level - ANKLE_HEIGHT)  # so that stance ankles stand ANKLE_HEIGHT above it
+    floor = Floor(tuple(float(v) for v in normal), float(offset), "estimated")
+    camera_height = float(floor.height(center))
+    down_pitch = float(np.degrees(np.arcsin(np.clip(camera.R[2] @ -np.asarray(normal), -1, 1))))
+    info = {"camera_height_m": camera_height, "camera_pitch_deg": down_pitch, "stance_points": int(len(drops))}
+    return floor, info
+
+
+def _lowest_shared_height(heights: np.ndarray, share: float, band: float = 0.05) -> float:
+    """The lowest height that at least ``share`` of ``heights`` lie within ``band`` of (median of those)."""
+    ordered = np.sort(heights)
+    need = max(1, int(np.ceil(share * len(ordered))))
+    for value in ordered:
+        near = ordered[np.abs(ordered - value) <= band]
+        if len(near) >= need:
+            return float(np.median(near))
+    return float(np.median(ordered))
+
+
+def floor_after_lift(
+    choice: Floor | str | None, median: np.ndarray, cameras: list[Camera], fps: float, keypoints: np.ndarray
+) -> tuple[Floor | None, dict | None]:
+    """The floor a lift made with ``choice`` (:func:`floor_for_lift`) stands on, and its ``meta`` entry: the floor
+    itself, none, or (``ESTIMATE``, one camera) the floor estimated under the median motions ``(P, T, 17, 3)``
+    where the camera saw both ankles (``keypoints`` ``(C, T, P, 17, 3)``), with the camera's height and pitch
+    above it; None when too few stance ankles are found."""
+    if choice is None:
+        return None, None
+    if isinstance(choice, Floor):
+        return choice, choice.as_dict()
+    if len(cameras) != 1:
+        return None, None
+    seen = (np.nan_to_num(keypoints[0][..., list(ANKLES), 2]) > 0).all(axis=-1).T  # (P, T)
+    found = estimate_floor(np.asarray(median, dtype=np.float64), cameras[0], fps, seen)
+    if found is None:
+        return None, None
+    floor, info = found
+    return floor, {**floor.as_dict(), **info}
