@@ -85,7 +85,7 @@ def lift(
     tracks = [read(source) for source in sources]
     timings = {"keypoints_s": time.perf_counter() - started}
     sizes = [t.image_size for t in tracks]
-    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, "a calibration (cams)")
+    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, "cams")
     keypoints, times, track_ids = take_keypoints(tracks, cameras, persons, what)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (persons {persons})")
     given = None
