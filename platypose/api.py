@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 from platypose.exporters.result import LiftResult
@@ -60,7 +60,8 @@ def lift(
     ``root_trajectory``: a known pelvis path file. ``say`` receives the log's lines.
 
     Returns the LiftResult (hypotheses (P, N, T, 17, 3) world metres, median, 2D keypoints,
-    cameras, ``meta`` with the log's warnings); InputError for bad input, as the CLI.
+    cameras, ``meta`` with the arguments, the settings and the log's warnings); InputError for bad
+    input, as the CLI.
     """
     from platypose import __version__
     from platypose.detectors.sources import view_name
@@ -98,9 +99,19 @@ def lift(
     started = time.perf_counter()
     result = lift_take(bundle, keypoints, times, track_ids, cameras, roots, sampler, windows, log=log)
     timings["lift_s"] = time.perf_counter() - started
+    arguments = {
+        "views": [str(v) for v in sources],
+        "cams": _described(cams) if cams is not None else None,
+        "persons": persons,
+        "root": root,
+        "root_trajectory": str(root_trajectory) if root_trajectory is not None else None,
+        "sampler": asdict(sampler),
+        "windows": asdict(windows),
+    }
     return result.with_meta(
         version=__version__,
         input=what,
+        arguments=arguments,
         root=root_kinds(roots, given is not None),
         timings=timings,
         warnings=log.warnings,

@@ -53,6 +53,7 @@ def test_lift_gives_what_the_command_writes(tiny_default_prior, run_cli, tmp_pat
     assert [c.name for c in result.cameras] == [c.name for c in written.cameras]
     assert result.meta["reprojection_px"] == written.meta["reprojection_px"]
     assert any("pelvis triangulated" in line for line in lines)
+    assert result.meta["arguments"]["sampler"]["samples"] == 3 and result.meta["arguments"]["persons"] == "largest"
 
 
 def test_bad_input_is_an_input_error_naming_the_argument(tiny_default_prior):
