@@ -18,10 +18,20 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.lift import WindowSettings
 from platypose.lifting.prior import PriorBundle
+from platypose.lifting.runtime import PriorSettings
 from platypose.lifting.sampler import SamplerConfig
 from platypose.pipeline import JobLog
 
-Prior = PriorBundle  # platypose.Prior.load(path=None, device="cpu", runtime="float32")
+
+class Prior:
+    """Motion priors: ``Prior.load(...)`` gives a :class:`~platypose.lifting.prior.PriorBundle` to pass to
+    :func:`lift` (load it once for many takes)."""
+
+    @staticmethod
+    def load(path: str | Path | None = None, device: str = "cpu", runtime: str = "float32") -> PriorBundle:
+        """The prior at ``path`` (None: the shipped one) on ``device`` (cpu, cuda, auto), its network run by
+        ``runtime`` (float32, bfloat16, onnx)."""
+        return PriorSettings(Path(path) if path is not None else None, device, runtime).load()
 
 
 def load_result(path: str | Path) -> LiftResult:
@@ -95,7 +105,7 @@ def lift(
 
         given = list(read_root_trajectory(Path(root_trajectory), times, keypoints.shape[2]))
     roots = root_paths(keypoints, times, cameras, root, given, say=log)
-    bundle = prior if isinstance(prior, PriorBundle) else PriorBundle.load(prior)
+    bundle = prior if isinstance(prior, PriorBundle) else Prior.load(prior)
     started = time.perf_counter()
     result = lift_take(bundle, keypoints, times, track_ids, cameras, roots, sampler, windows, log=log)
     timings["lift_s"] = time.perf_counter() - started
