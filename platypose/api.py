@@ -52,7 +52,10 @@ def lift(
     root: str = "auto",
     root_trajectory: str | Path | None = None,
     detector: str | Path | None = None,
+    stride: int = 1,
     threads: int | None = None,
+    fps: float | None = None,
+    image_size: tuple[int, int] | None = None,
     say: Callable[[str], None] | None = None,
     **sampler_fields: object,
 ) -> LiftResult:
@@ -67,7 +70,9 @@ def lift(
     prior). ``sampler`` / ``windows``: settings objects; keyword arguments named after
     :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
     ``persons``: all, largest or N; ``root``: auto, triangulate or solve;
-    ``root_trajectory``: a known pelvis path file. ``say`` receives the log's lines.
+    ``root_trajectory``: a known pelvis path file. ``stride``: detect every N-th frame;
+    ``threads``: the detector's threads. ``fps`` and ``image_size`` (height, width): for keypoints
+    without a video beside them (as ``--fps``, ``--image-size``). ``say`` receives the log's lines.
 
     Returns the LiftResult (hypotheses (P, N, T, 17, 3) world metres, median, 2D keypoints,
     cameras, ``meta`` with the arguments, the settings and the log's warnings); InputError for bad
@@ -92,7 +97,7 @@ def lift(
     what = ", ".join(map(str, sources))
     cameras = None if cams is None else match_cameras(_calibration(cams), names, what, _described(cams))
     started = time.perf_counter()
-    read = _ViewReader(detector, threads, log)
+    read = _ViewReader(detector, stride, threads, fps, image_size, log)
     tracks = [read(source) for source in sources]
     timings = {"keypoints_s": time.perf_counter() - started}
     sizes = [t.image_size for t in tracks]
@@ -115,6 +120,7 @@ def lift(
         "persons": persons,
         "root": root,
         "root_trajectory": str(root_trajectory) if root_trajectory is not None else None,
+        "stride": stride,
         "sampler": asdict(sampler),
         "windows": asdict(windows),
     }
@@ -160,15 +166,16 @@ def _described(cams: object) -> str:
 class _ViewReader:
     """The 2D tracks of one view: read when it holds keypoints, else detected (the detector loaded once)."""
 
-    def __init__(self, detector: str | Path | None, threads: int | None, log: JobLog) -> None:
-        self.detector, self.threads, self.log, self.model = detector, threads, log, None
+    def __init__(self, detector, stride: int, threads: int | None, fps, image_size, log: JobLog) -> None:
+        self.detector, self.stride, self.threads, self.log, self.model = detector, stride, threads, log, None
+        self.fps, self.image_size = fps, image_size
 
     def __call__(self, source: Path):
         from platypose.detectors.sources import is_keypoint_source, read_keypoints
 
         started = time.perf_counter()
         if is_keypoint_source(source):
-            tracks, how = read_keypoints(source), "read"
+            tracks, how = read_keypoints(source, fps=self.fps, image_size=self.image_size), "read"
         else:
             from platypose.detectors.contracts import load_detector
             from platypose.detectors.pipeline import detect_video
@@ -177,7 +184,7 @@ class _ViewReader:
                 raise InputError(f"{source}: no such video or keypoint file")
             if self.model is None:
                 self.model = load_detector(self.detector, threads=self.threads)
-            tracks, how = detect_video(source, self.model), "detected"
+            tracks, how = detect_video(source, self.model, stride=self.stride), "detected"
         self.log(
             f"view {source.name}: {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, "
             f"{time.perf_counter() - started:.1f} s"
