@@ -40,6 +40,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from platypose.lifting.motion_io.kinematics import forward_kinematics
+from platypose.lifting.rotations import rotation_between
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS
 
 CHILDREN: tuple[tuple[int, ...], ...] = tuple(
@@ -101,19 +102,6 @@ def _skew(v: np.ndarray) -> np.ndarray:
 def _apply(rot: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``rot @ v`` for rotations (..., 3, 3) and vectors (..., 3) or (3,)."""
     return np.einsum("...ij,...j->...i", rot, v)
-
-
-def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest rotations (..., 3, 3) taking unit vectors ``a`` onto unit vectors ``b`` (..., 3)."""
-    cos = np.sum(a * b, axis=-1)
-    opposite = cos < -1 + 1e-9
-    # Opposite vectors: a half turn about an axis perpendicular to a.
-    helper = np.where(np.abs(a[..., :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    axis = np.where(opposite[..., None], _unit(np.cross(a, helper)), np.cross(a, b))
-    k = _skew(axis)
-    linear = np.where(opposite[..., None, None], 0.0, k)
-    scale = np.where(opposite, 2.0, 1.0 / np.maximum(1.0 + cos, 1e-12))[..., None, None]
-    return np.eye(3) + linear + scale * (k @ k)
 
 
 def two_vector_frame(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:

@@ -142,14 +142,6 @@ class PriorBundle:
         """Frame rate the prior runs at."""
         return self.model.config.fps
 
-    @classmethod
-    def load(cls, path: str | Path | None = None, device: str = "cpu", runtime: str = "float32") -> PriorBundle:
-        """The prior at ``path`` (None: the shipped one) on ``device`` (cpu, cuda, auto), its network run by
-        ``runtime`` (float32, bfloat16, onnx; :mod:`platypose.lifting.runtime`)."""
-        from platypose.lifting.runtime import load_for_runtime
-
-        return load_for_runtime(path, device, runtime)
-
 
 def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None) -> str:
     """Write a checkpoint atomically; returns its sha256. ``extra`` holds e.g. optimiser state for resuming."""

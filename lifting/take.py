@@ -28,6 +28,12 @@ MIN_ROOT_COVERAGE = 0.5  # share of frames with a triangulated pelvis needed to 
 REPROJECTION_WARNING_SHARE = 0.02  # of the image width: a view the median motion misses by more is suspect
 
 
+def check_root_mode(root: str) -> None:
+    """InputError unless ``root`` is one of ``ROOT_MODES``."""
+    if root not in ROOT_MODES:
+        raise InputError(f"root must be one of {', '.join(ROOT_MODES)}, got {root!r}", option="root")
+
+
 def root_paths(
     keypoints: np.ndarray,
     times: np.ndarray,
@@ -44,8 +50,7 @@ def root_paths(
     ``say`` receives one line per decision.
     """
     P = keypoints.shape[2]
-    if root not in ROOT_MODES:
-        raise InputError(f"root must be one of {', '.join(ROOT_MODES)}, got {root!r}", option="root")
+    check_root_mode(root)
     if given is not None:
         return list(given)
     if root == "solve" or (root == "auto" and len(cameras) < 2):

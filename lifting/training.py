@@ -78,10 +78,10 @@ def split_clips(clips: list[Clip], fraction: float, seed: int) -> tuple[list[Cli
 
 
 def yaw_rotation(angles: np.ndarray) -> np.ndarray:
-    """Rotation matrices about Z for angles ``(B,)`` -> ``(B, 3, 3)``."""
-    c, s = np.cos(angles), np.sin(angles)
-    z, o = np.zeros_like(c), np.ones_like(c)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+    """Rotation matrices about Z for angles ``(B,)`` radians -> ``(B, 3, 3)``."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler("z", np.asarray(angles, dtype=np.float64).reshape(-1, 1)).as_matrix()
 
 
 def scale_bones(joints: np.ndarray, scales: np.ndarray) -> np.ndarray:

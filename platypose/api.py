@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 from platypose.exporters.result import LiftResult
@@ -18,10 +18,20 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.lift import WindowSettings
 from platypose.lifting.prior import PriorBundle
+from platypose.lifting.runtime import PriorSettings
 from platypose.lifting.sampler import SamplerConfig
 from platypose.pipeline import JobLog
 
-Prior = PriorBundle  # platypose.Prior.load(path=None, device="cpu", runtime="float32")
+
+class Prior:
+    """Motion priors: ``Prior.load(...)`` gives a :class:`~platypose.lifting.prior.PriorBundle` to pass to
+    :func:`lift` (load it once for many takes)."""
+
+    @staticmethod
+    def load(path: str | Path | None = None, device: str = "cpu", runtime: str = "float32") -> PriorBundle:
+        """The prior at ``path`` (None: the shipped one) on ``device`` (cpu, cuda, auto), its network run by
+        ``runtime`` (float32, bfloat16, onnx)."""
+        return PriorSettings(Path(path) if path is not None else None, device, runtime).load()
 
 
 def load_result(path: str | Path) -> LiftResult:
@@ -43,7 +53,10 @@ def lift(
     root_trajectory: str | Path | None = None,
     floor: str = "auto",
     detector: str | Path | None = None,
+    stride: int = 1,
     threads: int | None = None,
+    fps: float | None = None,
+    image_size: tuple[int, int] | None = None,
     say: Callable[[str], None] | None = None,
     **sampler_fields: object,
 ) -> LiftResult:
@@ -59,11 +72,13 @@ def lift(
     :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
     ``persons``: all, largest or N; ``root``: auto, triangulate or solve;
     ``root_trajectory``: a known pelvis path file. ``floor``: auto (the calibration's z = 0; without one,
-    estimated after the lift and reported), z=H, nx,ny,nz,d or none, as ``--floor``. ``say`` receives the
-    log's lines.
+    estimated after the lift and reported), z=H, nx,ny,nz,d or none, as ``--floor``. ``stride``: detect
+    every N-th frame; ``threads``: the detector's threads. ``fps`` and ``image_size`` (height, width): for
+    keypoints without a video beside them (as ``--fps``, ``--image-size``). ``say`` receives the log's lines.
 
     Returns the LiftResult (hypotheses (P, N, T, 17, 3) world metres, median, 2D keypoints,
-    cameras, ``meta`` with the log's warnings); InputError for bad input, as the CLI.
+    cameras, ``meta`` with the arguments, the settings and the log's warnings); InputError for bad
+    input, as the CLI.
     """
     from platypose import __version__
     from platypose.detectors.sources import view_name
@@ -87,11 +102,11 @@ def lift(
     cameras = None if calibration is None else match_cameras(calibration, names, what, _described(cams))
     standing = floor_for_lift(parse_floor(floor), None if calibration is None else calibration.meta)
     started = time.perf_counter()
-    read = _ViewReader(detector, threads, log)
+    read = _ViewReader(detector, stride, threads, fps, image_size, log)
     tracks = [read(source) for source in sources]
     timings = {"keypoints_s": time.perf_counter() - started}
     sizes = [t.image_size for t in tracks]
-    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, "a calibration (cams)")
+    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, "cams")
     keypoints, times, track_ids = take_keypoints(tracks, cameras, persons, what)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (persons {persons})")
     given = None
@@ -100,13 +115,25 @@ def lift(
 
         given = list(read_root_trajectory(Path(root_trajectory), times, keypoints.shape[2]))
     roots = root_paths(keypoints, times, cameras, root, given, say=log)
-    bundle = prior if isinstance(prior, PriorBundle) else PriorBundle.load(prior)
+    bundle = prior if isinstance(prior, PriorBundle) else Prior.load(prior)
     started = time.perf_counter()
     result = lift_take(bundle, keypoints, times, track_ids, cameras, roots, sampler, windows, log=log, floor=standing)
     timings["lift_s"] = time.perf_counter() - started
+    arguments = {
+        "views": [str(v) for v in sources],
+        "cams": _described(cams) if cams is not None else None,
+        "persons": persons,
+        "root": root,
+        "root_trajectory": str(root_trajectory) if root_trajectory is not None else None,
+        "floor": floor,
+        "stride": stride,
+        "sampler": asdict(sampler),
+        "windows": asdict(windows),
+    }
     return result.with_meta(
         version=__version__,
         input=what,
+        arguments=arguments,
         root=root_kinds(roots, given is not None),
         timings=timings,
         warnings=log.warnings,
@@ -145,15 +172,16 @@ def _described(cams: object) -> str:
 class _ViewReader:
     """The 2D tracks of one view: read when it holds keypoints, else detected (the detector loaded once)."""
 
-    def __init__(self, detector: str | Path | None, threads: int | None, log: JobLog) -> None:
-        self.detector, self.threads, self.log, self.model = detector, threads, log, None
+    def __init__(self, detector, stride: int, threads: int | None, fps, image_size, log: JobLog) -> None:
+        self.detector, self.stride, self.threads, self.log, self.model = detector, stride, threads, log, None
+        self.fps, self.image_size = fps, image_size
 
     def __call__(self, source: Path):
         from platypose.detectors.sources import is_keypoint_source, read_keypoints
 
         started = time.perf_counter()
         if is_keypoint_source(source):
-            tracks, how = read_keypoints(source), "read"
+            tracks, how = read_keypoints(source, fps=self.fps, image_size=self.image_size), "read"
         else:
             from platypose.detectors.contracts import load_detector
             from platypose.detectors.pipeline import detect_video
@@ -162,7 +190,7 @@ class _ViewReader:
                 raise InputError(f"{source}: no such video or keypoint file")
             if self.model is None:
                 self.model = load_detector(self.detector, threads=self.threads)
-            tracks, how = detect_video(source, self.model), "detected"
+            tracks, how = detect_video(source, self.model, stride=self.stride), "detected"
         self.log(
             f"view {source.name}: {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, "
             f"{time.perf_counter() - started:.1f} s"

@@ -41,13 +41,12 @@ def lift_settings(
     from platypose.lifting.errors import InputError
     from platypose.lifting.floor import parse_floor
     from platypose.lifting.runtime import resolve_device
-    from platypose.lifting.take import ROOT_MODES
+    from platypose.lifting.take import check_root_mode
 
     persons_count(persons)
     resolve_device(prior.device)
     parse_floor(floor)
-    if root not in ROOT_MODES:
-        raise InputError(f"root must be one of {', '.join(ROOT_MODES)}, got {root!r}", option="root")
+    check_root_mode(root)
     if sync not in ("auto", "none") and not Path(sync).is_file():
         raise InputError(f"{sync}: offsets file not found (--sync takes auto, none or an offsets .json)")
     return RunSettings(

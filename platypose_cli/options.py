@@ -186,12 +186,17 @@ def _resolved(annotation, command: Callable):
 
 
 def cli_message(err: InputError) -> str:
-    """The error's message with the flag of its ``option`` (``persons`` -> ``--persons``) where the library named it."""
+    """The error's message with the flag of its ``option`` (``persons`` -> ``--persons``) where the library named it:
+    its first mention after a leading ``FILE: `` (a path may hold the same word), else its first mention."""
     message = str(err)
     if err.option is None:
         return message
     flag = FLAG_SPELLINGS.get(err.option, "--" + re.sub(r"[ _]", "-", err.option))
-    return re.sub(rf"\b{re.escape(err.option)}\b", flag, message, count=1)
+    word = re.compile(rf"\b{re.escape(err.option)}\b")
+    head, colon, problem = message.partition(": ")  # "FILE: problem": the option is named in the problem
+    if colon and word.search(problem):
+        return head + colon + word.sub(flag, problem, count=1)
+    return word.sub(flag, message, count=1)
 
 
 def as_json(value) -> object:

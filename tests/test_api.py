@@ -41,7 +41,8 @@ def test_the_documented_example_runs_on_the_bundled_take(tiny_default_prior, tmp
 
 def test_lift_gives_what_the_command_writes(tiny_default_prior, run_cli, tmp_path):
     args = ["--keypoints", TAKE / "openpose-body25b", "--cams", TAKE / "calib_pose2sim.toml", "--persons", "largest"]
-    code, _, err = run_cli("lift", *args, "--samples", "3", "--seed", "2", "--formats", "npz", "--out", tmp_path, "-q")
+    options = ["--samples", "3", "--seed", "2", "--formats", "npz", "--threads", "1", "--out", tmp_path, "-q"]
+    code, _, err = run_cli("lift", *args, *options)
     assert code == 0, err
     written = platypose.load_result(tmp_path / "openpose-body25b" / "openpose-body25b.npz")
     views = sorted((TAKE / "openpose-body25b").iterdir())
@@ -52,13 +53,14 @@ def test_lift_gives_what_the_command_writes(tiny_default_prior, run_cli, tmp_pat
     assert [c.name for c in result.cameras] == [c.name for c in written.cameras]
     assert result.meta["reprojection_px"] == written.meta["reprojection_px"]
     assert any("pelvis triangulated" in line for line in lines)
+    assert result.meta["arguments"]["sampler"]["samples"] == 3 and result.meta["arguments"]["persons"] == "largest"
 
 
 def test_bad_input_is_an_input_error_naming_the_argument(tiny_default_prior):
     views = sorted((TAKE / "openpose-body25b").iterdir())
     with pytest.raises(platypose.InputError, match="persons must be"):
         platypose.lift(views, TAKE / "calib_pose2sim.toml", persons="tallest")
-    with pytest.raises(platypose.InputError, match="2 views need a calibration"):
+    with pytest.raises(platypose.InputError, match="2 views need cams"):
         platypose.lift(views[:2])
     with pytest.raises(platypose.InputError, match="samples must be at least 1"):
         platypose.lift(views[:1], samples=0)
@@ -68,3 +70,24 @@ def test_importing_platypose_loads_no_torch():
     code = "import sys, platypose; assert 'torch' not in sys.modules; platypose.SamplerConfig; print('ok')"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
+
+
+def test_a_video_view_is_detected_and_lifted_as_the_command_does(tiny_default_prior, run_cli, tmp_path):
+    import cv2
+
+    from platypose.detectors.video import iter_frames
+
+    video = tmp_path / "cam01.mp4"  # the take's first 12 frames of cam01, halved
+    frames = [f[::2, ::2].copy() for _, f in iter_frames(TAKE / "cam01.mp4", max_frames=12)]
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 60.0, frames[0].shape[1::-1])
+    for frame in frames:
+        writer.write(frame)
+    writer.release()
+    options = ["--samples", "3", "--stride", "2", "--formats", "npz", "--threads", "1", "--out", tmp_path / "out", "-q"]
+    code, _, err = run_cli("lift", video, *options)
+    assert code == 0, err
+    written = platypose.load_result(tmp_path / "out" / "cam01" / "cam01.npz")
+    result = platypose.lift(video, samples=3, stride=2, threads=1)
+    assert result.hypotheses.shape == written.hypotheses.shape and result.num_frames == 6
+    assert np.array_equal(result.hypotheses, written.hypotheses, equal_nan=True)
+    assert any(w.startswith("no cams: a level camera") for w in result.meta["warnings"])

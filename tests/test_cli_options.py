@@ -37,6 +37,12 @@ def test_library_errors_name_fields_and_the_cli_names_flags():
     err = InputError("model.onnx: unknown detector format 'x'; known: movenet", option="detector format")
     assert cli_message(err) == "model.onnx: unknown --detector-format 'x'; known: movenet"
     assert cli_message(InputError("unknown device 'tpu'")) == "unknown device 'tpu'"
+    err = InputError(
+        "/data/subject/h36m.json: several subjects; give subject, one with extrinsics: S1", option="subject"
+    )
+    assert cli_message(err) == "/data/subject/h36m.json: several subjects; give --subject, one with extrinsics: S1"
+    err = InputError("device cuda: this torch build sees no CUDA GPU (choose cpu or auto)", option="device")
+    assert cli_message(err).startswith("--device cuda: ")
 
 
 def test_old_eval_spellings_still_work(run_cli, prior_file, data_dir):

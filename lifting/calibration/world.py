@@ -9,6 +9,7 @@ import numpy as np
 from platypose.lifting.calibration.model import Calibration, with_note
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.rotations import rotation_between
 
 UNIT_METRES: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 AXES: dict[str, np.ndarray] = {"x": np.eye(3)[0], "y": np.eye(3)[1], "z": np.eye(3)[2]}
@@ -40,14 +41,9 @@ def up_vector(up: str, source: str) -> np.ndarray:
 
 def up_rotation(up: np.ndarray) -> np.ndarray:
     """The smallest rotation (3, 3) taking the unit vector ``up`` to +Z (180 degrees about X for -Z)."""
-    z = AXES["z"]
-    axis = np.cross(up, z)
-    s, c = np.linalg.norm(axis), float(up @ z)
-    if s < 1e-12:
-        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    k = axis / s
-    Kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + s * Kx + (1 - c) * (Kx @ Kx)
+    if float(up @ AXES["z"]) < -1 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])
+    return rotation_between(up, AXES["z"])
 
 
 def transform_camera(camera: Camera, rotation: np.ndarray, scale: float) -> Camera:
