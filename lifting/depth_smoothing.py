@@ -1,12 +1,10 @@
 """One camera: keep every joint's depth from jumping between frames, without moving it in the image.
 
 A single view fixes each joint's ray, not its depth along it: the depth is the prior's. A
-sharper prior (the shipped M) commits harder to one reading of an ambiguous pose, and in some
-windows a hypothesis switched from one reading to the other (the torso leaning towards the
-camera, then away) within a frame or two: on 20 s of one-view climbing, 16 seeds of 8
-hypotheses, 30 steps over 0.2 m per frame, up to 0.65 m (the truth's fastest is 0.10 m). The
-network made those switches itself; guidance, which moves joints across the rays, cannot see
-them. With this smoothing the largest step is 0.24 m (docs/prior.md).
+sharp prior commits to one reading of an ambiguous pose, and a hypothesis can switch from one
+reading to the other (the torso leaning towards the camera, then away) within a frame or two.
+The network makes those switches itself; guidance, which moves joints across the rays, cannot
+see them. Measured effect: docs/results.md.
 
 After each diffusion step's guidance, every joint's depth path ``z`` (camera frame) is
 replaced by the minimiser of

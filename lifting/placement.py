@@ -45,8 +45,8 @@ def continuation_ramp(mask: torch.Tensor) -> torch.Tensor:
 
     Blending the continued placement (weight 1) into the rays' own placement with
     these weights joins a window to the one before without letting the placement
-    drift from window to window (with one camera, windows that only continued their
-    predecessor drifted towards the camera: 5.5 m to 0.3 m in 15 s).
+    drift from window to window (with one camera, windows that only continue their
+    predecessor drift, e.g. towards the camera).
     """
     F = mask.shape[-1]
     frames = torch.arange(F, dtype=mask.dtype, device=mask.device)

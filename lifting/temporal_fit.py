@@ -1,8 +1,7 @@
 """Noisy 2D: the motion follows the keypoints only as far as their noise allows.
 
 Guidance fits every frame to its keypoints exactly, so their noise goes straight into the
-motion: 4 views with 2 / 5 px of noise gave a velocity error of 16.8 / 42 mm per frame. As
-estimation, the output should be the most likely motion under the keypoints' noise sigma
+motion as jitter (docs/results.md). As estimation, the output should be the most likely motion under the keypoints' noise sigma
 and a prior on how fast joints accelerate: minimise
 
     E_data(x) + sum_j (sigma^2 / a_j^2) sum_t |x_j(t+1) - 2 x_j(t) + x_j(t-1)|^2
@@ -14,7 +13,7 @@ plus the motion's own, and their median absolute value is robust to the motion's
 accelerations. Exact keypoints give sigma near 0 and leave the fit as it was.
 
 With one camera the 3D fit is not used: depth has no data term to hold it, and the
-acceleration prior straightened the unseen depth paths (5 px: minMPSPE 83 -> 108 mm). There
+acceleration prior straightens the unseen depth paths (less accurate, docs/results.md). There
 the keypoints' own paths are smoothed the same way before guidance (:func:`smooth_keypoints`),
 and the depth stays the prior's.
 """
