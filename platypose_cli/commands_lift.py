@@ -67,6 +67,26 @@ def lift_settings(
     )
 
 
+def ray_executor(executor: str, address: str | None, cpus_per_input: int, collect: bool, jobs: int):
+    """The RayExecutor for ``--executor ray`` (Ray importable), None for local; InputError for misplaced options."""
+    from platypose.lifting.errors import InputError
+
+    if executor not in ("local", "ray"):
+        raise InputError(f"--executor must be local or ray, got {executor!r}")
+    if executor == "local":
+        given = [name for name, on in (("--ray-address", address), ("--collect", collect)) if on]
+        given += ["--cpus-per-input"] if cpus_per_input != 1 else []
+        if given:
+            raise InputError(f"{', '.join(given)}: only with --executor ray")
+        return None
+    if jobs != 1:
+        raise InputError("--jobs is for --executor local; with ray, --cpus-per-input sets how many inputs share a node")
+    from platypose.cli.lift_ray import RayExecutor, RayOptions, import_ray
+
+    import_ray()
+    return RayExecutor(RayOptions(address=address, cpus_per_input=cpus_per_input, collect=collect))
+
+
 def finish(entries: list[dict], out: Path) -> None:
     """Print the batch's outcome and exit 1 if any input failed."""
     failed = [e for e in entries if e["status"] == "failed"]
@@ -116,6 +136,16 @@ def lift(
     image_size: str | None = typer.Option(None, "--image-size", help="HEIGHTxWIDTH of keypoints without a video."),
     stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame."),
     jobs: int = typer.Option(1, "--jobs", min=1, help="Inputs lifted in parallel processes."),
+    executor: str = typer.Option(
+        "local", "--executor", help="local (this machine, --jobs processes) or ray (one Ray task per input)."
+    ),
+    ray_address: str | None = typer.Option(
+        None, "--ray-address", help="Ray: auto (the cluster of this node) or ray://HOST:10001 [a Ray on this machine]."
+    ),
+    cpus_per_input: int = typer.Option(1, "--cpus-per-input", min=1, help="Ray: CPUs (and threads) of each task."),
+    collect: bool = typer.Option(
+        False, "--collect", help="Ray: workers send outputs to this machine, which writes --out [they write it]."
+    ),
     threads: int | None = typer.Option(
         None, "--threads", min=1, help="torch and onnxruntime threads per input (default: cores / jobs)."
     ),
@@ -176,12 +206,14 @@ def lift(
     if root_trajectory is not None and len(job_list) > 1:
         raise InputError(f"--root-trajectory {root_trajectory}: give it for one input, not {len(job_list)}")
 
+    batch_executor = ray_executor(executor, ray_address, cpus_per_input, collect, jobs)
+
     def say(message: str) -> None:
         if not quiet:
             typer.echo(message, err=True)
 
     try:
-        entries = run_batch(job_list, settings, jobs, resume, say, retry_failed)
+        entries = run_batch(job_list, settings, jobs, resume, say, retry_failed, batch_executor)
     except KeyboardInterrupt:
         typer.echo(f"interrupted; {out / 'summary.json'} lists the inputs that finished", err=True)
         raise typer.Exit(130) from None

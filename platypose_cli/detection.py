@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from dataclasses import dataclass
@@ -39,6 +40,21 @@ class DetectOptions:
     cache: bool = True
 
 
+@functools.lru_cache(maxsize=4)
+def cached_detector(
+    detector: Path | None,
+    detector_format: str | None,
+    person_detector: Path | None,
+    threads: int | None,
+    provider: str,
+    movenet_size: int,
+):
+    """The detector for these options, loaded once per process (a batch worker keeps it for its next inputs)."""
+    from platypose.detectors.contracts import load_detector
+
+    return load_detector(detector, detector_format, person_detector, threads, provider, movenet_size)
+
+
 class Detection:
     """Turns one source into tracks: reads precomputed keypoints or runs the (lazily loaded) model on a video."""
 
@@ -55,13 +71,12 @@ class Detection:
         if is_keypoint_source(source):
             tracks = read_keypoints(source, fps=o.fps, image_size=image_size_option(o.image_size))
             return tracks, time.perf_counter() - started, None
-        from platypose.detectors.contracts import load_detector
         from platypose.detectors.pipeline import detect_video
         from platypose.detectors.video import video_info
 
         info = video_info(source)
         if self.model is None:
-            self.model = load_detector(
+            self.model = cached_detector(
                 o.detector,
                 o.detector_format,
                 o.person_detector,

@@ -65,6 +65,7 @@ def run_batch(
     resume: bool = False,
     say: Callable[[str], None] = lambda _: None,
     retry_failed: bool = False,
+    executor: Callable | None = None,
 ) -> list[dict]:
     """Run ``jobs``; the summary entries in job order, summary.json kept current.
 
@@ -72,6 +73,8 @@ def run_batch(
     ``retry_failed``): they keep status "failed" with the earlier error, and nothing is run for them.
 
     Ctrl-C stops the batch after writing the summary of what finished (KeyboardInterrupt is re-raised).
+    ``executor(jobs, todo, settings, record, bar)``, when given, runs the jobs instead of this machine's
+    processes (``platypose.cli.lift_ray.RayExecutor``).
     """
     started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
     entries: dict[int, dict] = {}
@@ -102,7 +105,9 @@ def run_batch(
     write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
     hidden = settings.quiet or not todo
     with typer.progressbar(length=len(todo), label="inputs", file=sys.stderr, hidden=hidden, show_eta=True) as bar:
-        if workers <= 1 or len(todo) <= 1:
+        if executor is not None:
+            executor(jobs, todo, settings, record, bar)
+        elif workers <= 1 or len(todo) <= 1:
             limit_threads(settings.detect.threads or threads_per_job(1))
             for index in todo:
                 record(index, run_job(jobs[index], settings))

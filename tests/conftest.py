@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -83,3 +84,28 @@ def run_cli(monkeypatch, capsys):
         return code, out.out, out.err
 
     return run
+
+
+def _write_clip(path: Path, frames: list[np.ndarray], fps: float) -> None:
+    import cv2
+
+    height, width = frames[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (width, height))
+    for frame in frames:
+        writer.write(frame)
+    writer.release()
+
+
+@pytest.fixture(scope="session")
+def batch_folder(data_dir, tmp_path_factory) -> Path:
+    """good.mp4 (the first 12 frames of cam01, halved), corrupt.mp4 (a cut-off real MP4), empty.mp4 (a blank wall)."""
+    from platypose.detectors.video import iter_frames
+
+    folder = tmp_path_factory.mktemp("batch")
+    frames = [
+        f[::2, ::2].copy() for _, f in iter_frames(data_dir / "video/pose2sim-balancing" / "cam01.mp4", max_frames=12)
+    ]
+    _write_clip(folder / "good.mp4", frames, 60.0)
+    _write_clip(folder / "empty.mp4", [np.full_like(frames[0], 128) for _ in frames], 60.0)
+    (folder / "corrupt.mp4").write_bytes((data_dir / "video/pose2sim-balancing" / "cam02.mp4").read_bytes()[:3000])
+    return folder

@@ -197,29 +197,6 @@ def test_keypoint_views_must_match_cameras(run_cli, data_dir, tmp_path, prior_fi
     assert code == 2 and "need --cams" in err
 
 
-def _write_clip(path: Path, frames: list[np.ndarray], fps: float) -> None:
-    import cv2
-
-    height, width = frames[0].shape[:2]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (width, height))
-    for frame in frames:
-        writer.write(frame)
-    writer.release()
-
-
-@pytest.fixture(scope="module")
-def batch_folder(data_dir, tmp_path_factory) -> Path:
-    """good.mp4 (the first 12 frames of cam01, halved), corrupt.mp4 (a cut-off real MP4), empty.mp4 (a blank wall)."""
-    from platypose.detectors.video import iter_frames
-
-    folder = tmp_path_factory.mktemp("batch")
-    frames = [f[::2, ::2].copy() for _, f in iter_frames(data_dir / TAKE / "cam01.mp4", max_frames=12)]
-    _write_clip(folder / "good.mp4", frames, 60.0)
-    _write_clip(folder / "empty.mp4", [np.full_like(frames[0], 128) for _ in frames], 60.0)
-    (folder / "corrupt.mp4").write_bytes((data_dir / TAKE / "cam02.mp4").read_bytes()[:3000])
-    return folder
-
-
 def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, prior_file, batch_folder) -> None:
     from platypose.exporters.npz import read_npz
 

@@ -1,0 +1,262 @@
+"""``platypose lift --executor ray``: one Ray task per input, on a local Ray instance or on a Ray cluster.
+
+Each task runs the same ``run_job`` as a local batch (detection, lifting and
+export of one input stay together), so outputs, ``lift.json``, ``failed.json``
+and ``log.txt`` are those of a local run. Outputs are written by the worker into
+``--out`` (shared storage, the default: nothing large moves through Ray), or,
+with ``collect``, into a folder of the worker's own and sent back to the
+driver, which writes them into ``--out`` (lift.json last, each file atomically).
+
+A worker process keeps the prior and the detector it loaded for the inputs that
+follow (the runner's caches live as long as the process, and Ray reuses worker
+processes for tasks of the same kind). A worker that dies or a node that is
+lost is retried ``max_retries`` times by Ray, then the input is recorded as
+failed (with ``failed.json``, so ``--resume`` leaves it alone unless
+``--retry-failed``). Ctrl-C cancels the tasks, waits briefly for running ones
+to clean their staging folders, records whatever finished, and re-raises.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from platypose.cli.lift_jobs import Job
+from platypose.cli.lift_run import MANIFEST, RunSettings
+from platypose.lifting.errors import InputError
+
+INSTALL_HINT = "--executor ray needs Ray on the driver and every worker: pip install 'platypose[ray]'"
+CANCEL_GRACE_S = 10.0  # after Ctrl-C: how long running tasks get to remove their staging folders
+POLL_S = 1.0  # how often the progress bar's running / failed counts are refreshed
+
+
+@dataclass(frozen=True)
+class RayOptions:
+    """Where and how inputs run on Ray.
+
+    ``address``: None starts a private Ray instance on this machine (``num_cpus``
+    of it, default all cores); "auto" joins the cluster this machine belongs to
+    (``ray start``); "ray://host:10001" connects through Ray Client.
+    """
+
+    address: str | None = None
+    cpus_per_input: int = 1
+    max_retries: int = 2
+    collect: bool = False
+    num_cpus: int | None = None
+    object_store_memory: int | None = None
+
+
+def import_ray():
+    """The ``ray`` module; InputError saying how to install it when it is missing."""
+    try:
+        import ray
+    except ImportError:
+        raise InputError(INSTALL_HINT) from None
+    return ray
+
+
+@contextmanager
+def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
+    """Ray initialised for ``options`` (no usage statistics, no dashboard); shut down after if we started it."""
+    ray = import_ray()
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    if ray.is_initialized():
+        yield ray
+        return
+    local = options.address is None
+    settings = {
+        "address": options.address,
+        "log_to_driver": False,
+        "logging_level": "WARNING" if quiet else "INFO",
+    }
+    if local:
+        settings.update(
+            include_dashboard=False,
+            num_cpus=options.num_cpus,
+            object_store_memory=options.object_store_memory,
+        )
+    try:
+        ray.init(**settings)
+    except ConnectionError as err:
+        raise InputError(f"--ray-address {options.address}: no Ray cluster there ({err})") from None
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+def remove_stale_staging(out: Path, name: str) -> None:
+    """Remove staging folders an earlier attempt of job ``name`` left in ``out`` when its process was killed."""
+    for folder in out.glob(f".{name}.????????.partial"):
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def lift_on_worker(job: Job, settings: RunSettings, threads: int, cwd: str, collect: bool):
+    """Run on a Ray worker: one job -> (summary entry, {relative path: bytes} when ``collect``, worker "ip:pid").
+
+    ``cwd`` is the driver's working folder: relative paths mean the same on a node that has it.
+    """
+    import ray
+
+    from platypose.cli.lift_batch import limit_threads
+    from platypose.cli.lift_run import run_job
+
+    if os.path.isdir(cwd):
+        os.chdir(cwd)
+    limit_threads(threads)
+    worker = f"{ray.util.get_node_ip_address()}:{os.getpid()}"
+    if not collect:
+        remove_stale_staging(settings.out, job.name)
+        return run_job(job, settings), None, worker
+    with tempfile.TemporaryDirectory(prefix="platypose-lift-") as scratch:
+        entry = run_job(job, replace(settings, out=Path(scratch)))
+        folder = Path(scratch) / job.name
+        files = {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+    return entry, files, worker
+
+
+def write_collected(folder: Path, entry: dict, files: dict[str, bytes]) -> dict:
+    """Write a job's collected ``files`` into ``folder`` atomically, ``lift.json`` last with its outputs' paths
+    there; the entry with those paths."""
+    import json
+
+    from platypose.lifting.atomic import atomic_open, write_text_atomic
+
+    for relative, data in files.items():
+        if relative != MANIFEST:
+            with atomic_open(folder / relative) as stream:
+                stream.write(data)
+    entry = dict(entry, outputs=[str(folder / Path(p).name) for p in entry["outputs"]])
+    if MANIFEST in files:
+        manifest = json.loads(files[MANIFEST])
+        manifest["outputs"] = entry["outputs"]
+        write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
+    if entry["status"] == "ok":
+        from platypose.cli.lift_run import FAILURE
+
+        (folder / FAILURE).unlink(missing_ok=True)
+    return entry
+
+
+def ray_failure(err: BaseException) -> str:
+    """One line for a Ray error: the task's own exception, or what happened to its worker or node."""
+    cause = getattr(err, "cause", None)
+    if isinstance(cause, BaseException):
+        return f"{type(cause).__name__}: {' '.join(str(cause).split())}"
+    first = next((line.strip() for line in str(err).splitlines() if line.strip()), "")
+    return f"{type(err).__name__}: {first}"
+
+
+class RayExecutor:
+    """Runs a batch's jobs as Ray tasks: ``executor(jobs, todo, settings, record, bar)``, like the process pool.
+
+    ``record(index, entry)`` is called on the driver as each input finishes; ``bar`` is the batch's progress bar,
+    whose label shows how many inputs are running and how many failed. ``workers`` counts the inputs each
+    worker process ("ip:pid") ran.
+    """
+
+    def __init__(self, options: RayOptions) -> None:
+        self.options = options
+        self.workers: dict[str, int] = {}
+
+    def __call__(
+        self,
+        jobs: Sequence[Job],
+        todo: Sequence[int],
+        settings: RunSettings,
+        record: Callable[[int, dict], None],
+        bar,
+    ) -> None:
+        if not todo:
+            return
+        o = self.options
+        threads = settings.detect.threads or o.cpus_per_input
+        worker_settings = replace(settings, detect=replace(settings.detect, threads=threads), quiet=True)
+        with connected(o, settings.quiet) as ray:
+            self._check_fits(ray)
+            task = ray.remote(num_cpus=o.cpus_per_input, max_retries=o.max_retries, retry_exceptions=False)(
+                lift_on_worker
+            )
+            shared = ray.put(worker_settings)
+            cwd = os.getcwd()
+            started = time.perf_counter()
+            refs = {
+                task.options(name=f"lift:{jobs[i].name}").remote(jobs[i], shared, threads, cwd, o.collect): i
+                for i in todo
+            }
+            pending, failed = list(refs), 0
+
+            def finish(ref) -> None:
+                nonlocal failed
+                index = refs[ref]
+                entry = self._entry(ray, ref, jobs[index], settings, time.perf_counter() - started)
+                failed += entry["status"] == "failed"
+                record(index, entry)
+                bar.update(1)
+
+            try:
+                while pending:
+                    done, pending = ray.wait(pending, num_returns=len(pending), timeout=POLL_S)
+                    for ref in done:
+                        finish(ref)
+                    bar.label = f"inputs ({self._running(ray, len(pending))} running, {failed} failed)"
+            except BaseException:
+                for ref in pending:
+                    ray.cancel(ref)
+                done, _ = ray.wait(pending, num_returns=len(pending), timeout=CANCEL_GRACE_S)
+                for ref in done:
+                    try:
+                        ray.get(ref)
+                    except ray.exceptions.RayError:
+                        continue  # cancelled: nothing of it was kept
+                    finish(ref)
+                raise
+
+    def _check_fits(self, ray) -> None:
+        """InputError when no node of the cluster has ``cpus_per_input`` CPUs (the tasks would wait forever)."""
+        biggest = max((n["Resources"].get("CPU", 0) for n in ray.nodes() if n["Alive"]), default=0)
+        if biggest < self.options.cpus_per_input:
+            raise InputError(
+                f"--cpus-per-input {self.options.cpus_per_input}: the largest Ray node has {biggest:g} CPU(s)"
+            )
+
+    def _running(self, ray, pending: int) -> int:
+        """Inputs running now: the cluster's CPUs in use over CPUs per input (at most the ones not finished)."""
+        total, free = ray.cluster_resources().get("CPU", 0), ray.available_resources().get("CPU", 0)
+        return min(pending, int(round((total - free) / self.options.cpus_per_input)))
+
+    def _entry(self, ray, ref, job: Job, settings: RunSettings, seconds: float) -> dict:
+        """The summary entry of a finished task; a task Ray gave up on is recorded as failed, with failed.json."""
+        from platypose.cli.lift_run import job_entry
+
+        try:
+            entry, files, worker = ray.get(ref)
+        except ray.exceptions.RayError as err:
+            attempts = self.options.max_retries + 1
+            error = f"Ray gave up after {attempts} attempt(s): {ray_failure(err)}"
+            entry = job_entry(job, "failed", seconds=round(seconds, 2), error=error)
+            remove_stale_staging(settings.out, job.name)
+            record_failure(job, settings, error)
+            return entry
+        self.workers[worker] = self.workers.get(worker, 0) + 1
+        if files is not None:
+            entry = write_collected(settings.out / job.name, entry, files)
+        return entry
+
+
+def record_failure(job: Job, settings: RunSettings, error: str) -> None:
+    """Write ``OUT/<name>/failed.json`` for a job whose worker never returned, as the runner does for its own."""
+    import json
+
+    from platypose.cli.lift_run import FAILURE, fingerprint
+    from platypose.lifting.atomic import write_text_atomic
+
+    failure = {"input": job.input, "error": error, "fingerprint": fingerprint(job, settings)}
+    write_text_atomic(settings.out / job.name / FAILURE, json.dumps(failure, indent=1))
