@@ -18,6 +18,7 @@ to clean their staging folders, records whatever finished, and re-raises.
 
 from __future__ import annotations
 
+import glob
 import os
 import shutil
 import tempfile
@@ -41,8 +42,9 @@ class RayOptions:
     """Where and how inputs run on Ray.
 
     ``address``: None starts a private Ray instance on this machine (``num_cpus``
-    of it, default all cores); "auto" joins the cluster this machine belongs to
-    (``ray start``); "ray://host:10001" connects through Ray Client.
+    of it, default all cores), even when a cluster runs here; "auto" joins the
+    cluster this machine belongs to (``ray start``, or ``RAY_ADDRESS``);
+    "ray://host:10001" connects through Ray Client.
     """
 
     address: str | None = None
@@ -72,7 +74,7 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
         return
     local = options.address is None
     settings = {
-        "address": options.address,
+        "address": "local" if local else options.address,  # "local": never join a cluster found on this machine
         "log_to_driver": False,
         "logging_level": "WARNING" if quiet else "INFO",
     }
@@ -94,7 +96,7 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
 
 def remove_stale_staging(out: Path, name: str) -> None:
     """Remove staging folders an earlier attempt of job ``name`` left in ``out`` when its process was killed."""
-    for folder in out.glob(f".{name}.????????.partial"):
+    for folder in out.glob(f".{glob.escape(name)}.????????.partial"):
         shutil.rmtree(folder, ignore_errors=True)
 
 
@@ -193,20 +195,25 @@ class RayExecutor:
             }
             pending, failed = list(refs), 0
 
-            def finish(ref) -> None:
+            def show(left: int, done: int) -> None:
+                bar.label = f"inputs ({self._running(ray, left)} running, {failed} failed)"
+                bar.update(done)  # renders the label too
+
+            def finish(ref, left: int) -> None:
                 nonlocal failed
                 index = refs[ref]
                 entry = self._entry(ray, ref, jobs[index], settings, time.perf_counter() - started)
                 failed += entry["status"] == "failed"
                 record(index, entry)
-                bar.update(1)
+                show(left, 1)
 
             try:
                 while pending:
                     done, pending = ray.wait(pending, num_returns=len(pending), timeout=POLL_S)
                     for ref in done:
-                        finish(ref)
-                    bar.label = f"inputs ({self._running(ray, len(pending))} running, {failed} failed)"
+                        finish(ref, len(pending))
+                    if not done:
+                        show(len(pending), 0)
             except BaseException:
                 for ref in pending:
                     ray.cancel(ref)
@@ -216,7 +223,7 @@ class RayExecutor:
                         ray.get(ref)
                     except ray.exceptions.RayError:
                         continue  # cancelled: nothing of it was kept
-                    finish(ref)
+                    finish(ref, 0)
                 raise
 
     def _check_fits(self, ray) -> None:
