@@ -87,7 +87,10 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
     try:
         ray.init(**settings)
     except ConnectionError as err:
-        raise InputError(f"--ray-address {options.address}: no Ray cluster there ({err})") from None
+        raise InputError(
+            f"--ray-address {options.address}: could not connect ({' '.join(str(err).split())}); is the cluster "
+            "up, and with Ray's token authentication is RAY_AUTH_MODE=token set here (docs/ray.md)?"
+        ) from None
     try:
         yield ray
     finally:
