@@ -10,12 +10,15 @@ each round, and the table gives medians over rounds. Ray runs start a private lo
 ``--cpus-per-input 2`` runs one input at a time (as ``--jobs 1``), ``--cpus-per-input 1`` two (as ``--jobs 2``);
 every run has ``--threads 1``. Ray's start-up is measured alone (``ray.init`` to the first task done,
 in a fresh process) and subtracted for the steady throughput. The overhead per input is (Ray wall - start-up - local wall) / inputs at
-the same number of workers.
+the same number of workers. The last column is measured within each run, so it moves less with the machine's
+load: wall seconds x workers / inputs minus the seconds each input's run took where it ran (process start,
+imports, Ray start-up and scheduling, and workers idle at the end of the batch).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import shutil
 import statistics
@@ -74,8 +77,9 @@ def make_batch(folder: Path, inputs: int, frames: int | None) -> Path:
     return batch
 
 
-def run_lift(batch: Path, out: Path, extra: list[str], samples: int | None) -> float:
-    """Wall seconds of one ``platypose lift`` process over the batch."""
+def run_lift(batch: Path, out: Path, extra: list[str], samples: int | None) -> tuple[float, float]:
+    """Wall seconds of one ``platypose lift`` process over the batch, and the seconds its inputs' runs took (the
+    summary's, measured around each input's run where it ran)."""
     args = ["lift", str(batch), "--cams", str(TAKE / "calib_pose2sim.toml"), "--out", str(out), "--quiet"]
     args += ["--threads", "1"]  # 2 torch threads on a busy 2-core machine are many times slower (docs/lift.md)
     args += ["--samples", str(samples)] if samples else []
@@ -85,7 +89,8 @@ def run_lift(batch: Path, out: Path, extra: list[str], samples: int | None) -> f
     seconds = time.perf_counter() - started
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(extra)} failed:\n{done.stderr[-2000:]}")
-    return seconds
+    entries = json.loads((out / "summary.json").read_text())["inputs"]
+    return seconds, sum(e["seconds"] for e in entries)
 
 
 def ray_start_seconds() -> float:
@@ -104,13 +109,17 @@ def main() -> None:
     options = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     walls: dict[str, list[float]] = {name: [] for name in CONFIGS}
+    outside: dict[str, list[float]] = {name: [] for name in CONFIGS}  # per input: wall x workers / n - run
     starts: list[float] = []
     with tempfile.TemporaryDirectory(prefix="bench-executors-") as scratch:
         batch = make_batch(Path(scratch), options.inputs, options.frames)
         for round_ in range(options.rounds):
             for name, extra in CONFIGS.items():
                 out = Path(scratch) / "out"
-                walls[name].append(run_lift(batch, out, extra, options.samples))
+                wall, inputs_s = run_lift(batch, out, extra, options.samples)
+                walls[name].append(wall)
+                workers = 1 if name in ("--jobs 1", "ray, 1 worker") else 2
+                outside[name].append((wall * workers - inputs_s) / options.inputs)
                 shutil.rmtree(out)
                 print(f"round {round_ + 1} {name}: {walls[name][-1]:.1f} s", file=sys.stderr, flush=True)
             starts.append(ray_start_seconds())
@@ -118,8 +127,11 @@ def main() -> None:
     print(
         f"{n} inputs, {options.rounds} rounds, medians; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
     )
-    print("| run | wall s | inputs / min | Ray start-up s | inputs / min after start-up | overhead / input s |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: |")
+    print(
+        "| run | wall s | inputs / min | Ray start-up s | inputs / min after start-up | overhead / input s "
+        "| worker time outside the inputs' runs, s / input |"
+    )
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
     for name, values in walls.items():
         wall = statistics.median(values)
         if name.startswith("ray"):
@@ -131,7 +143,8 @@ def main() -> None:
             start_text = f"{start:.1f}"
         else:
             steady, overhead, start_text = f"{60 * n / wall:.2f}", "", ""
-        print(f"| {name} | {wall:.1f} | {60 * n / wall:.2f} | {start_text} | {steady} | {overhead} |")
+        around = statistics.median(outside[name])
+        print(f"| {name} | {wall:.1f} | {60 * n / wall:.2f} | {start_text} | {steady} | {overhead} | {around:.1f} |")
 
 
 if __name__ == "__main__":
