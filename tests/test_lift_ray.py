@@ -113,10 +113,15 @@ def test_ray_batch_equals_local_batch(cluster, run_cli, batch_folder, prior_file
 
 def ray_settings(prior_file: str, out: Path):
     """The RunSettings of ``batch_args`` (for run_batch called directly)."""
-    detect = DetectOptions(threads=1)
-    sampler = {"samples": 4, "seed": 3}
-    return lift_settings(out, None, Path(prior_file), detect, sampler, 64, 16, "npz,csv,bvh,rrd", "largest", "auto",
-                         None, True, {})  # fmt: skip
+    from platypose.lifting.lift import WindowSettings
+    from platypose.lifting.runtime import PriorSettings
+    from platypose.lifting.sampler import SamplerConfig
+
+    prior, sampler = PriorSettings(Path(prior_file)), SamplerConfig(samples=4, seed=3)
+    detect, formats = DetectOptions(threads=1), "npz,csv,bvh,rrd"
+    return lift_settings(
+        out, None, prior, detect, sampler, WindowSettings(), formats, "largest", "auto", None, True, {}
+    )
 
 
 def kill_worker_when_staging(out: Path, name: str, killed: list[int]) -> threading.Thread:
