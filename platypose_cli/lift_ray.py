@@ -67,8 +67,8 @@ def import_ray():
 @contextmanager
 def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
     """Ray initialised for ``options`` (no usage statistics, no dashboard); shut down after if we started it."""
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # before Ray reads its settings
     ray = import_ray()
-    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     if ray.is_initialized():
         yield ray
         return
@@ -243,14 +243,17 @@ class RayExecutor:
         return min(pending, int(round((total - free) / self.options.cpus_per_input)))
 
     def _entry(self, ray, ref, job: Job, settings: RunSettings, seconds: float) -> dict:
-        """The summary entry of a finished task; a task Ray gave up on is recorded as failed, with failed.json."""
+        """The summary entry of a finished task; a task Ray gave up on is recorded as failed, with failed.json
+        (``seconds``: since the batch's tasks were submitted)."""
         from platypose.cli.lift_run import job_entry
 
         try:
             entry, files, worker = ray.get(ref)
         except ray.exceptions.RayError as err:
-            attempts = self.options.max_retries + 1
-            error = f"Ray gave up after {attempts} attempt(s): {ray_failure(err)}"
+            if isinstance(err, ray.exceptions.RayTaskError):  # the task's own exception: not retried
+                error = f"Ray task failed: {ray_failure(err)}"
+            else:  # its worker or node died on every attempt
+                error = f"Ray gave up after {self.options.max_retries + 1} attempt(s): {ray_failure(err)}"
             entry = job_entry(job, "failed", seconds=round(seconds, 2), error=error)
             remove_stale_staging(settings.out, job.name)
             record_failure(job, settings, error)
