@@ -1,6 +1,7 @@
-"""``platypose lift --executor ray`` on a local Ray cluster started in this module (2 CPUs): the same outputs and
-summary as a local run for a good, a corrupt and an empty video, worker processes killed mid-input (retried, or
-recorded as failed), Ctrl-C, outputs collected to the driver, one detector and prior load per worker."""
+"""``platypose lift --executor ray`` on a local Ray cluster started in this module (a 2-CPU head): the same outputs
+and summary as a local run for a good, a corrupt and an empty video, worker processes killed mid-input (retried, or
+recorded as failed), a node lost mid-input (retried on the head), Ctrl-C, outputs collected to the driver, one
+detector and prior load per worker."""
 
 from __future__ import annotations
 
@@ -23,20 +24,22 @@ from platypose.cli.lift_batch import run_batch
 from platypose.cli.lift_jobs import discover_jobs
 from platypose.cli.lift_ray import RayExecutor, RayOptions
 
+STORE = 80 * 1024**2  # object store bytes per node
+
 
 @pytest.fixture(scope="module")
 def cluster():
-    """A local Ray instance of 2 CPUs for the module: no dashboard, no usage statistics, a small object store."""
+    """A local Ray cluster for the module: a head node of 2 CPUs (more nodes can be added), no dashboard, no usage
+    statistics, small object stores."""
+    from ray.cluster_utils import Cluster
+
     os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        object_store_memory=80 * 1024**2,
-        log_to_driver=False,
-        logging_level="WARNING",
-    )
-    yield
+    head = {"num_cpus": 2, "object_store_memory": STORE, "include_dashboard": False}
+    nodes = Cluster(initialize_head=True, head_node_args=head)
+    ray.init(address=nodes.address, log_to_driver=False, logging_level="WARNING")
+    yield nodes
     ray.shutdown()
+    nodes.shutdown()
 
 
 def batch_args(batch_folder, prior_file, out, *extra: str) -> tuple[str, ...]:
@@ -183,6 +186,40 @@ def test_worker_killed_mid_input_is_retried_or_recorded(
     assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
 
 
+def test_node_lost_mid_input_is_retried_on_another_node(cluster, batch_folder, prior_file, local_run, tmp_path):
+    from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+    def hold(seconds: float) -> None:  # defined here: sent to the worker by value
+        time.sleep(seconds)
+
+    local, _ = local_run
+    node = cluster.add_node(num_cpus=2, object_store_memory=STORE)
+    cluster.wait_for_nodes()
+    on_head = NodeAffinitySchedulingStrategy(ray.get_runtime_context().get_node_id(), soft=False)
+    blocker = ray.remote(num_cpus=2)(hold).options(scheduling_strategy=on_head).remote(600)
+    deadline = time.monotonic() + 60
+    while ray.available_resources().get("CPU", 0) > 2 and time.monotonic() < deadline:
+        time.sleep(0.05)  # the head is busy: the input goes to the new node
+    lost: list[bool] = []
+
+    def lose_node_when_lifting() -> None:
+        while time.monotonic() < deadline and not list(tmp_path.glob(".good.*.partial")):
+            time.sleep(0.01)
+        lost.append(bool(list(tmp_path.glob(".good.*.partial"))))
+        cluster.remove_node(node)
+        ray.cancel(blocker, force=True)  # the head is free for the second attempt
+
+    thread = threading.Thread(target=lose_node_when_lifting, daemon=True)
+    thread.start()
+    jobs = [j for j in discover_jobs([batch_folder]) if j.name == "good"]
+    executor = RayExecutor(RayOptions(cpus_per_input=2, max_retries=1))
+    [entry] = run_batch(jobs, ray_settings(prior_file, tmp_path), executor=executor)
+    thread.join()
+    assert lost == [True] and entry["status"] == "ok" and entry["error"] is None
+    assert_same_outputs(local / "good", tmp_path / "good")
+    assert not list(tmp_path.glob(".*"))
+
+
 def test_ctrl_c_cancels_tasks_and_keeps_what_finished(cluster, batch_folder, prior_file, local_run, tmp_path):
     local, _ = local_run
     jobs = discover_jobs([batch_folder])
@@ -190,9 +227,12 @@ def test_ctrl_c_cancels_tasks_and_keeps_what_finished(cluster, batch_folder, pri
 
     def interrupt_when_lifting() -> None:
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not list(tmp_path.glob(".good.*.partial")):
+        while time.monotonic() < deadline:
+            if list(tmp_path.glob(".good.*.partial")):
+                print(f"SIGINT handler {signal.getsignal(signal.SIGINT)}", flush=True)
+                _thread.interrupt_main()  # as Ctrl-C in a terminal: SIGINT's handler runs in the main thread
+                return
             time.sleep(0.01)
-        _thread.interrupt_main()
 
     threading.Thread(target=interrupt_when_lifting, daemon=True).start()
     with pytest.raises(KeyboardInterrupt):
