@@ -220,7 +220,18 @@ def test_node_lost_mid_input_is_retried_on_another_node(cluster, batch_folder, p
     assert not list(tmp_path.glob(".*"))
 
 
-def test_ctrl_c_cancels_tasks_and_keeps_what_finished(cluster, batch_folder, prior_file, local_run, tmp_path):
+@pytest.fixture
+def ctrl_c_raises():
+    """Python's own SIGINT handler (KeyboardInterrupt), also when the tests run with SIGINT ignored (started in
+    the background by a shell); the earlier handler is restored after the test."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_cancels_tasks_and_keeps_what_finished(
+    cluster, batch_folder, prior_file, local_run, tmp_path, ctrl_c_raises
+):
     local, _ = local_run
     jobs = discover_jobs([batch_folder])
     settings = ray_settings(prior_file, tmp_path)
@@ -229,7 +240,6 @@ def test_ctrl_c_cancels_tasks_and_keeps_what_finished(cluster, batch_folder, pri
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             if list(tmp_path.glob(".good.*.partial")):
-                print(f"SIGINT handler {signal.getsignal(signal.SIGINT)}", flush=True)
                 _thread.interrupt_main()  # as Ctrl-C in a terminal: SIGINT's handler runs in the main thread
                 return
             time.sleep(0.01)
