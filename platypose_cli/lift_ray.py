@@ -34,7 +34,7 @@ from platypose.lifting.errors import InputError
 
 INSTALL_HINT = "--executor ray needs Ray on the driver and every worker: pip install 'platypose[ray]'"
 CANCEL_GRACE_S = 10.0  # after Ctrl-C: how long running tasks get to remove their staging folders
-POLL_S = 1.0  # how often the progress bar's running / failed counts are refreshed
+POLL_S = 0.25  # how often the driver wakes: the bar's running / failed counts, and how soon Ctrl-C is seen
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ import os
 import signal
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -235,6 +236,7 @@ def test_ctrl_c_cancels_tasks_and_keeps_what_finished(
     local, _ = local_run
     jobs = discover_jobs([batch_folder])
     settings = ray_settings(prior_file, tmp_path)
+    slower = replace(settings, sampler=replace(settings.sampler, samples=64))  # good lifts for a while
 
     def interrupt_when_lifting() -> None:
         deadline = time.monotonic() + 60
@@ -246,7 +248,7 @@ def test_ctrl_c_cancels_tasks_and_keeps_what_finished(
 
     threading.Thread(target=interrupt_when_lifting, daemon=True).start()
     with pytest.raises(KeyboardInterrupt):
-        run_batch(jobs, settings, executor=RayExecutor(RayOptions(cpus_per_input=2)))
+        run_batch(jobs, slower, executor=RayExecutor(RayOptions(cpus_per_input=2)))
     entries = json.loads((tmp_path / "summary.json").read_text())["inputs"]
     assert [e["name"] for e in entries] == ["corrupt", "empty"]  # good was running: cancelled, not recorded
     assert not (tmp_path / "good" / "lift.json").exists() and not list(tmp_path.glob(".*"))
