@@ -16,7 +16,7 @@ from platypose.cli.options import settings_options
 from platypose.data import VIDEO_DIR
 
 if TYPE_CHECKING:
-    from platypose.lifting.runtime import PriorSettings
+    from platypose.lifting.runtime import PriorSettings, resolve_runtime
     from platypose.lifting.sampler import SamplerConfig
 
 DEMO_VIDEO = VIDEO_DIR / "sports2d-demo" / "demo.mp4"
@@ -215,7 +215,8 @@ def bench(
     sampler = sampler_settings(prior, sampler, frames, steps, repeats, matmul_size)
     clip = clip_section(prior, video, clip_seconds, threads, say, persons) if end_to_end else None  # own peak memory
     say(f"timing the sampler: {sampler.samples} x {frames} frames, 1 warm-up and {repeats} runs")
-    timed = sampler_section(prior, sampler, frames, repeats, matmul_size, prior_settings.runtime)
+    runtime = resolve_runtime(prior_settings.runtime, prior.device)  # what auto picked
+    timed = sampler_section(prior, sampler, frames, repeats, matmul_size, runtime)
     config = prior.config
     report = {
         "machine": {

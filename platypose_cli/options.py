@@ -64,7 +64,12 @@ WINDOW_FLAGS = (
 PRIOR_FLAGS = (
     Flag("path", Path, ("--prior",), "Motion prior checkpoint (default: the shipped one)."),
     Flag("device", str, ("--device",), "Sampler device: cpu, cuda or auto (cuda when available)."),
-    Flag("runtime", str, ("--runtime",), "Denoiser runtime: float32, bfloat16 or onnx (CPU; docs/bench.md)."),
+    Flag(
+        "runtime",
+        str,
+        ("--runtime",),
+        "Denoiser runtime: auto (bfloat16 where this CPU runs it fast, else float32), float32, bfloat16 or onnx.",
+    ),
 )
 SETTINGS = {  # the settings class of each table, imported when a command runs (torch stays out of --help)
     "sampler": ("platypose.lifting.sampler_config", "SamplerConfig", SAMPLER_FLAGS),

@@ -154,6 +154,7 @@ def test_bench_cli_reports_consistent_positive_figures(run_cli, tiny_prior_path,
     assert report["machine"]["threads"] == 1 and report["peak_rss_mb"] > 0
     assert report["prior"]["layers"] == 2 and report["prior"]["width"] == 64
     assert report["end_to_end"] is None
+    assert s["runtime"] in ("float32", "bfloat16")  # what --runtime auto picked on this machine
     assert f"{s['hypothesis_frames_per_s']:.1f}" in stdout
     assert f"{100 * s['utilisation']:.1f} %" in stdout
     assert "end-to-end" not in stdout
