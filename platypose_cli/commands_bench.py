@@ -16,7 +16,7 @@ from platypose.cli.options import settings_options
 from platypose.data import VIDEO_DIR
 
 if TYPE_CHECKING:
-    from platypose.lifting.runtime import PriorSettings, resolve_runtime
+    from platypose.lifting.runtime import PriorSettings
     from platypose.lifting.sampler import SamplerConfig
 
 DEMO_VIDEO = VIDEO_DIR / "sports2d-demo" / "demo.mp4"
@@ -195,6 +195,7 @@ def bench(
     from platypose.lifting.atomic import write_text_atomic
     from platypose.lifting.errors import InputError
     from platypose.lifting.prior import DEFAULT_PRIOR
+    from platypose.lifting.runtime import resolve_runtime
 
     def say(message: str) -> None:
         if not quiet:
