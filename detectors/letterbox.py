@@ -25,10 +25,14 @@ def letterbox(
     input_size: tuple[int, int],
     pad_value: int = 0,
     center: bool = False,
+    box_filter: bool = False,
 ) -> tuple[np.ndarray, Letterbox]:
     """Resize ``image`` (H, W, C) to fit ``input_size`` (h, w) keeping its aspect, padded; -> (h, w, C), placement.
 
-    The image sits at the top-left corner, or in the middle with ``center``.
+    The image sits at the top-left corner, or in the middle with ``center``. Shrinking averages
+    the pixels each output pixel covers (``INTER_AREA``), or with ``box_filter`` blurs by a box of
+    the shrink factor and samples bilinearly (:func:`box_downscale`: nearly the same image, about
+    ten times faster for large factors).
     """
     import cv2
 
@@ -36,13 +40,26 @@ def letterbox(
     in_h, in_w = input_size
     scale = min(in_h / height, in_w / width)
     new_h, new_w = max(1, round(height * scale)), max(1, round(width * scale))
-    resized = cv2.resize(image, (new_w, new_h), interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
+    if scale < 1 and box_filter:
+        resized = box_downscale(image, (new_h, new_w))
+    else:
+        resized = cv2.resize(image, (new_w, new_h), interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
     top, left = ((in_h - new_h) // 2, (in_w - new_w) // 2) if center else (0, 0)
     padded = np.full((in_h, in_w, image.shape[2]), pad_value, dtype=image.dtype)
     padded[top : top + new_h, left : left + new_w] = resized
     axis_scale = (new_w / width, new_h / height)
     placement = Letterbox(scale=axis_scale, offset=(float(left), float(top)), input_size=(in_h, in_w))
     return padded, placement
+
+
+def box_downscale(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """``image`` (H, W, C) shrunk to ``size`` (h, w): a box blur as wide as the shrink factor (rounded), then
+    bilinear sampling. Close to ``INTER_AREA``, whose general (non-integer factor) path costs ~10x more."""
+    import cv2
+
+    factor = round(min(image.shape[0] / size[0], image.shape[1] / size[1]))
+    blurred = cv2.blur(image, (factor, factor)) if factor >= 2 else image
+    return cv2.resize(blurred, (size[1], size[0]), interpolation=cv2.INTER_LINEAR)
 
 
 def fit_size(image_size: tuple[int, int], longest: int, multiple: int) -> tuple[int, int]:

@@ -2,10 +2,12 @@
 
 Input is 2D keypoints of P persons seen by C calibrated cameras on one clock;
 output is N hypotheses per person at the input's frame times, each one
-continuous motion across windows (see :mod:`lifting.windows`). Each window's
-persons and hypotheses go through the network as one batch. Results stream out
-(:func:`lift_stream`) as soon as no later window changes them, so memory does
-not grow with the track's length.
+continuous motion across windows (see :mod:`lifting.windows`). Each person is
+lifted only over the spans where it is present, so the cost follows the
+person-frames present, not persons x clip length; windows of persons present at
+the same time, and their hypotheses, go through the network as one batch.
+Results stream out (:func:`lift_stream`) as soon as no later window changes
+them, so memory does not grow with the track's length.
 """
 
 from __future__ import annotations
@@ -19,9 +21,12 @@ import torch
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.prior import PriorBundle
+from platypose.lifting.root import presence
 from platypose.lifting.sampler import Anchor, SamplerConfig, SampleResult, cameras_and_rays, sample
 from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights
 from platypose.lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
+
+CHUNK_FRAMES = 1024  # input frames per chunk at most: a long stretch nobody is in does not fill memory
 
 
 @dataclass(frozen=True)
@@ -98,29 +103,90 @@ def lift_stream(
 ) -> Iterator[LiftChunk]:
     """Lift P persons' keypoints ``(C, T, P, 17, 3)`` seen by ``cameras`` at ``frame_times`` ``(T,)``, in chunks.
 
-    Chunks come in frame order as soon as no later window can change their frames, so
-    memory holds a few windows whatever the length. ``root_trajectory`` (P, T, 3), if
-    known, fixes each person's pelvis path. ``progress(done, total)`` counts windows.
+    Each person is lifted only over the spans where it is present (:func:`person_spans`),
+    each span in windows of its own that continue one another; frames where a person is
+    absent are NaN and never sampled. Windows of different persons that start at about the
+    same time go through the network together (:func:`next_round`). Chunks come in frame
+    order as soon as no later window can change their frames, so memory holds a few windows
+    whatever the length. ``root_trajectory`` (P, T, 3), if known, fixes each person's pelvis
+    path. ``progress(done, total)`` counts windows (over all persons).
     """
+    frame_times = np.asarray(frame_times, dtype=np.float64)
     clock = prior_clock(frame_times, prior.fps)
     length = min(settings.window, prior.config.max_frames)
-    plan = plan_windows(len(clock), length, min(settings.overlap, length // 2))
-    per_window = KeypointWindows(keypoints, frame_times, clock, plan)  # [w]: (C, P, F, 17, 3)
+    spans = person_spans(keypoints, frame_times, clock, length, min(settings.overlap, length // 2))
+    per_window = KeypointWindows(keypoints, frame_times, clock)
     roots = None
     if root_trajectory is not None:
-        path = interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock)  # (T', P, 3)
-        roots = WindowView(np.moveaxis(path, 1, 0), plan, axis=1)  # [w]: (P, F, 3)
-    runner = _WindowRunner(prior, list(cameras), per_window, roots, config, settings, plan, progress)
-    stitcher = StreamingStitch(plan, clock, np.asarray(frame_times, dtype=np.float64))
-    previous = None
-    for w in range(plan.count):
-        anchor = continuation_anchor(previous, plan) if previous is not None else None
-        result = runner.run(w, anchor)
-        previous = np.asarray(result.fitted, dtype=np.float32)  # (P, N, F, 17, 3): the next window continues the fit
-        joints = np.asarray(result.joints, dtype=np.float32)
-        window = (np.moveaxis(joints, 2, 0), np.moveaxis(np.asarray(result.energy, dtype=np.float32), 2, 0))
-        for start, (hypotheses, frame_energy) in stitcher.add(w, window):
-            yield LiftChunk(start, np.moveaxis(hypotheses, 0, 2), np.moveaxis(frame_energy, 0, 2))
+        roots = np.moveaxis(interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock), 1, 0)  # (P, T', 3)
+    total = sum(span.plan.count for span in spans)
+    runner = _WindowRunner(prior, list(cameras), per_window, roots, config, settings, progress, total)
+    stitchers = [StreamingStitch(s.plan, clock[s.first : s.first + s.plan.total], frame_times[s.frames]) for s in spans]
+    gather = _PersonFrames(keypoints.shape[2], config.samples, len(frame_times), spans)
+    done = [0] * len(spans)  # windows sampled per span
+    previous: list[np.ndarray | None] = [None] * len(spans)  # each span's last window, (1, N, F, 17, 3)
+    while True:
+        batch = next_round(spans, done, length - min(settings.overlap, length // 2))
+        if not batch:
+            break
+        items = [(s, int(done[s]), continuation_anchor(previous[s], spans[s].plan) if done[s] else None) for s in batch]
+        for (s, w, _), result in zip(items, runner.run(spans, items)):
+            previous[s] = np.asarray(result.fitted, dtype=np.float32)
+            joints = np.asarray(result.joints, dtype=np.float32)[0]  # (N, F, 17, 3)
+            window = (np.moveaxis(joints, 1, 0), np.moveaxis(np.asarray(result.energy, dtype=np.float32)[0], 1, 0))
+            for start, (hypotheses, frame_energy) in stitchers[s].add(w, window):
+                gather.add(s, spans[s].frames.start + start, np.moveaxis(hypotheses, 0, 1), frame_energy.T)
+            done[s] = w + 1
+        frontier = [spans[s].frames.start + stitchers[s].emitted for s in range(len(spans))]
+        yield from gather.emit(frontier, done)
+    yield from gather.emit([len(frame_times)] * len(spans), [s.plan.count for s in spans])
+
+
+@dataclass(frozen=True)
+class Span:
+    """Person ``person`` present over the input frames ``frames``, lifted on the prior's frames from ``first`` on
+    in the windows of ``plan`` (its starts count from ``first``)."""
+
+    person: int
+    frames: slice
+    first: int
+    plan: WindowPlan
+
+    def start(self, w: int) -> int:
+        """Prior frame where window ``w`` starts."""
+        return self.first + int(self.plan.starts[w])
+
+
+def person_spans(
+    keypoints: np.ndarray, frame_times: np.ndarray, clock: np.ndarray, length: int, overlap: int
+) -> list[Span]:
+    """The spans where each person of keypoints ``(C, T, P, 17, 3)`` is present (:func:`lifting.root.presence`),
+    person by person in time order, each planned in windows of ``length`` prior frames sharing ``overlap``.
+
+    A span covers the prior frames from the last one at or before its first input frame to the first one at or
+    after its last, so every input frame of the span lies between two of them.
+    """
+    present = presence(keypoints, frame_times)  # (P, T)
+    spans = []
+    for person in range(present.shape[0]):
+        edges = np.diff(np.concatenate([[0], present[person].astype(np.int8), [0]]))
+        for begin, end in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]):
+            first = max(int(np.searchsorted(clock, frame_times[begin], side="right")) - 1, 0)
+            last = min(int(np.searchsorted(clock, frame_times[end - 1], side="left")), len(clock) - 1)
+            plan = plan_windows(last - first + 1, length, overlap)
+            spans.append(Span(person, slice(int(begin), int(end)), first, plan))
+    return spans
+
+
+def next_round(spans: Sequence[Span], done: Sequence[int], stride: int) -> list[int]:
+    """Spans whose next window is sampled now: those starting within ``stride`` prior frames of the earliest next
+    window of any span (``done[s]`` windows of span ``s`` are sampled). Persons present together go through the
+    network together and every span moves on at the same pace, so few windows wait to be stitched."""
+    waiting = [s for s, span in enumerate(spans) if done[s] < span.plan.count]
+    if not waiting:
+        return []
+    earliest = min(spans[s].start(done[s]) for s in waiting)
+    return [s for s in waiting if spans[s].start(done[s]) < earliest + max(stride, 1)]
 
 
 def lift_tracks(
@@ -142,44 +208,32 @@ def lift_tracks(
 
 
 class KeypointWindows:
-    """Window ``w``'s keypoints ``(C, P, F, 17, 3)`` on the prior's clock, resampled when the window is asked for.
+    """Keypoints ``(C, P, F, 17, 3)`` of some persons over F prior frames, resampled when a window is asked for.
 
     The same numbers as resampling the whole track with :func:`resample_keypoints` and
     cutting it into windows (NaN past the end), without a resampled copy of a long track.
     """
 
-    def __init__(self, keypoints: np.ndarray, frame_times: np.ndarray, clock: np.ndarray, plan: WindowPlan) -> None:
+    def __init__(self, keypoints: np.ndarray, frame_times: np.ndarray, clock: np.ndarray) -> None:
         frames = np.moveaxis(keypoints, 1, 0)  # (T, C, P, 17, 3)
         if len(frame_times) == 1:  # as resample_keypoints: every prior frame takes the one sample
             frames = np.concatenate([frames, frames])
             self.idx, self.w = np.zeros(len(clock), np.intp), np.zeros(len(clock))
         else:
             self.idx, self.w = interpolation_weights(frame_times, clock)
-        self.frames, self.plan = frames, plan
+        self.frames = frames
 
-    def __len__(self) -> int:
-        return self.plan.count
-
-    def __getitem__(self, w: int) -> np.ndarray:
-        start, F = int(self.plan.starts[w]), self.plan.length
-        idx, weight = self.idx[start : start + F], self.w[start : start + F]
+    def window(self, start: int, length: int, persons: Sequence[int], stop: int | None = None) -> np.ndarray:
+        """Prior frames ``start .. start + length`` of ``persons``, ``(C, len(persons), length, 17, 3)``; frames from
+        ``stop`` on (and past the clock's end) are missing (NaN, confidence 0)."""
+        idx, weight = self.idx[start : start + length], self.w[start : start + length]
         first = int(idx[0])
-        window = resample_keypoints_at(self.frames[first : int(idx[-1]) + 2], idx - first, weight)  # (F', C, P, 17, 3)
-        return np.moveaxis(_pad(window, F), 0, 2)
-
-
-class WindowView:
-    """``cut(values, plan, axis)[w]`` cut only when window ``w`` is asked for: a long track is not copied per window."""
-
-    def __init__(self, values: np.ndarray, plan: WindowPlan, axis: int) -> None:
-        self.values, self.plan, self.axis = values, plan, axis
-
-    def __len__(self) -> int:
-        return self.plan.count
-
-    def __getitem__(self, w: int) -> np.ndarray:
-        start, F = int(self.plan.starts[w]), self.plan.length
-        return np.moveaxis(_pad(np.moveaxis(self.values, self.axis, 0)[start : start + F], F), 0, self.axis)
+        frames = self.frames[first : int(idx[-1]) + 2][:, :, list(persons)]
+        window = _pad(resample_keypoints_at(frames, idx - first, weight), length)  # (F, C, P, 17, 3)
+        if stop is not None and stop - start < length:
+            window[max(stop - start, 0) :, ..., :2] = np.nan
+            window[max(stop - start, 0) :, ..., 2] = 0.0
+        return np.moveaxis(window, 0, 2)
 
 
 def _pad(frames: np.ndarray, length: int) -> np.ndarray:
@@ -247,24 +301,90 @@ class StreamingStitch:
 
 
 class _WindowRunner:
-    """Samples one window of all persons at a time (persons and hypotheses in one batch)."""
+    """Samples a round of windows (one per span), those of equal length and continuation state in one batch."""
 
-    def __init__(self, prior, cameras, per_window, roots, config, settings, plan: WindowPlan, progress) -> None:
+    def __init__(self, prior, cameras, per_window, roots, config, settings, progress, total: int) -> None:
         self.prior, self.cameras, self.per_window, self.roots = prior, cameras, per_window, roots
-        self.config, self.settings, self.plan, self.progress = config, settings, plan, progress
+        self.config, self.settings, self.progress, self.total = config, settings, progress, total
+        self.done = 0
 
-    def run(self, w: int, anchor: tuple[np.ndarray, np.ndarray] | None) -> SampleResult:
-        """Hypotheses of window ``w`` (persons as the batch); ``anchor`` = joints (P, N, F, 17, 3), mask (F,)."""
-        kp = self.per_window[w]  # (C, P, F, 17, 3)
-        P, F = kp.shape[1:3]
+    def run(self, spans: Sequence[Span], items: list) -> list[SampleResult]:
+        """Results (batch of one) of ``items`` = (span index, window, anchor or None) in their order; an anchor is
+        (joints (1, N, F, 17, 3), mask (F,)) continuing the span's previous window."""
+        results: list[SampleResult | None] = [None] * len(items)
+        groups: dict[tuple[int, bool], list[int]] = {}
+        for i, (s, _, anchor) in enumerate(items):
+            groups.setdefault((spans[s].plan.length, anchor is not None), []).append(i)
+        for members in groups.values():
+            batch = self._sample([(spans[items[i][0]], items[i][1], items[i][2]) for i in members])
+            for b, i in enumerate(members):
+                results[i] = SampleResult(batch.joints[b : b + 1], batch.energy[b : b + 1], batch.fitted[b : b + 1])
+            self.done += len(members)
+            if self.progress is not None:
+                self.progress(self.done, self.total)
+        return results
+
+    def _sample(self, windows: list) -> SampleResult:
+        """Hypotheses of windows (span, window, anchor) of one length, all anchored or none, as one batch."""
+        F = windows[0][0].plan.length
+        kp = np.concatenate(
+            [
+                self.per_window.window(span.start(w), F, [span.person], span.first + span.plan.total)
+                for span, w, _ in windows
+            ],
+            axis=1,
+        )  # (C, B, F, 17, 3)
         obs, rays = cameras_and_rays(self.cameras, kp[..., :2], kp[..., 2], device=self.prior.device)
         dtype, device = obs.keypoints.dtype, obs.keypoints.device
-        root = torch.as_tensor(self.roots[w], dtype=dtype, device=device) if self.roots is not None else None
+        root = None
+        if self.roots is not None:
+            path = np.stack(
+                [_pad(self.roots[span.person, span.start(w) : span.start(w) + F], F) for span, w, _ in windows]
+            )
+            root = torch.as_tensor(path, dtype=dtype, device=device)
         held = None
-        if anchor is not None:
-            mask = torch.as_tensor(np.repeat(anchor[1][None], P, axis=0), dtype=dtype, device=device)
-            held = Anchor(torch.as_tensor(anchor[0], dtype=dtype, device=device), mask, self.settings.anchor_weight)
-        result = sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
-        if self.progress is not None:
-            self.progress(w + 1, self.plan.count)
-        return result
+        if windows[0][2] is not None:
+            joints = torch.as_tensor(np.concatenate([a[0] for _, _, a in windows]), dtype=dtype, device=device)
+            mask = torch.as_tensor(np.stack([a[1] for _, _, a in windows]), dtype=dtype, device=device)
+            held = Anchor(joints, mask, self.settings.anchor_weight)
+        return sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
+
+
+class _PersonFrames:
+    """Gathers every span's final frames into chunks of all persons over the input frames, NaN where absent."""
+
+    def __init__(self, persons: int, samples: int, frames: int, spans: Sequence[Span]) -> None:
+        self.persons, self.samples, self.frames, self.spans = persons, samples, frames, spans
+        self.pieces: list[tuple[int, int, np.ndarray, np.ndarray]] = []  # (person, first frame, (N, t, 17, 3), (N, t))
+        self.emitted = 0
+
+    def add(self, s: int, start: int, hypotheses: np.ndarray, energy: np.ndarray) -> None:
+        """Final frames ``start ..`` of span ``s``: ``hypotheses`` (N, t, 17, 3), ``energy`` (N, t)."""
+        self.pieces.append((self.spans[s].person, start, hypotheses, energy))
+
+    def emit(self, frontier: Sequence[int], done: Sequence[int]) -> Iterator[LiftChunk]:
+        """Chunks of the frames every person has final, at most ``CHUNK_FRAMES`` each: span ``s`` is final up to
+        input frame ``frontier[s]``, or wholly once ``done[s]`` covers its windows; frames before a span that has
+        not begun are final (absent)."""
+        stop = self.frames
+        for s, span in enumerate(self.spans):
+            if done[s] < span.plan.count:
+                stop = min(stop, max(frontier[s], span.frames.start) if done[s] else span.frames.start)
+        while self.emitted < stop:
+            yield self._chunk(self.emitted, min(stop, self.emitted + CHUNK_FRAMES))
+
+    def _chunk(self, first: int, stop: int) -> LiftChunk:
+        """Frames ``first .. stop`` of every person (NaN where absent); the pieces keep only later frames."""
+        hypotheses = np.full((self.persons, self.samples, stop - first, 17, 3), np.nan, np.float32)
+        energy = np.full((self.persons, self.samples, stop - first), np.nan, np.float32)
+        kept = []
+        for person, start, h, e in self.pieces:
+            a, b = max(start, first), min(start + h.shape[1], stop)
+            if b > a:
+                hypotheses[person, :, a - first : b - first] = h[:, a - start : b - start]
+                energy[person, :, a - first : b - first] = e[:, a - start : b - start]
+            if start + h.shape[1] > stop:
+                cut = max(stop - start, 0)
+                kept.append((person, start + cut, h[:, cut:], e[:, cut:]))
+        self.pieces, self.emitted = kept, stop
+        return LiftChunk(first, hypotheses, energy)

@@ -101,6 +101,7 @@ def sample(
     problem = GuidedProblem(prior, obs, rays, config, root_trajectory, anchor, sizes, views, support, choices)
     x_t = schedule.add_noise(torch.zeros_like(noise), int(steps[0]), noise)
     x0 = x_t
+    before: tuple[torch.Tensor, int] | None = None  # the previous guided prediction and its step (dpm2m)
     for i, t in enumerate(steps):
         with torch.inference_mode():
             x0 = model(x_t, torch.tensor(int(t), device=device))
@@ -109,7 +110,11 @@ def sample(
         if t_prev is not None:  # the last prediction keeps its own overlap, pulled by the anchor energy, for blending
             x0 = problem.inpaint(x0)
         fresh = torch.randn(shape, generator=generator).to(device=device, dtype=dtype) if config.eta > 0 else None
-        x_t = schedule.ddim_step(x_t, x0, int(t), t_prev, config.eta, fresh)
+        if config.solver == "dpm2m":
+            x_t = schedule.dpm_solver_2m_step(x_t, x0, int(t), t_prev, *(before or (None, None)))
+            before = (x0, int(t))
+        else:
+            x_t = schedule.ddim_step(x_t, x0, int(t), t_prev, config.eta, fresh)
         if progress is not None:
             progress(i + 1, len(steps))
     with torch.no_grad():

@@ -8,6 +8,7 @@ from platypose.lifting.energy import ROBUST_LOSSES
 
 STEP_RULES = ("backtrack", "paper")
 DIRECTIONS = ("gauss-newton", "gradient")
+SOLVERS = ("ddim", "dpm2m")
 
 
 @dataclass(frozen=True)
@@ -32,7 +33,9 @@ class SamplerConfig:
     the joints' remaining uncertainty under that noise (:mod:`lifting.noise_spread`). ``bone_weight`` and
     ``symmetry_weight`` switch on the structural energies (metres squared). With one camera,
     ``depth_smoothness`` smooths every joint's depth path along its ray after each diffusion
-    step's guidance (:mod:`lifting.depth_smoothing`; 0: off).
+    step's guidance (:mod:`lifting.depth_smoothing`; 0: off). ``solver`` re-noises each guided
+    prediction for the next network call: "ddim" (eta as given) or "dpm2m", DPM-Solver++(2M), which
+    also uses the guided prediction of the call before (:meth:`DiffusionSchedule.dpm_solver_2m_step`).
     ``floor`` ``(nx, ny, nz, d)`` (world metres, ``n`` up; None: no floor) grounds every hypothesis inside the
     sampler (:mod:`lifting.grounding`): ``floor_weight`` per squared metre of a joint below it, ``contact_weight``
     holding stance ankles on it, ``slide_weight`` against stance ankles sliding along it; and a window seen by
@@ -70,6 +73,7 @@ class SamplerConfig:
     contact_weight: float = 0.1
     slide_weight: float = 1.0
     support_spread: float = 0.03
+    solver: str = "ddim"
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -95,6 +99,8 @@ class SamplerConfig:
             (self.floor is None or len(self.floor) == 4, f"floor must be (nx, ny, nz, d), got {self.floor}"),
             (min(self.floor_weight, self.contact_weight, self.slide_weight) >= 0, "floor weights must be >= 0"),
             (0 <= self.support_spread <= 0.2, f"support spread must be in [0, 0.2] m, got {self.support_spread}"),
+            (self.solver in SOLVERS, f"unknown solver {self.solver!r}; choose {', '.join(SOLVERS)}"),
+            (self.solver == "ddim" or self.eta == 0, "the dpm2m solver is deterministic: eta must be 0"),
         ]
         for ok, message in checks:
             if not ok:

@@ -28,9 +28,9 @@ class Prior:
     :func:`lift` (load it once for many takes)."""
 
     @staticmethod
-    def load(path: str | Path | None = None, device: str = "cpu", runtime: str = "float32") -> PriorBundle:
+    def load(path: str | Path | None = None, device: str = "cpu", runtime: str = "auto") -> PriorBundle:
         """The prior at ``path`` (None: the shipped one) on ``device`` (cpu, cuda, auto), its network run by
-        ``runtime`` (float32, bfloat16, onnx)."""
+        ``runtime`` (auto, float32, bfloat16, onnx)."""
         return PriorSettings(Path(path) if path is not None else None, device, runtime).load()
 
 

@@ -47,12 +47,14 @@ def peak_rss_mb() -> float:
 
 @dataclass(frozen=True)
 class ClipTiming:
-    """Seconds to detect a clip of ``frames`` frames (``tracks`` tracks found) and to lift one person (wall clock,
-    and CPU seconds of the process: on a shared machine the two differ); peak memory after detection and after
-    lifting."""
+    """Seconds to detect a clip of ``frames`` frames (``tracks`` tracks found) and to lift ``persons`` of them,
+    present in ``person_frames`` frames together (wall clock, and CPU seconds of the process: on a shared machine
+    the two differ); peak memory after detection and after lifting."""
 
     frames: int
     tracks: int
+    persons: int
+    person_frames: int
     detect_s: float
     lift_s: float
     detect_cpu_s: float
@@ -61,18 +63,22 @@ class ClipTiming:
     peak_rss_mb: float
 
 
-def lift_clip(video: Path, prior, samples: int, threads: int | None, say: Callable[[str], None]) -> ClipTiming:
-    """Detect people in ``video`` with the bundled MoveNet, then lift the largest track with ``samples`` hypotheses.
+def lift_clip(
+    video: Path, prior, samples: int, threads: int | None, say: Callable[[str], None], persons: str = "largest"
+) -> ClipTiming:
+    """Detect people in ``video`` with the bundled MoveNet, then lift the tracks ``persons`` selects (as
+    ``--persons``: largest, all or a count) with ``samples`` hypotheses.
 
-    One person is lifted over the whole clip (lifting time grows linearly with
-    persons; a looped clip starts new tracks at its seams). The view has the
-    default camera (no calibration), like ``platypose lift`` without ``--cams``.
+    Each person is lifted where it is present (a looped clip starts new tracks at
+    its seams). The view has the default camera (no calibration), like ``platypose
+    lift`` without ``--cams``.
     """
     from platypose.detectors.contracts import load_detector
     from platypose.detectors.pipeline import detect_video
     from platypose.detectors.tracking import select_persons
     from platypose.lifting.calibration.defaults import default_camera
     from platypose.lifting.lift import lift_tracks
+    from platypose.lifting.root import presence
     from platypose.lifting.sampler import SamplerConfig
 
     started, cpu_started = time.perf_counter(), time.process_time()
@@ -83,20 +89,28 @@ def lift_clip(video: Path, prior, samples: int, threads: int | None, say: Callab
     detect_peak = peak_rss_mb()
     if tracks.num_persons == 0:
         raise InputError(f"{video}: no person detected")
-    say(f"{tracks.num_frames} frames, {tracks.num_persons} track(s) in {detect_s:.1f} s; lifting the largest")
+    chosen = select_persons(tracks, persons)
+    keypoints = chosen.keypoints[None]  # (C=1, T, P, 17, 3)
+    person_frames = int(presence(keypoints, chosen.frame_times).sum())
+    say(
+        f"{tracks.num_frames} frames, {tracks.num_persons} track(s) in {detect_s:.1f} s; lifting {chosen.num_persons}"
+        f" ({persons}), present in {person_frames} person-frames"
+    )
     camera = default_camera("bench", *tracks.image_size)
     started, cpu_started = time.perf_counter(), time.process_time()
     lift_tracks(
         prior,
         [camera],
-        select_persons(tracks, "largest").keypoints[None],
-        tracks.frame_times,
+        keypoints,
+        chosen.frame_times,
         SamplerConfig(samples=samples),
-        progress=_every(1, "windows lifted", say),
+        progress=_every(5, "windows lifted", say),
     )
     return ClipTiming(
         frames=tracks.num_frames,
         tracks=tracks.num_persons,
+        persons=chosen.num_persons,
+        person_frames=person_frames,
         detect_s=detect_s,
         lift_s=time.perf_counter() - started,
         detect_cpu_s=detect_cpu_s,

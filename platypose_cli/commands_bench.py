@@ -66,6 +66,7 @@ def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int, 
         "repeats": repeats,
         "run_s": timing.run_s,
         "hypothesis_frames_per_s": config.samples * frames / timing.run_s,
+        "hypothesis_frames_per_matmul_gflop": config.samples * frames / timing.run_s / reference,
         "step_s": timing.step_s,
         "network_step_s": timing.network_step_s,
         "guidance_step_s": timing.guidance_step_s,
@@ -77,8 +78,9 @@ def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int, 
     }
 
 
-def clip_section(prior, video: Path, seconds: float, threads: int | None, say) -> dict:
-    """Loop ``video`` into a ``seconds`` long 30 fps clip, detect and lift it; the ``end_to_end`` part of the report."""
+def clip_section(prior, video: Path, seconds: float, threads: int | None, say, persons: str = "largest") -> dict:
+    """Loop ``video`` into a ``seconds`` long 30 fps clip, detect it and lift the ``persons`` it selects (largest,
+    all or a count); the ``end_to_end`` part of the report."""
     from platypose.cli.bench_clip import lift_clip, loop_video
 
     frames = max(1, round(seconds * CLIP_FPS))
@@ -86,7 +88,7 @@ def clip_section(prior, video: Path, seconds: float, threads: int | None, say) -
         clip = Path(folder) / "clip.mp4"
         say(f"writing a {frames}-frame clip looped from {video.name}")
         height, width = loop_video(video, clip, frames, CLIP_FPS)
-        timing = lift_clip(clip, prior, CLIP_HYPOTHESES, threads, say)
+        timing = lift_clip(clip, prior, CLIP_HYPOTHESES, threads, say, persons)
     return {
         "video": str(video),
         "seconds": frames / CLIP_FPS,
@@ -94,12 +96,16 @@ def clip_section(prior, video: Path, seconds: float, threads: int | None, say) -
         "frames": timing.frames,
         "image_size": [height, width],
         "tracks": timing.tracks,
+        "persons": persons,
+        "persons_lifted": timing.persons,
+        "person_frames": timing.person_frames,
         "hypotheses": CLIP_HYPOTHESES,
         "detect_s": timing.detect_s,
         "lift_s": timing.lift_s,
         "total_s": timing.detect_s + timing.lift_s,
         "detect_cpu_s": timing.detect_cpu_s,
         "lift_cpu_s": timing.lift_cpu_s,
+        "lift_cpu_s_per_person_minute": timing.lift_cpu_s / max(timing.person_frames / (60 * CLIP_FPS), 1e-9),
         "detect_peak_rss_mb": timing.detect_peak_rss_mb,
         "peak_rss_mb": timing.peak_rss_mb,
     }
@@ -125,6 +131,7 @@ def report_lines(report: dict) -> list[str]:
             f"{s['runtime']} network on {s['device']}"
         ),
         _row("hypothesis-frames per second", f"{s['hypothesis_frames_per_s']:.1f}"),
+        _row("  per matmul GFLOP/s", f"{s['hypothesis_frames_per_matmul_gflop']:.1f}"),
         _row("seconds per run", f"{s['run_s']:.3f}"),
         _row("seconds per diffusion step", f"{s['step_s']:.4f}"),
         _row("  network", f"{s['network_step_s']:.4f}"),
@@ -140,11 +147,13 @@ def report_lines(report: dict) -> list[str]:
         lines += [
             (
                 f"end-to-end: {e['seconds']:g} s clip at {e['fps']:g} fps ({e['frames']} frames, "
-                f"{e['image_size'][1]}x{e['image_size'][0]}), {e['tracks']} track(s), the largest lifted with "
-                f"{e['hypotheses']} hypotheses"
+                f"{e['image_size'][1]}x{e['image_size'][0]}), {e['tracks']} track(s), {e['persons_lifted']} lifted "
+                f"(--persons {e['persons']}) with {e['hypotheses']} hypotheses where present"
             ),
+            _row("person-frames present", f"{e['person_frames']}"),
             _row("detection seconds", f"{e['detect_s']:.1f}"),
-            _row("lifting seconds (1 person)", f"{e['lift_s']:.1f}"),
+            _row(f"lifting seconds ({e['persons_lifted']} person(s))", f"{e['lift_s']:.1f}"),
+            _row("lifting CPU s per person-minute", f"{e['lift_cpu_s_per_person_minute']:.1f}"),
             _row("total seconds", f"{e['total_s']:.1f}"),
             _row("CPU seconds (detection + lifting)", f"{e['detect_cpu_s']:.0f} + {e['lift_cpu_s']:.0f}"),
             _row("peak RSS MiB after detection", f"{e['detect_peak_rss_mb']:.0f}"),
@@ -170,6 +179,9 @@ def bench(
     end_to_end: bool = typer.Option(True, "--end-to-end/--no-end-to-end", help="Also detect and lift a looped clip."),
     clip_seconds: float = typer.Option(60.0, "--clip-seconds", help="Length of the end-to-end clip (30 fps)."),
     video: Path = typer.Option(DEMO_VIDEO, "--video", help="Video looped into the end-to-end clip."),
+    persons: str = typer.Option(
+        "largest", "--persons", help="Tracks of the clip lifted: largest, all, or the N largest (as lift)."
+    ),
     json_path: Path | None = typer.Option(None, "--json", help="Also write the report as JSON here."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
     prior_settings: PriorSettings = None,
@@ -179,9 +191,11 @@ def bench(
     import torch
 
     from platypose.cli.bench_clip import peak_rss_mb
+    from platypose.detectors.tracking import persons_count
     from platypose.lifting.atomic import write_text_atomic
     from platypose.lifting.errors import InputError
     from platypose.lifting.prior import DEFAULT_PRIOR
+    from platypose.lifting.runtime import resolve_runtime
 
     def say(message: str) -> None:
         if not quiet:
@@ -191,6 +205,7 @@ def bench(
         raise InputError(f"--clip-seconds must be positive, got {clip_seconds}")
     if end_to_end and not video.is_file():
         raise InputError(f"{video}: video to loop not found (give --video)")
+    persons_count(persons)  # InputError for a value --persons does not take
     if threads is not None:
         torch.set_num_threads(threads)
     prior = prior_settings.load(threads)
@@ -199,9 +214,10 @@ def bench(
             f"--device {prior_settings.device}: the end-to-end clip is lifted on the CPU only (add --no-end-to-end)"
         )
     sampler = sampler_settings(prior, sampler, frames, steps, repeats, matmul_size)
-    clip = clip_section(prior, video, clip_seconds, threads, say) if end_to_end else None  # first: own peak memory
+    clip = clip_section(prior, video, clip_seconds, threads, say, persons) if end_to_end else None  # own peak memory
     say(f"timing the sampler: {sampler.samples} x {frames} frames, 1 warm-up and {repeats} runs")
-    timed = sampler_section(prior, sampler, frames, repeats, matmul_size, prior_settings.runtime)
+    runtime = resolve_runtime(prior_settings.runtime, prior.device)  # what auto picked
+    timed = sampler_section(prior, sampler, frames, repeats, matmul_size, runtime)
     config = prior.config
     report = {
         "machine": {

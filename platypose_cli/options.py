@@ -45,6 +45,7 @@ SAMPLER_FLAGS = (
     Flag("guidance_iters", int, ("--guidance-iters", "--k"), "Guidance steps per diffusion step, at most (k)."),
     Flag("energy_scale", float, ("--energy-scale", "--lambda"), "Initial guidance step (lambda)."),
     Flag("eta", float, ("--eta",), "DDIM eta: 0 deterministic re-noising, 1 fresh noise."),
+    Flag("solver", str, ("--solver",), "Re-noising between network calls: ddim or dpm2m (DPM-Solver++(2M))."),
     Flag("robust", str, ("--robust",), "Reprojection loss: l2 or geman-mcclure."),
     Flag("size_prior", bool, ("--size-prior/--no-size-prior",), "Place each prediction as a person of adult size."),
     Flag("size_spread", float, ("--size-spread",), "Log-normal spread of the hypotheses' sizes (0: all typical)."),
@@ -64,7 +65,12 @@ WINDOW_FLAGS = (
 PRIOR_FLAGS = (
     Flag("path", Path, ("--prior",), "Motion prior checkpoint (default: the shipped one)."),
     Flag("device", str, ("--device",), "Sampler device: cpu, cuda or auto (cuda when available)."),
-    Flag("runtime", str, ("--runtime",), "Denoiser runtime: float32, bfloat16 or onnx (CPU; docs/bench.md)."),
+    Flag(
+        "runtime",
+        str,
+        ("--runtime",),
+        "Denoiser runtime: auto (bfloat16 where this CPU runs it fast, else float32), float32, bfloat16 or onnx.",
+    ),
 )
 SETTINGS = {  # the settings class of each table, imported when a command runs (torch stays out of --help)
     "sampler": ("platypose.lifting.sampler_config", "SamplerConfig", SAMPLER_FLAGS),

@@ -150,9 +150,11 @@ def test_bench_cli_reports_consistent_positive_figures(run_cli, tiny_prior_path,
     assert s["step_s"] == pytest.approx(s["run_s"] / 2)
     assert s["network_step_s"] + s["guidance_step_s"] == pytest.approx(s["step_s"])
     assert s["utilisation"] == pytest.approx(s["network_gflops"] / s["matmul_gflops"])
+    assert s["hypothesis_frames_per_matmul_gflop"] == pytest.approx(s["hypothesis_frames_per_s"] / s["matmul_gflops"])
     assert report["machine"]["threads"] == 1 and report["peak_rss_mb"] > 0
     assert report["prior"]["layers"] == 2 and report["prior"]["width"] == 64
     assert report["end_to_end"] is None
+    assert s["runtime"] in ("float32", "bfloat16")  # what --runtime auto picked on this machine
     assert f"{s['hypothesis_frames_per_s']:.1f}" in stdout
     assert f"{100 * s['utilisation']:.1f} %" in stdout
     assert "end-to-end" not in stdout
@@ -161,15 +163,18 @@ def test_bench_cli_reports_consistent_positive_figures(run_cli, tiny_prior_path,
 
 
 def test_bench_cli_end_to_end_on_a_real_clip(run_cli, tiny_prior_path, data_dir, tmp_path) -> None:
-    """Half a second of the real demo video: detected (one person or more) and lifted; times and memory positive."""
+    """Half a second of the real demo video: detected (one person or more), every person lifted where present;
+    times and memory positive."""
     out = tmp_path / "bench.json"
     video = data_dir / "video" / "sports2d-demo" / "demo.mp4"
-    args = ["--threads", "1", "--clip-seconds", "0.5", "--video", video, "--json", out, "-q"]
+    args = ["--threads", "1", "--clip-seconds", "0.5", "--video", video, "--persons", "all", "--json", out, "-q"]
     code, stdout, _ = run_cli("bench", "--prior", tiny_prior_path, *QUICK, *args)
     assert code == 0
     e = json.loads(out.read_text())["end_to_end"]
     assert (e["frames"], e["fps"], e["hypotheses"], e["image_size"]) == (15, 30.0, 50, [994, 1768])
-    assert e["tracks"] >= 1
+    assert e["tracks"] >= 1 and e["persons"] == "all" and e["persons_lifted"] == e["tracks"]
+    assert 0 < e["person_frames"] <= e["frames"] * e["tracks"]
+    assert e["lift_cpu_s_per_person_minute"] == pytest.approx(e["lift_cpu_s"] / (e["person_frames"] / 1800))
     assert e["detect_s"] > 0 and e["lift_s"] > 0 and e["total_s"] == pytest.approx(e["detect_s"] + e["lift_s"])
     assert 100 < e["detect_peak_rss_mb"] <= e["peak_rss_mb"]
     assert f"{e['lift_s']:.1f}" in stdout
@@ -181,6 +186,7 @@ def test_bench_cli_end_to_end_on_a_real_clip(run_cli, tiny_prior_path, data_dir,
         (["--frames", "17"], "--frames 17"),
         (["--steps", "49"], "--steps must be in 1..48"),
         (["--video", "missing.mp4"], "missing.mp4: video to loop not found"),
+        (["--persons", "tallest"], "--persons must be 'all', 'largest' or a positive number"),
     ],
 )
 def test_bench_cli_bad_input_exits_2(run_cli, tiny_prior_path, args, message) -> None:

@@ -7,7 +7,6 @@ from platypose.lifting import lift as lift_module
 from platypose.lifting.lift import (
     KeypointWindows,
     WindowSettings,
-    WindowView,
     lift_stream,
     lift_tracks,
     prior_clock,
@@ -37,14 +36,14 @@ def test_streamed_frames_equal_stitching_the_whole_track(tiny_prior, real_track,
     """Every sampled window is recorded; stitching and resampling them whole gives the streamed numbers bit for bit."""
     keypoints, times, camera = real_track
     windows: list[tuple[np.ndarray, np.ndarray]] = []
-    run = lift_module._WindowRunner.run
+    sample = lift_module.sample
 
-    def recording_run(self, w, anchor):
-        result = run(self, w, anchor)
+    def recording_sample(*args, **kwargs):
+        result = sample(*args, **kwargs)
         windows.append((np.asarray(result.joints, np.float32), np.asarray(result.energy, np.float32)))
         return result
 
-    monkeypatch.setattr(lift_module._WindowRunner, "run", recording_run)
+    monkeypatch.setattr(lift_module, "sample", recording_sample)
     settings = WindowSettings(window=16, overlap=4)
     chunks = list(lift_stream(tiny_prior, [camera], keypoints, times, SamplerConfig(samples=3), settings))
     clock = prior_clock(times, tiny_prior.fps)
@@ -71,12 +70,13 @@ def test_windows_cut_and_resample_like_the_whole_track(real_track):
     assert plan.padded_total > len(clock)  # the last window is padded
     whole = np.moveaxis(resample_keypoints(np.moveaxis(keypoints, 1, 0), times, clock), 0, 1)  # (C, T', P, 17, 3)
     windows = cut(np.moveaxis(whole, 2, 1), plan, axis=2)
-    resampled, view = KeypointWindows(keypoints, times, clock, plan), WindowView(np.moveaxis(whole, 2, 1), plan, axis=2)
-    assert len(resampled) == len(view) == len(windows) == plan.count
-    for w in range(plan.count):
-        assert np.array_equal(resampled[w], windows[w], equal_nan=True)
-        assert np.array_equal(view[w], windows[w], equal_nan=True)
-    one = KeypointWindows(keypoints[:, :1], times[:1], clock[:1], plan_windows(1, 15, 4))[0]  # a single frame
+    resampled = KeypointWindows(keypoints, times, clock)
+    for w, start in enumerate(plan.starts):
+        assert np.array_equal(resampled.window(int(start), 15, [0]), windows[w], equal_nan=True)
+    stopped = resampled.window(0, 15, [0], stop=10)  # frames from the span's end on are missing
+    assert np.isnan(stopped[:, :, 10:, :, :2]).all() and (stopped[:, :, 10:, :, 2] == 0).all()
+    assert np.array_equal(stopped[:, :, :10], windows[0][:, :, :10], equal_nan=True)
+    one = KeypointWindows(keypoints[:, :1], times[:1], clock[:1]).window(0, 1, [0])  # a single frame
     expected = resample_keypoints(np.moveaxis(keypoints[:, :1], 1, 0), times[:1], clock[:1])  # (1, C, P, 17, 3)
     assert one.shape == (1, 1, 1, 17, 3) and np.array_equal(one, np.moveaxis(expected, 0, 2), equal_nan=True)
 

@@ -8,7 +8,15 @@ import torch
 from platypose.lifting.errors import InputError
 from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig
 from platypose.lifting.representation import Normalizer
-from platypose.lifting.runtime import BFloat16Denoiser, OnnxDenoiser, resolve_device, with_runtime
+from platypose.lifting.runtime import (
+    BFloat16Denoiser,
+    OnnxDenoiser,
+    PriorSettings,
+    auto_runtime,
+    resolve_device,
+    resolve_runtime,
+    with_runtime,
+)
 
 TINY = PriorConfig(layers=2, width=64, heads=4, ff_width=128, max_frames=16, dropout=0.0)
 
@@ -81,6 +89,21 @@ def test_with_runtime_swaps_only_the_network(network) -> None:
     assert swapped.device == torch.device("cpu")
     with pytest.raises(InputError, match="unknown runtime 'int8'"):
         with_runtime(bundle, "int8")
+
+
+def test_auto_runtime_picks_what_this_machine_runs_fast(network) -> None:
+    """auto is bfloat16 or float32, decided once per process by timing both; a GPU keeps float32."""
+    bundle = PriorBundle(network, Normalizer(mean=torch.zeros(51).numpy(), std=torch.ones(51).numpy()))
+    picked = auto_runtime("cpu")
+    assert picked in ("float32", "bfloat16") and auto_runtime("cpu") == picked
+    assert (
+        resolve_runtime("auto", torch.device("cpu")) == picked
+        and resolve_runtime("onnx", torch.device("cpu")) == "onnx"
+    )
+    assert auto_runtime("cuda") == "float32"
+    chosen = with_runtime(bundle, "auto")
+    assert (chosen is bundle) if picked == "float32" else isinstance(chosen.model, BFloat16Denoiser)
+    assert PriorSettings().runtime == "auto"
 
 
 def test_device_choice() -> None:

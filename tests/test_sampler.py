@@ -38,6 +38,11 @@ def test_four_views_collapse_onto_the_truth(tiny_prior, heldout_window):
     assert np.max(_rms_px(result, 4)) < 1.0
 
 
+def test_dpm2m_solver_in_four_network_calls_collapses_four_views_onto_the_truth(tiny_prior, heldout_window):
+    result, _ = _lift(tiny_prior, heldout_window, views=4, samples=20, steps=6, skip=2, solver="dpm2m")
+    assert metrics.min_mpjpe(result.joints[0], heldout_window) < 0.005
+
+
 def test_guidance_reaches_the_noise_level_of_the_2d_input(tiny_prior, heldout_window):
     for views in (4, 1):  # the fit itself, before the noise spread
         result, _ = _lift(tiny_prior, heldout_window, views=views, noise_px=2.0, samples=20, noise_spread=False)
@@ -129,6 +134,8 @@ def test_structural_energies_lower_bone_length_variation(tiny_prior, heldout_win
         dict(step_rule="adam"),
         dict(decay=1.5),
         dict(depth_smoothness=-1.0),
+        dict(solver="heun"),
+        dict(solver="dpm2m", eta=0.5),
     ],
 )
 def test_bad_sampler_settings_are_refused(bad):
