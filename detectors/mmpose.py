@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.assemble import Person, assemble_tracks
+from platypose.detectors.keypoint_checks import whole_number
 from platypose.detectors.keypoints import model_layout
 from platypose.detectors.tracking import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
@@ -65,7 +66,7 @@ def parse_frames(content) -> dict[int, list[Person]]:
         raise ValueError("neither MMPose predictions (instance_info with frame_id/instances) nor COCO-style JSON")
     frames = {}
     for n, entry in enumerate(entries):
-        frame = int(entry.get("frame_id", n))
+        frame = whole_number(entry.get("frame_id", n), "frame_id")
         if frame in frames:
             raise ValueError(f"frame_id {frame} appears twice")
         frames[frame] = [_mmpose_person(instance) for instance in entry["instances"]]

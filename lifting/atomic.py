@@ -2,12 +2,41 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Any
+
+from platypose.lifting.errors import InputError
+
+
+def check_writable(target: Path | str, folder: bool = False) -> Path:
+    """Make sure ``target`` (a file, or a ``folder``) can be written before any work starts.
+
+    Creates the missing parent folders (and ``target`` itself when ``folder``) and a
+    temporary file in the folder the output goes to; raises InputError naming
+    ``target`` when it is of the wrong kind or cannot be written (read-only,
+    full, a file in the way, a name too long).
+    """
+    target = Path(target)
+    if folder and target.exists() and not target.is_dir():
+        raise InputError(f"{target}: is a file, an output folder was expected")
+    if not folder and target.is_dir():
+        raise InputError(f"{target}: is a folder, an output file name was expected")
+    where = target if folder else target.parent
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+        if not folder and len(os.fsencode(target.name)) + 16 > os.pathconf(where, "PC_NAME_MAX"):
+            raise OSError(errno.ENAMETOOLONG, "file name too long")
+        handle, name = tempfile.mkstemp(prefix=".write-check.", dir=where)
+        os.close(handle)
+        os.unlink(name)
+    except OSError as err:
+        raise InputError(f"{target}: cannot write there ({err.strerror or err})") from None
+    return target
 
 
 @contextmanager
