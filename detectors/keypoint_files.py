@@ -129,8 +129,9 @@ def read_keypoints_csv(path: str | Path, image_size: tuple[int, int] | None = No
         raise InputError(f"{path}: unknown joint name {err}") from None
     if len(rows) == 0 or frame.min() < 0:
         raise InputError(f"{path}: no rows or a negative frame index")
-    if frame.max() + 1 > len(np.unique(frame)):
-        gap = int(np.setdiff1d(np.arange(frame.max() + 1), frame)[0])
+    present = np.unique(frame)
+    if present[-1] + 1 > len(present):
+        gap = int(np.argmax(present != np.arange(len(present))))
         raise InputError(f"{path}: frame indices are not contiguous (frame {gap} has no row)")
     ids, column = np.unique(person, return_inverse=True)
     keypoints = np.full((frame.max() + 1, len(ids), 17, 3), np.nan, dtype=np.float32)

@@ -35,6 +35,9 @@ def check_writable(target: Path | str, folder: bool = False) -> Path:
         os.close(handle)
         os.unlink(name)
     except OSError as err:
+        blocker = next((p for p in (where, *where.parents) if p.exists() and not p.is_dir()), None)
+        if blocker is not None:
+            raise InputError(f"{target}: cannot write there ({blocker} is a file, not a folder)") from None
         raise InputError(f"{target}: cannot write there ({err.strerror or err})") from None
     return target
 

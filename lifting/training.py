@@ -60,7 +60,7 @@ class TrainConfig:
 
 
 class TrainingDiverged(ValueError):
-    """The training loss became NaN or infinite; nothing of that step was written."""
+    """The data's statistics, the training loss or the weights became NaN or infinite; nothing more is written."""
 
 
 @dataclass(frozen=True)
@@ -212,6 +212,8 @@ def train_prior(
         rng.bit_generator.state = resume["rng"]
     else:
         normalizer = fit_normalizer(sampler, F)
+    if not (np.isfinite(normalizer.mean).all() and np.isfinite(normalizer.std).all()):
+        raise TrainingDiverged("the motion data gives NaN or infinite feature statistics (a corrupt clip?)")
     bundle = PriorBundle(model, normalizer, manifest_of(train, validation, config, prior_config))
     schedule = DiffusionSchedule(prior_config.diffusion_steps)
     val_batch = torch.as_tensor(
