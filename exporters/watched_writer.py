@@ -7,7 +7,9 @@ of the target's file system, and ends the child when the disk stays full
 (``OSError`` ENOSPC for that file), when the child fails (its error is raised
 here), or on Ctrl-C. On POSIX the child is forked (no re-import, no copy of
 the data); it runs only numpy, rerun and PyAV code, never torch. Elsewhere it
-is spawned, and the writer's arguments are pickled to it by this process.
+is spawned, and the writer's arguments are pickled to it by this process. The
+child's stderr goes to /dev/null (rerun and ffmpeg log there on their own);
+its messages and errors come back through a pipe.
 """
 
 from __future__ import annotations
@@ -37,6 +39,8 @@ def free_bytes(folder: Path) -> int:
 def _child(conn, writer: Callable[..., None], args: tuple, path: Path) -> None:
     """Run ``writer(*args, path, say)`` and report ("done",) or the error; exit without running atexit hooks."""
     code = 0
+    quiet = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(quiet, 2)  # rerun's and ffmpeg's own log lines: everything the writer has to say goes through ``conn``
     try:
         writer(*args, path, lambda message: conn.send(("say", str(message))))
         conn.send(("done",))

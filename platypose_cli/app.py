@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
 import typer
@@ -48,8 +49,16 @@ def _register() -> None:
     import platypose.cli.commands_train  # noqa: F401
 
 
+def quiet_native_logs() -> None:
+    """Keep ffmpeg's and OpenCV's own log lines off the console (platypose reports unreadable or truncated videos
+    itself); a value the user set in the environment wins."""
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+
+
 def main() -> None:
     """Console entry point: user errors and unreadable or unwritable files become one line on stderr, exit code 2."""
+    quiet_native_logs()
     _register()
     try:
         app()

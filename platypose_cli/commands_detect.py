@@ -165,6 +165,8 @@ def detect(
             write_keypoints_csv(tracks, out / name / f"{name}_keypoints2d.csv"),
         ]
         typer.echo("\n".join(_summary(tracks, seconds, frames_run)))
+        for note in tracks.notes:
+            typer.echo(f"warning: {note}", err=True)
         for path in written:
             typer.echo(f"  wrote {path}")
     if comparison:
