@@ -118,3 +118,20 @@ def test_the_shipped_prior_is_finite():
     bundle, _ = load_prior()
     assert all(bool(torch.isfinite(p).all()) for p in bundle.model.parameters())
     assert np.isfinite(bundle.normalizer.std).all()
+
+
+@pytest.mark.parametrize(
+    "options, needle",
+    [
+        ({"seed": 10**23}, "seed must be in 0..2**63-1"),
+        ({"samples": 10**9}, "samples must be in 1..5000"),
+        ({"eta": float("nan")}, "eta must be a finite number"),
+        ({"bone_weight": float("inf")}, "bone weight must be a finite number"),
+    ],
+)
+def test_sampler_options_out_of_range(options, needle):
+    """Issue 17.11: --seed 1e23 and --samples 1e9 ended in internal exceptions; infinite weights were accepted."""
+    from platypose.lifting.sampler import SamplerConfig
+
+    with pytest.raises(ValueError, match=needle.replace("*", r"\*").replace(".", r"\.")):
+        SamplerConfig(**options)
