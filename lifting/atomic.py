@@ -55,6 +55,10 @@ def atomic_path(target: Path | str) -> Iterator[Path]:
         yield tmp
         os.chmod(tmp, 0o644)
         os.replace(tmp, target)
+    except OSError as err:
+        if err.filename is None or str(err.filename) == str(tmp):  # name the target, not the temporary file
+            raise OSError(err.errno, err.strerror or str(err), str(target)) from None
+        raise
     finally:
         tmp.unlink(missing_ok=True)
 

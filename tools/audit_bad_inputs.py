@@ -341,7 +341,7 @@ def _(w: Path) -> Run:
         notes = []
         for _ in range(3):
             proc = platypose(
-                ["export", npz, "--formats", "rrd", "--out", mount, "--video", f"cam01={TAKE / 'cam04.mp4'}"], 120
+                ["export", npz, "--formats", "rrd", "--out", mount, "--video", f"cam_01={TAKE / 'cam04.mp4'}"], 120
             )
             outcome, note = classify(Run(timeout=120), proc)
             if outcome != "clean error":
@@ -445,19 +445,22 @@ def _(w: Path) -> Run:
 def _out_cases() -> None:
     kinds = {
         "is-a-file": lambda w: _file(w),
+        "is-a-folder": lambda w: w,
         "under-a-file": lambda w: _file(w) / "sub",
         "read-only": lambda w: tmpfs(w, "64k", read_only=True),
         "full-disk": lambda w: _full(w),
     }
     commands = {
         "detect": lambda w, out: ["detect", openpose_copy(w / "kp", frames=4), "--out", out, *KEYPOINT_TIMING, "-q"],
-        "calib-convert": lambda w, out: ["calib", "convert", CALIB, "--out", out / "c.json" if out.is_dir() else out],
-        "train": lambda w, out: ["train", WALK, "--out", out / "p.pt" if out.is_dir() else out, "--iterations", "1"],
+        "calib-convert": lambda w, out: ["calib", "convert", CALIB, "--out", out if out == w else out / "c.json"],
+        "train": lambda w, out: ["train", WALK, "--out", out if out == w else out / "p.pt", "--iterations", "1"],
         "lift": lambda w, out: lift_args(openpose_copy(w / "kp", frames=4), out),
         "export": lambda w, out: ["export", _result_npz(w), "--formats", "csv,bvh", "--out", out],
     }
     for command, make in commands.items():
         for kind, where in kinds.items():
+            if (kind == "is-a-file") == (command in ("calib-convert", "train")):
+                continue  # a file output may replace a file; a folder output may be an existing folder
 
             def build(w: Path, make=make, where=where) -> Run:
                 out = where(w)
