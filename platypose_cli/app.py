@@ -15,7 +15,6 @@ app = typer.Typer(
     help="Calibrated multi-hypothesis 3D human motion from videos.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
-    rich_markup_mode=None,  # help texts are plain text: "[default 10]" and "[on]" must survive
     add_completion=False,
 )
 
