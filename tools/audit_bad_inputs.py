@@ -765,7 +765,7 @@ def _(w: Path) -> Run:
 def _(w: Path) -> Run:
     def check(proc) -> str | None:
         shown = " ".join(proc.stdout.split())
-        missing = [b for b in ("[sampler default: 50]", "[l2]", "[on]") if b not in shown]
+        missing = [b for b in ("[default: (50)]", "[default: (l2)]", "[default: out]") if b not in shown]
         return f"--help lost {missing}" if missing else None
 
     return Run(["lift", "--help"], "ok", check)
