@@ -68,14 +68,17 @@ def lift_settings(
 
 
 def finish(entries: list[dict], out: Path) -> None:
-    """Print the batch's outcome and exit 1 if any input failed."""
+    """Print the batch's outcome and its warnings; exit 2 if inputs failed for bad input only, 1 if any other way."""
     failed = [e for e in entries if e["status"] == "failed"]
     counts = ", ".join(f"{sum(e['status'] == s for e in entries)} {s}" for s in ("ok", "failed", "skipped"))
     typer.echo(f"{len(entries)} input(s): {counts}; summary in {out / 'summary.json'}")
+    for entry in entries:
+        for warning in entry.get("warnings", []):
+            typer.echo(f"warning: {entry['name']}: {warning}", err=True)
     for entry in failed:
         typer.echo(f"  failed {entry['input']}: {entry['error']}", err=True)
     if failed:
-        raise typer.Exit(1)
+        raise typer.Exit(2 if all(e.get("error_kind") == "input" for e in failed) else 1)
 
 
 @app.command("lift")
