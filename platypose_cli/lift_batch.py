@@ -27,6 +27,7 @@ import typer
 
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import (
+    MANIFEST,
     RunSettings,
     earlier_failure,
     fingerprint,
@@ -181,6 +182,15 @@ def run_batch(
     return [entries[i] for i in sorted(entries)]
 
 
+def _finished_meanwhile(job: Job, settings: RunSettings, since: float) -> dict | None:
+    """An ok entry for ``job`` if this batch finished it (a lift.json with its fingerprint written after ``since``)."""
+    folder = settings.out / job.name
+    outputs, _ = finished_outputs(folder, settings.formats, fingerprint(job, settings))
+    if outputs is None or (folder / MANIFEST).stat().st_mtime < since:
+        return None
+    return job_entry(job, "ok", outputs)
+
+
 def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) -> None:
     """Run ``todo`` jobs in ``workers`` spawned processes with a per-process thread cap; per-video bars are off."""
     import multiprocessing
@@ -190,6 +200,7 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
     worker_settings = replace(settings, detect=replace(settings.detect, threads=threads), quiet=True)
     context = multiprocessing.get_context("spawn")
     recorded: set[int] = set()
+    began = time.time()
 
     def take(future) -> None:
         index = futures[future]
@@ -217,5 +228,11 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
         for process in list((getattr(pool, "_processes", None) or {}).values()):
             process.terminate()
         pool.shutdown(wait=True, cancel_futures=True)
+        for index in todo:  # finished in a worker whose answer had not arrived yet: its lift.json says so
+            if index not in recorded:
+                entry = _finished_meanwhile(jobs[index], settings, began)
+                if entry is not None:
+                    recorded.add(index)
+                    record(index, entry)
         raise
     pool.shutdown(wait=True)

@@ -17,7 +17,9 @@ TAKE = "video/pose2sim-balancing"
 def test_numbered_cameras_must_match(data_dir):
     names = load_calibration(data_dir / TAKE / "calib_pose2sim.toml").names
     assert names[0] == "cam_01"
-    with pytest.raises(InputError, match=r"view 'cam02_json' is another camera than the calibration's only camera 'cam_01'"):
+    with pytest.raises(
+        InputError, match=r"view 'cam02_json' is another camera than the calibration's only camera 'cam_01'"
+    ):
         match_views(["cam_01"], ["cam02_json"])
     assert match_views(["cam_01"], ["cam01.mp4"]) == {"cam_01": "cam01.mp4"}
     assert match_views(["demo"], ["my_clip.mp4"]) == {"demo": "my_clip.mp4"}  # a free name still pairs
@@ -35,7 +37,17 @@ def test_lift_with_another_cameras_calibration_fails_naming_both(run_cli, data_d
     for path in sorted((data_dir / TAKE / "openpose-body25b/cam02_json").glob("*.json"))[:4]:
         shutil.copy(path, keypoints / path.name)
     code, _, err = run_cli(
-        "lift", "--keypoints", keypoints, "--cams", only, "--fps", "60", "--image-size", "1920x1088", "--out", tmp_path / "o"
+        "lift",
+        "--keypoints",
+        keypoints,
+        "--cams",
+        only,
+        "--fps",
+        "60",
+        "--image-size",
+        "1920x1088",
+        "--out",
+        tmp_path / "o",
     )
     assert code != 0 and "cam02" in err and "cam_01" in err and "another camera" in err
     assert not (tmp_path / "o" / "cam02" / "cam02.npz").exists()
