@@ -214,11 +214,18 @@ def staging_folder(folder: Path, name: str) -> Iterator[Path]:
     is left in it at the end; staging folders of ``name`` left by processes that are gone are removed first."""
     folder.mkdir(parents=True, exist_ok=True)
     remove_stale_staging(folder.parent, name)
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}.{os.getpid()}.", suffix=".partial", dir=folder.parent))
+    prefix = f".{_short(name)}.{os.getpid()}."
+    staging = Path(tempfile.mkdtemp(prefix=prefix, suffix=".partial", dir=folder.parent))
     try:
         yield staging
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def _short(name: str) -> str:
+    """The job name as staging folders carry it: at most 64 characters, so any output name the file system takes
+    also fits in a staging folder's name."""
+    return name[:64]
 
 
 def _alive(pid: int) -> bool:
@@ -234,8 +241,9 @@ def _alive(pid: int) -> bool:
 def remove_stale_staging(out: Path, name: str) -> list[str]:
     """Remove the staging folders of job ``name`` in ``out`` whose process is gone (killed runs); their names."""
     removed = []
-    for path in out.glob(f".{glob.escape(name)}.*.partial"):
-        owner = path.name[len(name) + 2 :].split(".", 1)[0]
+    short = _short(name)
+    for path in out.glob(f".{glob.escape(short)}.*.partial"):
+        owner = path.name[len(short) + 2 :].split(".", 1)[0]
         if path.is_dir() and not (owner.isdigit() and _alive(int(owner))):
             shutil.rmtree(path, ignore_errors=True)
             removed.append(path.name)

@@ -213,3 +213,16 @@ def test_ctrl_c_with_two_jobs_keeps_finished_inputs(data_dir, prior_file, tmp_pa
     listed = sorted(e["name"] for e in summary(out)["inputs"] if e["status"] == "ok")
     assert finished and finished == listed
     assert list(out.glob(".*.partial")) == []
+
+
+def test_staging_folder_of_a_long_job_name(tmp_path):
+    """Issue 17.11: file names over ~225 characters; the staging folder name stays short enough."""
+    from platypose.cli.lift_run import remove_stale_staging, staging_folder
+
+    name = "x" * 240
+    with staging_folder(tmp_path / name, name) as staging:
+        assert staging.is_dir() and len(staging.name) < 100
+        (staging / f"{name}_summary.csv").write_text("ok")  # the longest output name fits beside it
+    stale = tmp_path / f".{name[:64]}.999999999.abc.partial"
+    stale.mkdir()
+    assert remove_stale_staging(tmp_path, name) == [stale.name]

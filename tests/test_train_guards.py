@@ -124,7 +124,7 @@ def test_the_shipped_prior_is_finite():
     "options, needle",
     [
         ({"seed": 10**23}, "seed must be in 0..2**63-1"),
-        ({"samples": 10**9}, "samples must be in 1..5000"),
+        ({"samples": 10**9}, "samples must be at most 5000"),
         ({"eta": float("nan")}, "eta must be a finite number"),
         ({"bone_weight": float("inf")}, "bone weight must be a finite number"),
     ],
