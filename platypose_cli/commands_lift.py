@@ -38,6 +38,7 @@ def lift_settings(
     from platypose.cli.lift_run import RunSettings
     from platypose.detectors.tracking import persons_count
     from platypose.exporters.export import parse_formats
+    from platypose.lifting.atomic import check_writable
     from platypose.lifting.errors import InputError
     from platypose.lifting.floor import parse_floor
     from platypose.lifting.runtime import resolve_device
@@ -49,6 +50,7 @@ def lift_settings(
     check_root_mode(root)
     if sync not in ("auto", "none") and not Path(sync).is_file():
         raise InputError(f"{sync}: offsets file not found (--sync takes auto, none or an offsets .json)")
+    check_writable(out, folder=True)
     return RunSettings(
         out=out,
         cams=cams,

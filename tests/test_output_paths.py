@@ -88,3 +88,13 @@ def test_export_out_paths(run_cli, data_dir, tmp_path, read_only_folder):
     for out, needle in [(tmp_path / "file", "is a file"), (read_only_folder, "cannot write there")]:
         code, _, err = run_cli("export", npz, "--formats", "csv", "--out", out)
         one_line_error(code, err, needle)
+
+
+def test_lift_out_paths(run_cli, data_dir, tmp_path, read_only_folder):
+    keypoints = data_dir / POSE2SIM / "openpose-body25b/cam01_json"
+    (tmp_path / "file").write_text("x")
+    for out, needle in [(tmp_path / "file", "is a file"), (read_only_folder, "cannot write there")]:
+        code, _, err = run_cli(
+            "lift", "--keypoints", keypoints, "--fps", "60", "--image-size", "1920x1088", "--out", out
+        )
+        one_line_error(code, err, needle)
