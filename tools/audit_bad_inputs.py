@@ -240,9 +240,8 @@ def swapped_calibration(folder: Path) -> Path:
     content = json.loads(full.read_text())
     cams = {c["name"]: c for c in content["cameras"]}
     a, b = cams["cam_01"], cams["cam_02"]
-    for key in ("R", "t", "rvec", "rotation", "translation"):
-        if key in a:
-            a[key], b[key] = b[key], a[key]
+    for key in set(a) - {"name", "size", "K", "dist"}:  # the poses (and anything else about placement)
+        a[key], b[key] = b[key], a[key]
     path = folder / "swapped.json"
     path.write_text(json.dumps(content))
     return path
