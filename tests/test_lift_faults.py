@@ -208,7 +208,11 @@ def test_ctrl_c_with_two_jobs_keeps_finished_inputs(data_dir, prior_file, tmp_pa
         pytest.skip("the batch finished before it could be interrupted")
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=120)
-    assert process.returncode == 130 and "Traceback" not in err, err
+    assert "Traceback" not in err, err
+    if process.returncode == 0:  # a loaded machine: the batch ended before the signal was handled
+        assert len(summary(out)["inputs"]) == 4
+        pytest.skip("the batch finished before it could be interrupted")
+    assert process.returncode == 130, err
     finished = sorted(p.parent.name for p in out.glob("*/lift.json"))
     listed = sorted(e["name"] for e in summary(out)["inputs"] if e["status"] == "ok")
     assert finished and finished == listed

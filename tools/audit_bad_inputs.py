@@ -373,7 +373,7 @@ def _(w: Path) -> Run:
     keypoints, out = _resume_setup(w, "2")
 
     def check(proc) -> str | None:
-        with np.load(out / "cam01/cam01.npz") as data:
+        with np.load(out / "cam01/cam01.npz", allow_pickle=False) as data:
             count = data["hypotheses"].shape[1]
         return None if count == 4 else f"stale: {count} hypotheses kept, 4 asked"
 
