@@ -102,6 +102,11 @@ def case(item: str, name: str):
     return register
 
 
+def _default_signals() -> None:
+    """Background shells start jobs with Ctrl-C ignored, and children inherit that: restore Python's handler."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def platypose(args: list, timeout: float, cwd: Path | None = None, env: dict | None = None):
     """Run the CLI in a fresh process; None on timeout."""
     environment = {**os.environ, "OMP_NUM_THREADS": "1", **(env or {})}
@@ -619,7 +624,9 @@ def _(w: Path) -> Run:
         env = {**os.environ, "OMP_NUM_THREADS": "1"}
         command = [sys.executable, "-m", "platypose", "lift", *map(str, inputs), *FAST, "--stride", "20", "--jobs", "2"]
         command += ["--formats", "npz", "--out", str(out)]
-        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=_default_signals
+        )
         deadline = time.monotonic() + 400
         while time.monotonic() < deadline and process.poll() is None and not list(out.glob("*/lift.json")):
             time.sleep(0.2)
