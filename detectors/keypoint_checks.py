@@ -27,6 +27,19 @@ MAX_GAP_FRAMES = 100_000
 MAX_PEOPLE = 100
 
 
+def describe_parse_error(err: Exception) -> str:
+    """A user-facing reason for an error met while reading a keypoint file's structure (no exception names)."""
+    if isinstance(err, KeyError):
+        return f"missing field {err}"
+    if isinstance(err, (TypeError, AttributeError)):
+        return f"a field has the wrong type ({err})"
+    if isinstance(err, FileNotFoundError):
+        return "no such file"
+    if isinstance(err, OSError):
+        return err.strerror or str(err)
+    return str(err)
+
+
 def whole_number(value: object, what: str) -> int:
     """``value`` as an int if it is a whole number (``3`` or ``3.0``); ValueError naming ``what`` otherwise."""
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.assemble import Person, assemble_tracks
-from platypose.detectors.keypoint_checks import whole_number
+from platypose.detectors.keypoint_checks import describe_parse_error, whole_number
 from platypose.detectors.tracking import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.errors import InputError
@@ -55,7 +55,7 @@ def read_keypoints_json(path: str | Path, tracker: TrackerConfig = TrackerConfig
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
-        raise InputError(f"{path}: not a {FORMAT} file ({type(err).__name__}: {err})") from None
+        raise InputError(f"{path}: not a {FORMAT} file ({describe_parse_error(err)})") from None
     ids = {person.track_id is None for people in frames.values() for person in people}
     if len(ids) > 1:
         raise InputError(f"{path}: give an id for every person or for none")

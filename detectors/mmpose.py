@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.assemble import Person, assemble_tracks
-from platypose.detectors.keypoint_checks import whole_number
+from platypose.detectors.keypoint_checks import describe_parse_error, whole_number
 from platypose.detectors.keypoints import model_layout
 from platypose.detectors.tracking import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
@@ -87,7 +87,7 @@ def read_mmpose_json(
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except (OSError, ValueError, KeyError, TypeError) as err:
-        raise InputError(f"{path}: not MMPose or COCO-style keypoint JSON ({type(err).__name__}: {err})") from None
+        raise InputError(f"{path}: not MMPose or COCO-style keypoint JSON ({describe_parse_error(err)})") from None
     if not frames:
         raise InputError(f"{path}: no frames")
     images = content.get("images", []) if isinstance(content, dict) else []

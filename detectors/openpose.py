@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.assemble import Person, assemble_tracks
-from platypose.detectors.keypoint_checks import check_frame_numbers
+from platypose.detectors.keypoint_checks import check_frame_numbers, describe_parse_error
 from platypose.detectors.tracking import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
 from platypose.detectors.video import timing_from_video
@@ -43,7 +43,7 @@ def _read_people(path: Path) -> list[np.ndarray]:
         people = json.loads(path.read_text())["people"]
         poses = [np.asarray(person["pose_keypoints_2d"], dtype=np.float64) for person in people]
     except (OSError, ValueError, KeyError, TypeError) as err:
-        raise InputError(f"{path}: not an OpenPose keypoint file ({type(err).__name__}: {err})") from None
+        raise InputError(f"{path}: not an OpenPose keypoint file ({describe_parse_error(err)})") from None
     for pose in poses:
         if pose.ndim != 1 or pose.size == 0 or pose.size % 3:
             raise InputError(f"{path}: pose_keypoints_2d has {pose.size} numbers, not a multiple of 3")
