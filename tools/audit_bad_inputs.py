@@ -15,7 +15,7 @@ classified as one of:
 Cases needing root (a full or read-only tmpfs) are skipped elsewhere.
 
     python tools/audit_bad_inputs.py                 # all cases, a table and the counts
-    python tools/audit_bad_inputs.py --only resume   # cases whose name contains "resume"
+    python tools/audit_bad_inputs.py --only resume,out-   # cases whose name contains "resume" or "out-"
 """
 
 from __future__ import annotations
@@ -800,10 +800,11 @@ def _(w: Path) -> Run:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", default="", help="run the cases whose name contains this")
+    parser.add_argument("--only", default="", help="run the cases whose name contains one of these (comma-separated)")
     parser.add_argument("--json", type=Path, help="also write the outcomes as JSON here")
     options = parser.parse_args()
-    chosen = [c for c in CASES if options.only in c.name]
+    wanted = options.only.split(",")
+    chosen = [c for c in CASES if any(w in c.name for w in wanted)]
     root = Path(tempfile.mkdtemp(prefix="platypose-audit-"))
     try:
         for number, item in enumerate(chosen):
