@@ -253,7 +253,10 @@ def remove_stale_staging(out: Path, name: str) -> list[str]:
 def output_patterns(name: str) -> list[str]:
     """Glob patterns of every file a lift of job ``name`` may write into its folder."""
     stem = glob.escape(name)
-    return [f"{stem}.npz", f"{stem}.csv", f"{stem}_summary.csv", f"{stem}.rrd", f"{stem}_p*.bvh"]
+    fixed = [
+        f"{stem}{end}" for end in (".npz", ".csv", "_summary.csv", ".rrd", "_gaps.json", "_angles.csv", "_report.png")
+    ]
+    return fixed + [f"{stem}_p*.bvh", f"{stem}_p*.trc", f"{stem}_p*.c3d"]
 
 
 def remove_stale_outputs(folder: Path, name: str, written: list[Path]) -> list[str]:
