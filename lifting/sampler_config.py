@@ -77,7 +77,10 @@ class SamplerConfig:
     def __post_init__(self) -> None:
         numbers = {k: v for k, v in vars(self).items() if isinstance(v, float)}
         checks = [
-            *((math.isfinite(v), f"{k.replace('_', ' ')} must be a finite number, got {v}") for k, v in numbers.items()),
+            *(
+                (math.isfinite(v), f"{k.replace('_', ' ')} must be a finite number, got {v}")
+                for k, v in numbers.items()
+            ),
             (self.samples >= 1, f"samples must be at least 1, got {self.samples}"),
             (self.samples <= MAX_SAMPLES, f"samples must be at most {MAX_SAMPLES}, got {self.samples}"),
             (0 <= self.seed < 2**63, f"seed must be in 0..2**63-1, got {self.seed}"),
