@@ -1,7 +1,9 @@
 """Per-frame people read from a file, in any keypoint layout, -> tracks on our joints (shared by every reader).
 
 Frame numbers missing between the first and the last become frames with no
-detection (NaN, confidence 0), so times stay right. People that all carry a
+detection (NaN, confidence 0), so times stay right. Implausible values (a gap
+of many frames, a crowd, points far outside the image) are refused by
+:mod:`detectors.keypoint_checks` before any tracking. People that all carry a
 track ID keep it; otherwise :mod:`detectors.tracking` assigns IDs.
 """
 
@@ -11,6 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from platypose.detectors.keypoint_checks import (
+    check_fps,
+    check_frame_numbers,
+    check_image_size,
+    check_people_count,
+    check_points,
+)
 from platypose.detectors.keypoints import to_our_joints
 from platypose.detectors.tracking import TrackerConfig, track_detections, tracks_from_ids
 from platypose.detectors.types import PoseTrack2D
@@ -49,8 +58,15 @@ def assemble_tracks(
     """Frame number -> people, in ``layout`` -> tracks; frame ``n`` is at ``(n - time_origin) / fps`` seconds."""
     if not frames:
         raise InputError(f"{source}: no frames")
+    fps = check_fps(source, fps)
+    image_size = check_image_size(source, image_size)
+    check_frame_numbers(source, frames)
     everyone = [person for people in frames.values() for person in people]
     check_layout(source, layout, everyone)
+    for number, people in frames.items():
+        check_people_count(source, number, len(people))
+        if people:
+            check_points(source, np.stack([p.keypoints for p in people]), image_size, f"frame {number}: ")
     numbers = np.arange(min(frames), max(frames) + 1)
     times = (numbers - time_origin) / fps
     detections = [

@@ -46,7 +46,7 @@ class DetectionCache:
         """Cached (per-frame (N_t, S, 3) detections, frame indices), or None if absent, unreadable or stale."""
         try:
             stored_key, detections, indices = read_detections(self.path)
-        except (OSError, KeyError, ValueError):
+        except (OSError, KeyError, ValueError, EOFError):
             return None
         return (detections, indices) if stored_key == key else None
 

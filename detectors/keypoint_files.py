@@ -18,10 +18,12 @@ from __future__ import annotations
 import csv
 import json
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from platypose.detectors.keypoint_checks import check_tracks
 from platypose.detectors.types import PoseTrack2D
 from platypose.detectors.video import timing_from_video
 from platypose.lifting.atomic import atomic_open
@@ -64,13 +66,16 @@ def read_keypoints_npz(path: str | Path, camera: int = 0) -> PoseTrack2D:
             else:
                 image_size = tuple(json.loads(str(data["cameras"]))["cameras"][camera]["size"])
             source = str(data["source"]) if "source" in data.files else str(path)
-            return PoseTrack2D(
-                views[camera].transpose(1, 0, 2, 3), data["frame_times"], data["track_ids"], image_size, source
+            tracks = PoseTrack2D(
+                views[camera].transpose(1, 0, 2, 3), data["frame_times"], data["track_ids"], image_size, str(path)
             )
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
+    except EOFError:
+        raise InputError(f"{path}: empty or truncated npz file") from None
     except (OSError, KeyError, ValueError, IndexError, zipfile.BadZipFile, json.JSONDecodeError) as err:
         raise InputError(f"{path}: {err}") from None
+    return replace(check_tracks(tracks), source=source)
 
 
 def write_keypoints_csv(tracks: PoseTrack2D, path: str | Path) -> Path:
@@ -110,6 +115,9 @@ def read_keypoints_csv(path: str | Path, image_size: tuple[int, int] | None = No
             if tuple(next(reader, ())) != CSV_HEADER:
                 raise ValueError(f"header must be {','.join(CSV_HEADER)}")
             rows = [row for row in reader if row]
+        for line, row in enumerate(rows, start=2):
+            if len(row) != len(CSV_HEADER):
+                raise ValueError(f"row {line} has {len(row)} values, not {len(CSV_HEADER)}")
         person = np.array([int(r[0]) for r in rows])
         frame = np.array([int(r[1]) for r in rows])
         time = np.array([float(r[2]) for r in rows])
@@ -121,6 +129,10 @@ def read_keypoints_csv(path: str | Path, image_size: tuple[int, int] | None = No
         raise InputError(f"{path}: unknown joint name {err}") from None
     if len(rows) == 0 or frame.min() < 0:
         raise InputError(f"{path}: no rows or a negative frame index")
+    present = np.unique(frame)
+    if present[-1] + 1 > len(present):
+        gap = int(np.argmax(present != np.arange(len(present))))
+        raise InputError(f"{path}: frame indices are not contiguous (frame {gap} has no row)")
     ids, column = np.unique(person, return_inverse=True)
     keypoints = np.full((frame.max() + 1, len(ids), 17, 3), np.nan, dtype=np.float32)
     keypoints[..., 2] = 0.0
@@ -130,4 +142,4 @@ def read_keypoints_csv(path: str | Path, image_size: tuple[int, int] | None = No
     if np.isnan(times).any():
         gap = int(np.argmax(np.isnan(times)))
         raise InputError(f"{path}: frame indices are not contiguous (frame {gap} has no row)")
-    return PoseTrack2D(keypoints, times, ids, image_size, str(path))
+    return check_tracks(PoseTrack2D(keypoints, times, ids, image_size, str(path)))

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.assemble import Person, assemble_tracks
+from platypose.detectors.keypoint_checks import describe_parse_error, whole_number
 from platypose.detectors.tracking import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.errors import InputError
@@ -47,16 +48,14 @@ def read_keypoints_json(path: str | Path, tracker: TrackerConfig = TrackerConfig
         layout = str(content["layout"])
         frames: dict[int, list[Person]] = {}
         for entry in content["frames"]:
-            number = int(entry["frame"])
+            number = whole_number(entry["frame"], "frame number")
             if number in frames:
                 raise ValueError(f"frame {number} appears twice")
             frames[number] = [_person(person) for person in entry["people"]]
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
-        raise InputError(f"{path}: not a {FORMAT} file ({type(err).__name__}: {err})") from None
-    if not fps > 0:
-        raise InputError(f"{path}: fps must be positive")
+        raise InputError(f"{path}: not a {FORMAT} file ({describe_parse_error(err)})") from None
     ids = {person.track_id is None for people in frames.values() for person in people}
     if len(ids) > 1:
         raise InputError(f"{path}: give an id for every person or for none")

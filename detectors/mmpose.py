@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.assemble import Person, assemble_tracks
+from platypose.detectors.keypoint_checks import describe_parse_error, whole_number
 from platypose.detectors.keypoints import model_layout
 from platypose.detectors.tracking import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
@@ -65,7 +66,7 @@ def parse_frames(content) -> dict[int, list[Person]]:
         raise ValueError("neither MMPose predictions (instance_info with frame_id/instances) nor COCO-style JSON")
     frames = {}
     for n, entry in enumerate(entries):
-        frame = int(entry.get("frame_id", n))
+        frame = whole_number(entry.get("frame_id", n), "frame_id")
         if frame in frames:
             raise ValueError(f"frame_id {frame} appears twice")
         frames[frame] = [_mmpose_person(instance) for instance in entry["instances"]]
@@ -86,7 +87,7 @@ def read_mmpose_json(
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except (OSError, ValueError, KeyError, TypeError) as err:
-        raise InputError(f"{path}: not MMPose or COCO-style keypoint JSON ({type(err).__name__}: {err})") from None
+        raise InputError(f"{path}: not MMPose or COCO-style keypoint JSON ({describe_parse_error(err)})") from None
     if not frames:
         raise InputError(f"{path}: no frames")
     images = content.get("images", []) if isinstance(content, dict) else []

@@ -101,5 +101,7 @@ def match_across_views(
         keypoints = missing_persons(view.num_frames, len(roots))
         for p in range(view.num_persons):
             keypoints[:, person[root(nodes.index((c, p)))]] = view.keypoints[:, p]
-        matched.append(PoseTrack2D(keypoints, view.frame_times, np.arange(len(roots)), view.image_size, view.source))
+        matched.append(
+            PoseTrack2D(keypoints, view.frame_times, np.arange(len(roots)), view.image_size, view.source, view.notes)
+        )
     return matched

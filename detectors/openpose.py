@@ -4,7 +4,9 @@ The frame number of each file is the last group of digits in its name
 (``cam01.0042.json``, ``video_000000000042_keypoints.json``). Frame times are
 ``frame_number / fps``. Missing frame numbers between the first and the last
 file are kept as frames with no detection (NaN, confidence 0), so times stay
-right; the gap is reported by :func:`missing_frames`. OpenPose's ``person_id``
+right; the gap is reported by :func:`missing_frames`. A file numbered far past
+the others (more than ``keypoint_checks.MAX_GAP_FRAMES`` after the one before)
+is an error naming it. OpenPose's ``person_id``
 is usually -1, so people are tracked by :mod:`detectors.tracking`. A point
 OpenPose did not find is written as (0, 0, 0) and becomes missing.
 """
@@ -18,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.assemble import Person, assemble_tracks
+from platypose.detectors.keypoint_checks import check_frame_numbers, describe_parse_error
 from platypose.detectors.tracking import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
 from platypose.detectors.video import timing_from_video
@@ -40,7 +43,7 @@ def _read_people(path: Path) -> list[np.ndarray]:
         people = json.loads(path.read_text())["people"]
         poses = [np.asarray(person["pose_keypoints_2d"], dtype=np.float64) for person in people]
     except (OSError, ValueError, KeyError, TypeError) as err:
-        raise InputError(f"{path}: not an OpenPose keypoint file ({type(err).__name__}: {err})") from None
+        raise InputError(f"{path}: not an OpenPose keypoint file ({describe_parse_error(err)})") from None
     for pose in poses:
         if pose.ndim != 1 or pose.size == 0 or pose.size % 3:
             raise InputError(f"{path}: pose_keypoints_2d has {pose.size} numbers, not a multiple of 3")
@@ -92,6 +95,7 @@ def read_openpose_folder(
     numbers = [frame_number(path) for path in files]
     if len(set(numbers)) != len(numbers):
         raise InputError(f"{folder}: two files have the same frame number")
+    check_frame_numbers(str(folder), numbers, {n: path.name for n, path in zip(numbers, files)})
     fps, image_size = timing_from_video(folder, fps, image_size)
     frames = {number: [Person(pose) for pose in _read_people(path)] for number, path in zip(numbers, files)}
     everyone = [person.keypoints for people in frames.values() for person in people]

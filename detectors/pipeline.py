@@ -11,6 +11,7 @@ and tracking always re-run, they are cheap).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,7 @@ from platypose.detectors.detector import Detector
 from platypose.detectors.keypoints import to_our_joints
 from platypose.detectors.tracking import TrackerConfig, track_detections
 from platypose.detectors.types import PoseTrack2D
-from platypose.detectors.video import iter_frames, processed_times, video_info
+from platypose.detectors.video import decoding_shortfall, iter_frames, processed_times, video_info
 
 Progress = Callable[[int, int], None]
 
@@ -60,7 +61,8 @@ def detect_video(
 ) -> PoseTrack2D:
     """Detect and track people in ``video`` -> tracks (T, P, 17, 3) at the processed frames' times.
 
-    With ``cache_dir``, detections are read from / written to a cache file there.
+    With ``cache_dir``, detections are read from / written to a cache file there. A video that decodes
+    to fewer frames than its container states gets a note (``tracks.notes``) saying so.
     """
     video = Path(video)
     info = video_info(video)
@@ -75,4 +77,6 @@ def detect_video(
             cache.save(key, detections, indices)
     ours = [to_our_joints(people, detector.layout) for people in detections]
     times = processed_times(video, indices, info.fps)
-    return track_detections(ours, times, info.image_size, f"{video} ({detector.name})", tracker)
+    tracks = track_detections(ours, times, info.image_size, f"{video} ({detector.name})", tracker)
+    short = decoding_shortfall(video, info, indices, stride, max_frames)
+    return replace(tracks, notes=tracks.notes + (short,)) if short else tracks

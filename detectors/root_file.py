@@ -18,11 +18,11 @@ from platypose.lifting.timebase import interpolate
 
 def _from_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
     try:
-        with np.load(path) as data:
+        with np.load(path, allow_pickle=False) as data:
             times, root = np.asarray(data["frame_times"], float), np.asarray(data["root"], float)
     except KeyError as err:
         raise InputError(f"{path}: root trajectory npz needs 'frame_times' and 'root' (missing {err})") from None
-    except (OSError, ValueError, zipfile.BadZipFile):
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile):
         raise InputError(f"{path}: not a readable npz file") from None
     return times, root[None] if root.ndim == 2 else root
 

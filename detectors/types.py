@@ -17,7 +17,8 @@ class PoseTrack2D:
     missing detection has confidence 0 and x, y = NaN. ``frame_times`` (T,) are
     seconds from the start of the video / folder, ``track_ids`` (P,) persistent
     person IDs, ``image_size`` (height, width) in pixels, ``source`` the file,
-    folder or model the keypoints came from.
+    folder or model the keypoints came from; ``notes`` are warnings about the
+    input (e.g. a truncated video) that belong in the run's log and summary.
     """
 
     keypoints: np.ndarray
@@ -25,6 +26,7 @@ class PoseTrack2D:
     track_ids: np.ndarray
     image_size: tuple[int, int]
     source: str
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         keypoints = np.asarray(self.keypoints, dtype=np.float32)
@@ -40,6 +42,7 @@ class PoseTrack2D:
         object.__setattr__(self, "frame_times", times)
         object.__setattr__(self, "track_ids", ids)
         object.__setattr__(self, "image_size", (int(self.image_size[0]), int(self.image_size[1])))
+        object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
 
     @property
     def num_frames(self) -> int:
@@ -55,5 +58,5 @@ class PoseTrack2D:
         """The same tracks restricted to the given person indices (positions along P, not IDs)."""
         index = np.asarray(person_indices, dtype=np.int64)
         return PoseTrack2D(
-            self.keypoints[:, index], self.frame_times, self.track_ids[index], self.image_size, self.source
+            self.keypoints[:, index], self.frame_times, self.track_ids[index], self.image_size, self.source, self.notes
         )

@@ -32,6 +32,25 @@ def processed_times(path: Path, indices: np.ndarray, fps: float) -> np.ndarray:
     return times[indices]
 
 
+def decoding_shortfall(
+    path: str | Path, info: VideoInfo, indices: np.ndarray, stride: int = 1, max_frames: int | None = None
+) -> str | None:
+    """A warning when fewer frames could be decoded than the container states (a truncated or damaged file).
+
+    ``indices`` are the frame indices that were read (every ``stride``-th); a run stopped by ``max_frames``
+    is not short. One frame of slack allows for containers whose count is off by one.
+    """
+    if info.frame_count <= 0 or (max_frames is not None and len(indices) >= max_frames):
+        return None
+    decoded = int(indices[-1]) + 1 if len(indices) else 0
+    if decoded + stride - 1 >= info.frame_count - 1:
+        return None
+    return (
+        f"{path}: the container states {info.frame_count} frames but only {decoded} could be decoded "
+        f"(truncated or damaged file); frames {decoded}-{info.frame_count - 1} are missing from the result"
+    )
+
+
 def sibling_video(path: Path) -> Path | None:
     """The video a keypoint file or folder was made from: same name less ``_json``, beside it or one up."""
     name = path.name.split(".")[0] if path.is_file() else path.name
@@ -54,6 +73,6 @@ def timing_from_video(
         info = video_info(video)
         fps = info.fps if fps is None else fps
         image_size = info.image_size if image_size is None else image_size
-    if not fps > 0:
-        raise InputError(f"{path}: fps must be positive, got {fps}")
-    return float(fps), (int(image_size[0]), int(image_size[1]))
+    from platypose.detectors.keypoint_checks import check_fps, check_image_size
+
+    return check_fps(str(path), fps), check_image_size(str(path), (int(image_size[0]), int(image_size[1])))

@@ -136,5 +136,7 @@ def read_npz(path: Path | str) -> LiftResult:
             )
     except InputError:
         raise
+    except EOFError:
+        raise InputError(f"{path}: empty or truncated npz file") from None
     except (ValueError, KeyError, OSError, zipfile.BadZipFile, json.JSONDecodeError) as err:
         raise InputError(f"{path}: {err}") from None

@@ -36,6 +36,7 @@ from platypose.exporters.frames import frame_chunks
 from platypose.exporters.result import LiftResult
 from platypose.exporters.rrd_floor import log_floor_and_plausibility
 from platypose.exporters.video import jpeg_frames, needs_reencode, reencode_h264
+from platypose.exporters.watched_writer import run_watched
 from platypose.lifting.atomic import atomic_path
 from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS
@@ -363,29 +364,46 @@ def write_rrd(
     video_mode: str = "asset",
     say: Callable[[str], None] = lambda _: None,
 ) -> Path:
-    """Write the rerun recording of ``result`` to ``path`` atomically; videos are matched to cameras by name."""
+    """Write the rerun recording of ``result`` to ``path`` atomically; videos are matched to cameras by name.
+
+    The recording is written by a watched child process (:mod:`exporters.watched_writer`): a disk that fills
+    meanwhile is ``OSError(ENOSPC)`` naming ``path``, never a hang; nothing is left at ``path`` then.
+    """
     path = Path(path)
     video_paths = {k: Path(v) for k, v in (video_paths or {}).items()}
     check_videos(result, video_paths, video_mode)
     present = result.present().any(axis=1)
     flags = {p: quality_flags(result, p) for p in range(result.num_persons) if present[p]}
     with atomic_path(path) as tmp:
-        rec = rra.open_recording(tmp, "platypose", name, _layout(result))
-        try:
-            rra.log_world(rec, "world")
-            rra.log_text(rec, "quality", quality_text(result, flags))
-            for c, camera in enumerate(result.cameras):
-                entity = f"world/cameras/{camera.name}"
-                rra.log_camera(rec, entity, camera.K, camera.size, camera.R, camera.t)
-                if camera.name in video_paths and video_mode != "none":
-                    video = video_paths[camera.name]
-                    _log_video(rec, f"{entity}/video", video, video_mode, camera.time_offset_s, result, say)
-                _log_keypoints(rec, result, c)
-            for p in flags:
-                label = f"p{result.track_ids[p]}" + (" (check)" if flags[p] else "")
-                _log_person(rec, result, p, p, label)
-            reports = [person_report(result, p) or {} for p in range(result.num_persons)]
-            log_floor_and_plausibility(rec, result.meta.get("floor"), reports, result.track_ids, people_centre(result))
-        finally:
-            rra.close_recording(rec)
+        run_watched(_record, (result, name, video_paths, video_mode, flags), tmp, say)
     return path
+
+
+def _record(
+    result: LiftResult,
+    name: str,
+    video_paths: Mapping[str, Path],
+    video_mode: str,
+    flags: dict,
+    path: Path,
+    say: Callable[[str], None],
+) -> None:
+    """Log everything of ``result`` into a new recording at ``path`` (run by :func:`run_watched`)."""
+    rec = rra.open_recording(path, "platypose", name, _layout(result))
+    try:
+        rra.log_world(rec, "world")
+        rra.log_text(rec, "quality", quality_text(result, flags))
+        for c, camera in enumerate(result.cameras):
+            entity = f"world/cameras/{camera.name}"
+            rra.log_camera(rec, entity, camera.K, camera.size, camera.R, camera.t)
+            if camera.name in video_paths and video_mode != "none":
+                video = video_paths[camera.name]
+                _log_video(rec, f"{entity}/video", video, video_mode, camera.time_offset_s, result, say)
+            _log_keypoints(rec, result, c)
+        for p in flags:
+            label = f"p{result.track_ids[p]}" + (" (check)" if flags[p] else "")
+            _log_person(rec, result, p, p, label)
+        reports = [person_report(result, p) or {} for p in range(result.num_persons)]
+        log_floor_and_plausibility(rec, result.meta.get("floor"), reports, result.track_ids, people_centre(result))
+    finally:
+        rra.close_recording(rec)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import tempfile
 from collections.abc import Iterator
@@ -9,19 +10,55 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Any
 
+from platypose.lifting.errors import InputError
+
+
+def check_writable(target: Path | str, folder: bool = False) -> Path:
+    """Make sure ``target`` (a file, or a ``folder``) can be written before any work starts.
+
+    Creates the missing parent folders (and ``target`` itself when ``folder``) and a
+    temporary file in the folder the output goes to; raises InputError naming
+    ``target`` when it is of the wrong kind or cannot be written (read-only,
+    full, a file in the way, a name too long).
+    """
+    target = Path(target)
+    if folder and target.exists() and not target.is_dir():
+        raise InputError(f"{target}: is a file, an output folder was expected")
+    if not folder and target.is_dir():
+        raise InputError(f"{target}: is a folder, an output file name was expected")
+    where = target if folder else target.parent
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+        if not folder and len(os.fsencode(target.name)) + 16 > os.pathconf(where, "PC_NAME_MAX"):
+            raise OSError(errno.ENAMETOOLONG, "file name too long")
+        handle, name = tempfile.mkstemp(prefix=".write-check.", dir=where)
+        os.close(handle)
+        os.unlink(name)
+    except OSError as err:
+        blocker = next((p for p in (where, *where.parents) if p.exists() and not p.is_dir()), None)
+        if blocker is not None:
+            raise InputError(f"{target}: cannot write there ({blocker} is a file, not a folder)") from None
+        raise InputError(f"{target}: cannot write there ({err.strerror or err})") from None
+    return target
+
 
 @contextmanager
 def atomic_path(target: Path | str) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; on success it replaces ``target`` (mode 644), else it is removed."""
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    # The temporary name is at most ~80 characters, so any target name the file system takes works.
+    handle, name = tempfile.mkstemp(prefix=f".{target.name[:64]}.", suffix=".tmp", dir=target.parent)
     os.close(handle)
     tmp = Path(name)
     try:
         yield tmp
         os.chmod(tmp, 0o644)
         os.replace(tmp, target)
+    except OSError as err:
+        if err.filename is None or str(err.filename) == str(tmp):  # name the target, not the temporary file
+            raise OSError(err.errno, err.strerror or str(err), str(target)) from None
+        raise
     finally:
         tmp.unlink(missing_ok=True)
 

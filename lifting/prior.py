@@ -28,6 +28,7 @@ from platypose.lifting.skeleton import JOINT_NAMES
 
 CHECKPOINT_FORMAT = "platypose-prior"
 CHECKPOINT_VERSION = 1
+MAX_WINDOW_FRAMES = 4096
 DEFAULT_PRIOR = Path(__file__).resolve().parent / "priors" / "default.pt"
 
 
@@ -44,6 +45,19 @@ class PriorConfig:
     fps: float = 30.0
     diffusion_steps: int = TRAIN_STEPS
     features: int = FEATURES_PER_FRAME
+
+    def __post_init__(self) -> None:
+        for name in ("layers", "width", "heads", "ff_width", "max_frames", "diffusion_steps", "features"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
+        if self.max_frames > MAX_WINDOW_FRAMES:
+            raise ValueError(f"max_frames must be at most {MAX_WINDOW_FRAMES}, got {self.max_frames}")
+        if self.width % self.heads or self.width % 2:
+            raise ValueError(f"width {self.width} must be even and a multiple of heads ({self.heads})")
+        if not (math.isfinite(self.fps) and self.fps > 0):
+            raise ValueError(f"fps must be a positive number, got {self.fps}")
+        if not 0 <= self.dropout < 1:
+            raise ValueError(f"dropout must be in [0, 1), got {self.dropout}")
 
 
 def sinusoidal_embedding(positions: torch.Tensor, width: int) -> torch.Tensor:
@@ -163,6 +177,15 @@ def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None)
     return hashlib.sha256(data).hexdigest()
 
 
+def _check_finite(path: Path, model: MotionPrior, normalizer: Normalizer) -> None:
+    """InputError naming the first non-finite weight tensor (a diverged training run) or normaliser statistic."""
+    for name, tensor in model.state_dict().items():
+        if not torch.isfinite(tensor).all():
+            raise InputError(f"{path}: prior weights '{name}' hold NaN or infinite values (a diverged training run)")
+    if not (np.isfinite(normalizer.mean).all() and np.isfinite(normalizer.std).all() and (normalizer.std > 0).all()):
+        raise InputError(f"{path}: prior normalisation holds NaN, infinite or non-positive values")
+
+
 def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu") -> tuple[PriorBundle, dict]:
     """Load a checkpoint strictly (default: the shipped prior); returns the bundle and the ``extra`` dict.
 
@@ -182,13 +205,19 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
         raise InputError(f"{path}: prior checkpoint version {payload.get('version')} is not supported")
     if list(payload["joint_names"]) != list(JOINT_NAMES):
         raise InputError(f"{path}: prior was trained on another joint set")
-    config = PriorConfig(**payload["config"])
-    model = MotionPrior(config).to(device)
-    model.load_state_dict(payload["state_dict"], strict=True)
+    try:
+        config = PriorConfig(**payload["config"])
+        model = MotionPrior(config).to(device)
+        model.load_state_dict(payload["state_dict"], strict=True)
+        normalizer = Normalizer(
+            mean=np.asarray(payload["normalizer"]["mean"], dtype=np.float64),
+            std=np.asarray(payload["normalizer"]["std"], dtype=np.float64),
+        )
+    except (TypeError, ValueError, KeyError, RuntimeError) as err:
+        raise InputError(
+            f"{path}: not a valid platypose prior ({type(err).__name__}: {err})".replace("\n", " ")
+        ) from None
+    _check_finite(path, model, normalizer)
     model.eval()
-    normalizer = Normalizer(
-        mean=np.asarray(payload["normalizer"]["mean"], dtype=np.float64),
-        std=np.asarray(payload["normalizer"]["std"], dtype=np.float64),
-    )
     bundle = PriorBundle(model, normalizer, payload.get("manifest", {}), hashlib.sha256(data).hexdigest())
     return bundle, payload.get("extra", {})

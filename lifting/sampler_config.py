@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from platypose.lifting.energy import ROBUST_LOSSES
@@ -9,6 +10,7 @@ from platypose.lifting.energy import ROBUST_LOSSES
 STEP_RULES = ("backtrack", "paper")
 DIRECTIONS = ("gauss-newton", "gradient")
 SOLVERS = ("ddim", "dpm2m")
+MAX_SAMPLES = 5000  # hypotheses per person: beyond this the arrays outgrow any machine for a minute of video
 
 
 @dataclass(frozen=True)
@@ -77,8 +79,15 @@ class SamplerConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        numbers = {k: v for k, v in vars(self).items() if isinstance(v, float)}
         checks = [
+            *(
+                (math.isfinite(v), f"{k.replace('_', ' ')} must be a finite number, got {v}")
+                for k, v in numbers.items()
+            ),
             (self.samples >= 1, f"samples must be at least 1, got {self.samples}"),
+            (self.samples <= MAX_SAMPLES, f"samples must be at most {MAX_SAMPLES}, got {self.samples}"),
+            (0 <= self.seed < 2**63, f"seed must be in 0..2**63-1, got {self.seed}"),
             (1 <= self.steps <= 50, f"steps must be in 1..50, got {self.steps}"),
             (0 <= self.skip < self.steps, f"skip must be in 0..{self.steps - 1}, got {self.skip}"),
             (0 <= self.eta <= 1, f"eta must be in [0, 1], got {self.eta}"),

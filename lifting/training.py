@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import torch
 
+from platypose.lifting.errors import InputError
 from platypose.lifting.motion import Motion
 from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
 from platypose.lifting.representation import Normalizer, joints_to_features
@@ -39,6 +40,27 @@ class TrainConfig:
     checkpoint_every: int = 1000
     validate_every: int = 250
     seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("iterations", "batch_size", "checkpoint_every", "validate_every"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name.replace('_', '-')} must be at least 1, got {getattr(self, name)}")
+        if not (np.isfinite(self.learning_rate) and 0 < self.learning_rate < 1):
+            raise ValueError(f"learning-rate must be a number in (0, 1), got {self.learning_rate}")
+        if not (np.isfinite(self.weight_decay) and self.weight_decay >= 0):
+            raise ValueError(f"weight decay must be a non-negative number, got {self.weight_decay}")
+        if not 0 <= self.bone_scale < 1 or not 0 <= self.global_scale < 1:
+            raise ValueError(f"bone-scale must be in [0, 1), got {self.bone_scale}")
+        if not 0 <= self.validation_fraction < 1:
+            raise ValueError(f"validation fraction must be in [0, 1), got {self.validation_fraction}")
+        if not 0 < self.time_scale[0] <= self.time_scale[1]:
+            raise ValueError(f"time scale range must be positive and ordered, got {self.time_scale}")
+        if not 0 <= self.seed < 2**63:
+            raise ValueError(f"seed must be in [0, 2**63), got {self.seed}")
+
+
+class TrainingDiverged(ValueError):
+    """The data's statistics, the training loss or the weights became NaN or infinite; nothing more is written."""
 
 
 @dataclass(frozen=True)
@@ -165,7 +187,8 @@ def train_prior(
     """Train (or resume) a prior on ``motions`` and write checkpoints to ``out_path``; returns the final bundle.
 
     ``resume`` is the ``extra`` dict of a checkpoint (optimiser state, iteration, RNG).
-    ``log`` receives dicts with iteration, losses and elapsed seconds.
+    ``log`` receives dicts with iteration, losses and elapsed seconds. Raises :class:`TrainingDiverged`
+    (before writing anything of that step) when the loss is not finite.
     """
     if threads:
         torch.set_num_threads(threads)
@@ -173,7 +196,7 @@ def train_prior(
     torch.manual_seed(config.seed)
     clips = prepare_clips(motions, prior_config.fps, min_frames=2)
     if not clips:
-        raise ValueError("no usable motion clips to train on")
+        raise InputError(f"no motion clip of at least 2 frames at {prior_config.fps:g} fps to train on")
     train, validation = split_clips(clips, config.validation_fraction, config.seed)
     F = prior_config.max_frames
     sampler = WindowSampler(train, F, config, rng)
@@ -189,6 +212,8 @@ def train_prior(
         rng.bit_generator.state = resume["rng"]
     else:
         normalizer = fit_normalizer(sampler, F)
+    if not (np.isfinite(normalizer.mean).all() and np.isfinite(normalizer.std).all()):
+        raise TrainingDiverged("the motion data gives NaN or infinite feature statistics (a corrupt clip?)")
     bundle = PriorBundle(model, normalizer, manifest_of(train, validation, config, prior_config))
     schedule = DiffusionSchedule(prior_config.diffusion_steps)
     val_batch = torch.as_tensor(
@@ -203,6 +228,8 @@ def train_prior(
         return config.learning_rate * warmup * 0.5 * (1 + np.cos(np.pi * min(it / config.iterations, 1.0)))
 
     def checkpoint(it: int) -> None:
+        if not all(bool(torch.isfinite(p).all()) for p in model.parameters()):
+            raise TrainingDiverged(f"training diverged before iteration {it}: the weights hold NaN or infinite values")
         extra = {
             "iteration": it,
             "model": model.state_dict(),
@@ -225,6 +252,11 @@ def train_prior(
         t = torch.randint(0, prior_config.diffusion_steps, (config.batch_size,))
         x_t = schedule.add_noise(x0, t, torch.randn_like(x0))
         loss = ((model(x_t, t) - x0) ** 2).mean()
+        if not torch.isfinite(loss):
+            raise TrainingDiverged(
+                f"training diverged at iteration {it + 1}: the loss is {loss.item()} "
+                f"(lower the learning rate, or check the motion data); the last checkpoint written stays"
+            )
         for group in optimiser.param_groups:
             group["lr"] = float(lr_at(it))  # a numpy scalar would make the checkpoint unloadable (weights_only)
         optimiser.zero_grad(set_to_none=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
 import typer
@@ -48,8 +49,16 @@ def _register() -> None:
     import platypose.cli.commands_train  # noqa: F401
 
 
+def quiet_native_logs() -> None:
+    """Keep ffmpeg's and OpenCV's own log lines off the console (platypose reports unreadable or truncated videos
+    itself); a value the user set in the environment wins."""
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+
+
 def main() -> None:
-    """Console entry point: user errors become one line on stderr and exit code 2."""
+    """Console entry point: user errors and unreadable or unwritable files become one line on stderr, exit code 2."""
+    quiet_native_logs()
     _register()
     try:
         app()
@@ -58,3 +67,13 @@ def main() -> None:
 
         typer.echo(f"error: {cli_message(err)}", err=True)
         sys.exit(2)
+    except OSError as err:  # a file that cannot be read or written: full disk, read-only folder, name too long
+        typer.echo(f"error: {describe_os_error(err)}", err=True)
+        sys.exit(2)
+
+
+def describe_os_error(err: OSError) -> str:
+    """One line for an OSError: the file(s) it names and the system's reason."""
+    names = [str(n) for n in (err.filename, err.filename2) if n is not None]
+    reason = err.strerror or str(err)
+    return f"{' -> '.join(names)}: {reason}" if names else reason

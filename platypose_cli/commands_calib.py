@@ -36,9 +36,11 @@ def convert(
     Given a video instead, write a one-camera calibration from its size: field-of-view prior, level camera at the origin.
     """
     from platypose.detectors.video import VIDEO_SUFFIXES, video_info
+    from platypose.lifting.atomic import check_writable
     from platypose.lifting.calibration import load_calibration, save_calibration
     from platypose.lifting.calibration.defaults import default_calibration
 
+    check_writable(out)
     if source.suffix.lower() in VIDEO_SUFFIXES:
         height, width = video_info(source).image_size
         calibration = default_calibration(source.stem, height, width, str(source))

@@ -105,15 +105,18 @@ def detect(
         "--compare",
         help="Reference keypoints of the same (single) video: print per-joint pixel distances of its main person.",
     ),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress bar."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
     from platypose.detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
     from platypose.detectors.sources import view_name
     from platypose.detectors.tracking import persons_count, persons_to_keep
+    from platypose.lifting.atomic import check_writable
 
     persons_count(persons)  # a bad --persons fails before any detection
     names = [view_name(source) for source in sources]
+    for name in names:
+        check_writable(out / name, folder=True)
     cameras = None
     if cams is not None:
         from platypose.lifting.calibration import load_calibration
@@ -162,6 +165,8 @@ def detect(
             write_keypoints_csv(tracks, out / name / f"{name}_keypoints2d.csv"),
         ]
         typer.echo("\n".join(_summary(tracks, seconds, frames_run)))
+        for note in tracks.notes:
+            typer.echo(f"warning: {note}", err=True)
         for path in written:
             typer.echo(f"  wrote {path}")
     if comparison:

@@ -95,9 +95,11 @@ def export_command(
     """Re-export CSV, BVH and rerun files from a result npz (writing npz again only if asked)."""
     from platypose.exporters import export
     from platypose.exporters.npz import read_npz
+    from platypose.lifting.atomic import check_writable
 
     result = read_npz(path)
     videos = _video_map(video, [c.name for c in result.cameras])
+    check_writable(out or path.parent, folder=True)
 
     def say(message: str) -> None:
         if not quiet:

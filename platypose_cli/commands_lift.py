@@ -38,6 +38,7 @@ def lift_settings(
     from platypose.cli.lift_run import RunSettings
     from platypose.detectors.tracking import persons_count
     from platypose.exporters.export import parse_formats
+    from platypose.lifting.atomic import check_writable
     from platypose.lifting.errors import InputError
     from platypose.lifting.floor import parse_floor
     from platypose.lifting.runtime import resolve_device
@@ -49,6 +50,7 @@ def lift_settings(
     check_root_mode(root)
     if sync not in ("auto", "none") and not Path(sync).is_file():
         raise InputError(f"{sync}: offsets file not found (--sync takes auto, none or an offsets .json)")
+    check_writable(out, folder=True)
     return RunSettings(
         out=out,
         cams=cams,
@@ -88,14 +90,17 @@ def ray_executor(executor: str, address: str | None, cpus_per_input: int, collec
 
 
 def finish(entries: list[dict], out: Path) -> None:
-    """Print the batch's outcome and exit 1 if any input failed."""
+    """Print the batch's outcome and its warnings; exit 2 if inputs failed for bad input only, 1 if any other way."""
     failed = [e for e in entries if e["status"] == "failed"]
     counts = ", ".join(f"{sum(e['status'] == s for e in entries)} {s}" for s in ("ok", "failed", "skipped"))
     typer.echo(f"{len(entries)} input(s): {counts}; summary in {out / 'summary.json'}")
+    for entry in entries:
+        for warning in entry.get("warnings", []):
+            typer.echo(f"warning: {entry['name']}: {warning}", err=True)
     for entry in failed:
         typer.echo(f"  failed {entry['input']}: {entry['error']}", err=True)
     if failed:
-        raise typer.Exit(1)
+        raise typer.Exit(2 if all(e.get("error_kind") == "input" for e in failed) else 1)
 
 
 @app.command("lift")

@@ -35,19 +35,34 @@ def train(
     quiet: bool = typer.Option(False, "--quiet", help="No progress output."),
 ) -> None:
     """Train a motion prior (x0-predicting transformer) on real 3D motion."""
+    from platypose.lifting.atomic import check_writable
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.prior import PriorConfig, load_prior
-    from platypose.lifting.training import TrainConfig, train_prior
+    from platypose.lifting.training import TrainConfig, TrainingDiverged, train_prior
 
-    if iterations < 1 or batch_size < 1:
-        raise InputError("train: iterations and batch size must be positive")
+    try:
+        prior_config = PriorConfig(
+            layers=layers, width=width, heads=heads, ff_width=ff_width, max_frames=max_frames, fps=fps
+        )
+        config = TrainConfig(
+            iterations=iterations,
+            batch_size=batch_size,
+            learning_rate=learning_rate,
+            bone_scale=bone_scale,
+            checkpoint_every=checkpoint_every,
+            seed=seed,
+        )
+    except ValueError as err:
+        raise InputError(f"train: {err}") from None
+    if threads < 0:
+        raise InputError(f"train: --threads must be 0 (torch's default) or more, got {threads}")
+    check_writable(out)
+    if log_file is not None:
+        check_writable(log_file)
     motions = load_motion_paths(data)
     if not motions:
         raise InputError(f"{', '.join(map(str, data))}: no motion files found")
     resume_state = None
-    prior_config = PriorConfig(
-        layers=layers, width=width, heads=heads, ff_width=ff_width, max_frames=max_frames, fps=fps
-    )
     if resume:
         bundle, resume_state = load_prior(out)
         if not resume_state:
@@ -55,14 +70,6 @@ def train(
         prior_config = bundle.config
         if not quiet:
             typer.echo(f"resuming {out} at iteration {resume_state['iteration']} of {iterations}", err=True)
-    config = TrainConfig(
-        iterations=iterations,
-        batch_size=batch_size,
-        learning_rate=learning_rate,
-        bone_scale=bone_scale,
-        checkpoint_every=checkpoint_every,
-        seed=seed,
-    )
     if not quiet:
         seconds = sum(m.duration_s for m in motions)
         typer.echo(f"training on {len(motions)} clips, {seconds / 60:.1f} min of motion", err=True)
@@ -82,7 +89,10 @@ def train(
             )
 
     began = time.time()
-    train_prior(motions, str(out), prior_config, config, resume=resume_state, log=log, threads=threads or None)
+    try:
+        train_prior(motions, str(out), prior_config, config, resume=resume_state, log=log, threads=threads or None)
+    except TrainingDiverged as err:
+        raise InputError(f"{out}: {err}") from None
     if not quiet:
         typer.echo(f"wrote {out} after {(time.time() - began) / 60:.1f} min", err=True)
 

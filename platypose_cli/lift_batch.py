@@ -1,16 +1,25 @@
 """A batch of lift jobs: resume, sequential or parallel runs, progress, and ``OUT/summary.json`` after every input.
 
+The runner's interface: jobs (and settings) in, one summary entry per job out, in job order.
+
 With ``--jobs J`` each worker process gets ``cores // J`` threads for torch and
-onnxruntime, so J workers never oversubscribe the machine.
+onnxruntime, so J workers never oversubscribe the machine. ``summary.json`` is
+rewritten under a lock (``OUT/.summary.lock``) and merged with the entries that
+other runs into the same OUT wrote meanwhile (entries of other inputs are kept,
+this run's replace the same inputs'). Ctrl-C (or SIGTERM) stops the batch: inputs
+that finished are recorded, running workers are ended (each removes its staging
+folder), and KeyboardInterrupt is raised.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 
@@ -18,6 +27,7 @@ import typer
 
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import (
+    MANIFEST,
     RunSettings,
     earlier_failure,
     fingerprint,
@@ -35,6 +45,57 @@ def threads_per_job(jobs: int) -> int:
     return max(1, (os.cpu_count() or 1) // max(1, jobs))
 
 
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def worker_init(threads: int) -> None:
+    """A worker process: threads capped; Ctrl-C is left to the parent, SIGTERM unwinds (staging folders removed)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    limit_threads(threads)
+
+
+@contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM is handled like Ctrl-C while the batch runs (so every staging folder is removed on the way out)."""
+    try:
+        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextmanager
+def _summary_lock(out: Path) -> Iterator[None]:
+    """An exclusive lock on ``OUT/.summary.lock`` (POSIX; elsewhere no lock)."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    with open(out / ".summary.lock", "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _other_entries(out: Path, mine: list[dict]) -> list[dict]:
+    """Entries of ``OUT/summary.json`` (another run's) for inputs this run does not have."""
+    try:
+        earlier = json.loads((out / SUMMARY).read_text(encoding="utf-8"))["inputs"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    names = {e["name"] for e in mine}
+    return [e for e in earlier if isinstance(e, dict) and e.get("name") not in names]
+
+
 def limit_threads(threads: int) -> None:
     """Cap torch's (and OpenMP's) threads in this process."""
     os.environ["OMP_NUM_THREADS"] = str(threads)
@@ -44,18 +105,21 @@ def limit_threads(threads: int) -> None:
 
 
 def write_summary(out: Path, entries: list[dict], started: str, arguments: dict) -> Path:
-    """Write ``OUT/summary.json`` atomically: inputs in job order, counts per status, arguments."""
+    """Write ``OUT/summary.json`` atomically under a lock: other runs' entries for other inputs first, then this
+    run's in job order; counts per status; this run's arguments."""
     from platypose.lifting.atomic import write_text_atomic
 
-    counts = {s: sum(e["status"] == s for e in entries) for s in ("ok", "failed", "skipped")}
-    summary = {
-        "inputs": entries,
-        "counts": counts,
-        "started": started,
-        "updated": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "arguments": arguments,
-    }
-    return write_text_atomic(out / SUMMARY, json.dumps(summary, indent=1) + "\n")
+    with _summary_lock(out):
+        inputs = _other_entries(out, entries) + entries
+        counts = {s: sum(e["status"] == s for e in inputs) for s in ("ok", "failed", "skipped")}
+        summary = {
+            "inputs": inputs,
+            "counts": counts,
+            "started": started,
+            "updated": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "arguments": arguments,
+        }
+        return write_text_atomic(out / SUMMARY, json.dumps(summary, indent=1) + "\n")
 
 
 def run_batch(
@@ -80,17 +144,22 @@ def run_batch(
     entries: dict[int, dict] = {}
     todo = []
     for index, job in enumerate(jobs):
+        if not resume:
+            todo.append(index)
+            continue
         folder = settings.out / job.name
-        outputs = finished_outputs(folder, settings.formats) if resume else None
-        failed = earlier_failure(folder, fingerprint(job, settings)) if resume and not retry_failed else None
+        digest = fingerprint(job, settings)
+        outputs, why = finished_outputs(folder, settings.formats, digest)
+        failed = earlier_failure(folder, digest) if not retry_failed else None
         if outputs is not None:
-            entries[index] = job_entry(job, "skipped", outputs)
-            say(f"{job.name}: skipped, finished earlier ({len(outputs)} files)")
+            entries[index] = {**job_entry(job, "skipped", outputs), "reason": why}
+            say(f"{job.name}: skipped, {why} ({len(outputs)} files)")
         elif failed is not None:
-            entries[index] = job_entry(job, "failed", error=f"earlier run: {failed}")
+            entries[index] = {**job_entry(job, "failed", error=f"earlier run: {failed}"), "error_kind": "input"}
             say(f"{job.name}: not retried, failed earlier with the same files and settings (--retry-failed)")
         else:
             todo.append(index)
+            say(f"{job.name}: run, {why}")
 
     def record(index: int, entry: dict) -> None:
         entries[index] = entry
@@ -104,7 +173,8 @@ def run_batch(
     settings.out.mkdir(parents=True, exist_ok=True)
     write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
     hidden = settings.quiet or not todo
-    with typer.progressbar(length=len(todo), label="inputs", file=sys.stderr, hidden=hidden, show_eta=True) as bar:
+    bar_options = {"length": len(todo), "label": "inputs", "file": sys.stderr, "hidden": hidden, "show_eta": True}
+    with terminate_as_interrupt(), typer.progressbar(**bar_options) as bar:
         if executor is not None:
             executor(jobs, todo, settings, record, bar)
         elif workers <= 1 or len(todo) <= 1:
@@ -117,6 +187,15 @@ def run_batch(
     return [entries[i] for i in sorted(entries)]
 
 
+def _finished_meanwhile(job: Job, settings: RunSettings, since: float) -> dict | None:
+    """An ok entry for ``job`` if this batch finished it (a lift.json with its fingerprint written after ``since``)."""
+    folder = settings.out / job.name
+    outputs, _ = finished_outputs(folder, settings.formats, fingerprint(job, settings))
+    if outputs is None or (folder / MANIFEST).stat().st_mtime < since:
+        return None
+    return job_entry(job, "ok", outputs)
+
+
 def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) -> None:
     """Run ``todo`` jobs in ``workers`` spawned processes with a per-process thread cap; per-video bars are off."""
     import multiprocessing
@@ -125,18 +204,40 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
     threads = settings.detect.threads or threads_per_job(workers)
     worker_settings = replace(settings, detect=replace(settings.detect, threads=threads), quiet=True)
     context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=limit_threads, initargs=(threads,)) as pool:
-        futures = {pool.submit(run_job, jobs[i], worker_settings): i for i in todo}
+    recorded: set[int] = set()
+    began = time.time()
+
+    def take(future) -> None:
+        index = futures[future]
         try:
-            for future in as_completed(futures):
-                index = futures[future]
-                try:
-                    entry = future.result()
-                except Exception as err:
-                    error = f"worker process failed: {type(err).__name__}: {err}"
-                    entry = job_entry(jobs[index], "failed", error=error)
-                record(index, entry)
-                bar.update(1)
-        except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)
-            raise
+            entry = future.result()
+        except Exception as err:
+            error = f"worker process failed: {type(err).__name__}: {err}"
+            entry = {**job_entry(jobs[index], "failed", error=error), "error_kind": "internal"}
+        recorded.add(index)
+        record(index, entry)
+        bar.update(1)
+
+    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=worker_init, initargs=(threads,))
+    futures = {pool.submit(run_job, jobs[i], worker_settings): i for i in todo}
+    try:
+        for future in as_completed(futures):
+            take(future)
+    except BaseException:
+        # Ctrl-C: keep what finished, drop what did not start, end the running workers (SIGTERM: they clean up).
+        for future in futures:
+            if future.done() and not future.cancelled() and futures[future] not in recorded:
+                take(future)
+        for future in futures:
+            future.cancel()
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            process.terminate()
+        pool.shutdown(wait=True, cancel_futures=True)
+        for index in todo:  # finished in a worker whose answer had not arrived yet: its lift.json says so
+            if index not in recorded:
+                entry = _finished_meanwhile(jobs[index], settings, began)
+                if entry is not None:
+                    recorded.add(index)
+                    record(index, entry)
+        raise
+    pool.shutdown(wait=True)

@@ -5,11 +5,19 @@ are exported from there a chunk of frames at a time (memory does not grow with
 the input's length) and moved into ``OUT/<name>/`` only when all of them are
 written, then ``lift.json`` (the list of outputs) is written last: a job that
 fails or is interrupted leaves earlier outputs as they were and no staging
-folder, and ``--resume`` trusts only folders with a ``lift.json`` whose outputs exist.
+folder, and ``--resume`` trusts only folders with a ``lift.json`` whose outputs exist
+and whose fingerprint (input files' names, sizes and dates; every setting that shapes
+the result) is the current one. Paths in ``lift.json`` are relative to its folder.
+A failed run keeps an earlier good run's outputs and ``log.txt`` (its own log is
+``log-failed.txt``); a transient failure (full disk, I/O error) is retried by
+``--resume``. Staging folders carry their process ID, so a later run removes the
+ones of killed runs.
 """
 
 from __future__ import annotations
 
+import errno
+import glob
 import hashlib
 import json
 import os
@@ -26,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from platypose.cli.app import describe_os_error
 from platypose.cli.detection import Detection, DetectOptions
 from platypose.cli.lift_jobs import Job
 from platypose.cli.options import as_json, cli_message
@@ -152,6 +161,8 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
             f"view {view.name}: {view.source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), "
             f"{how}, {seconds:.1f} s"
         )
+        for note in tracks.notes:
+            log.warning(note)
         views.append(tracks)
     timings["keypoints_s"] = time.perf_counter() - started
     names, sources = [v.name for v in job.views], [str(v.source) for v in job.views]
@@ -199,13 +210,62 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
 
 @contextmanager
 def staging_folder(folder: Path, name: str) -> Iterator[Path]:
-    """A new staging folder beside ``folder`` (created if needed), removed with whatever is left in it at the end."""
+    """A new staging folder ``.<name>.<pid>.*.partial`` beside ``folder`` (created if needed), removed with whatever
+    is left in it at the end; staging folders of ``name`` left by processes that are gone are removed first."""
     folder.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".partial", dir=folder.parent))
+    remove_stale_staging(folder.parent, name)
+    prefix = f".{_short(name)}.{os.getpid()}."
+    staging = Path(tempfile.mkdtemp(prefix=prefix, suffix=".partial", dir=folder.parent))
     try:
         yield staging
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def _short(name: str) -> str:
+    """The job name as staging folders carry it: at most 64 characters, so any output name the file system takes
+    also fits in a staging folder's name."""
+    return name[:64]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    return True
+
+
+def remove_stale_staging(out: Path, name: str) -> list[str]:
+    """Remove the staging folders of job ``name`` in ``out`` whose process is gone (killed runs); their names."""
+    removed = []
+    short = _short(name)
+    for path in out.glob(f".{glob.escape(short)}.*.partial"):
+        owner = path.name[len(short) + 2 :].split(".", 1)[0]
+        if path.is_dir() and not (owner.isdigit() and _alive(int(owner))):
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path.name)
+    return removed
+
+
+def output_patterns(name: str) -> list[str]:
+    """Glob patterns of every file a lift of job ``name`` may write into its folder."""
+    stem = glob.escape(name)
+    fixed = [
+        f"{stem}{end}" for end in (".npz", ".csv", "_summary.csv", ".rrd", "_gaps.json", "_angles.csv", "_report.png")
+    ]
+    return fixed + [f"{stem}_p*.bvh", f"{stem}_p*.trc", f"{stem}_p*.c3d"]
+
+
+def remove_stale_outputs(folder: Path, name: str, written: list[Path]) -> list[str]:
+    """Remove output files of an earlier run in ``folder`` that this run did not write (a person or format gone)."""
+    keep = {p.name for p in written}
+    stale = {p for pattern in output_patterns(name) for p in folder.glob(pattern) if p.is_file() and p.name not in keep}
+    for path in stale:
+        path.unlink(missing_ok=True)
+    return sorted(p.name for p in stale)
 
 
 def export_atomically(result, videos, staging: Path, folder: Path, name: str, formats, log: JobLog) -> list[Path]:
@@ -220,24 +280,35 @@ def export_atomically(result, videos, staging: Path, folder: Path, name: str, fo
     return final
 
 
-def finished_outputs(folder: Path, formats) -> list[str] | None:
-    """The outputs listed by a complete earlier run in ``folder`` with at least ``formats``, else None."""
+def finished_outputs(folder: Path, formats, digest: str | None = None) -> tuple[list[str] | None, str]:
+    """(the outputs of a complete earlier run in ``folder`` with at least ``formats`` and, given ``digest``, the same
+    fingerprint of inputs and settings, else None; why it is or is not finished)."""
     try:
         manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-        outputs, done = list(manifest["outputs"]), set(manifest["formats"])
+        names, done = [str(p) for p in manifest["outputs"]], set(manifest["formats"])
+    except FileNotFoundError:
+        return None, "not run before"
     except (OSError, ValueError, KeyError, TypeError):
-        return None
-    complete = set(formats) <= done and all(Path(p).is_file() for p in outputs)
-    return outputs if complete else None
+        return None, f"its {MANIFEST} is unreadable"
+    outputs = [str(folder / Path(n).name) for n in names]  # output-relative (older manifests: any path, same name)
+    if not set(formats) <= done:
+        return None, f"the earlier run wrote only {', '.join(sorted(done))}"
+    if digest is not None and manifest.get("fingerprint") != digest:
+        return None, "its inputs or settings changed since the earlier run"
+    missing = [Path(p).name for p in outputs if not Path(p).is_file()]
+    if missing:
+        return None, f"output(s) {', '.join(missing)} of the earlier run are missing"
+    return outputs, "finished earlier with the same inputs and settings"
 
 
 def _stamp(path: Path) -> list:
-    """What identifies a file's or folder's content cheaply: path, size (or entry count) and latest change."""
+    """What identifies a file's or folder's content cheaply, wherever it lies: name, size (or entry count), latest
+    change."""
     if path.is_dir():
         entries = list(path.iterdir())
-        return [str(path), len(entries), max((e.stat().st_mtime_ns for e in entries), default=0)]
+        return [path.name, len(entries), max((e.stat().st_mtime_ns for e in entries), default=0)]
     stat = path.stat() if path.exists() else None
-    return [str(path), stat.st_size if stat else None, stat.st_mtime_ns if stat else None]
+    return [path.name, stat.st_size if stat else None, stat.st_mtime_ns if stat else None]
 
 
 def fingerprint(job: Job, settings: RunSettings) -> str:
@@ -260,12 +331,27 @@ def fingerprint(job: Job, settings: RunSettings) -> str:
 
 
 def earlier_failure(folder: Path, digest: str) -> str | None:
-    """The error of an earlier failed run of the same input and settings in ``folder``, else None."""
+    """The error of an earlier failed run of the same input and settings in ``folder`` that was not transient
+    (a full disk, an I/O error: worth retrying), else None."""
     try:
         failure = json.loads((folder / FAILURE).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
-    return failure.get("error") if isinstance(failure, dict) and failure.get("fingerprint") == digest else None
+    if not isinstance(failure, dict) or failure.get("fingerprint") != digest or failure.get("transient"):
+        return None
+    return failure.get("error")
+
+
+TRANSIENT_ERRNOS = frozenset(
+    getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EIO", "EAGAIN", "EINTR", "ETIMEDOUT") if hasattr(errno, name)
+)
+
+
+def failure_kind(err: BaseException) -> str:
+    """``input`` (bad input: exit 2), ``system`` (a file system or OS problem) or ``internal`` (a bug)."""
+    if isinstance(err, InputError):
+        return "input"
+    return "system" if isinstance(err, OSError) else "internal"
 
 
 def job_entry(
@@ -279,6 +365,7 @@ def job_entry(
         "outputs": outputs or [],
         "seconds": seconds,
         "error": error,
+        "warnings": [],
     }
 
 
@@ -291,24 +378,44 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     folder = settings.out / job.name
     log(f"input {job.input} -> {folder}")
     entry = job_entry(job, "failed")
+    digest = fingerprint(job, settings)
+    log_name = "log.txt"
     try:
         with staging_folder(folder, job.name) as staging:
             result, videos = lift_job(job, settings, log, staging)
             written = export_atomically(result, videos, staging, folder, job.name, settings.formats, log)
+        stale = remove_stale_outputs(folder, job.name, written)
+        if stale:
+            log(f"removed output(s) of an earlier run that this run did not write: {', '.join(stale)}")
         outputs = [str(p) for p in written]
-        manifest = {"input": job.input, "formats": list(settings.formats), "outputs": outputs}
+        manifest = {
+            "input": job.input,
+            "formats": list(settings.formats),
+            "outputs": [p.name for p in written],  # relative to this folder
+            "fingerprint": digest,
+        }
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
         (folder / FAILURE).unlink(missing_ok=True)
         entry.update(status="ok", outputs=outputs, floor=result.meta["floor"], plausibility=result.meta["plausibility"])
     except Exception as err:
-        message = cli_message(err) if isinstance(err, InputError) else f"{type(err).__name__}: {err}"
-        entry["error"] = " ".join(message.split())
+        kind = failure_kind(err)
+        if isinstance(err, InputError):
+            message = cli_message(err)
+        elif isinstance(err, OSError):
+            message = describe_os_error(err)
+        else:
+            message = f"{type(err).__name__}: {err}"
+        entry.update(error=" ".join(message.split()), error_kind=kind)
         log(f"failed: {entry['error']}")
-        if not isinstance(err, InputError):
+        if kind == "internal":
             log(traceback.format_exc())
-        failure = {"input": job.input, "error": entry["error"], "fingerprint": fingerprint(job, settings)}
+        transient = isinstance(err, OSError) and err.errno in TRANSIENT_ERRNOS
+        failure = {"input": job.input, "error": entry["error"], "fingerprint": digest, "transient": transient}
         write_text_atomic(folder / FAILURE, json.dumps(failure, indent=1))
+        if (folder / MANIFEST).is_file():
+            log_name = "log-failed.txt"  # the good earlier run's outputs stay, and so does its log
+    entry["warnings"] = list(log.warnings)
     entry["seconds"] = round(time.perf_counter() - started, 2)
     log(f"{entry['status']} in {entry['seconds']} s")
-    log.write(folder / "log.txt")
+    log.write(folder / log_name)
     return entry

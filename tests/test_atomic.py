@@ -54,3 +54,12 @@ def test_error_keeps_the_old_target_and_removes_the_temp(tmp_path, writer):
                 raise RuntimeError("disk on fire")
     assert json.loads(target.read_text()) == {"old": True}
     assert [p.name for p in tmp_path.iterdir()] == ["calib.json"]
+
+
+def test_long_target_names_up_to_the_file_system_limit(tmp_path):
+    """Issue 17.11: names over ~225 characters used to fail on the temporary name; 255 bytes now works."""
+    target = tmp_path / ("n" * 251 + ".csv")
+    assert write_text_atomic(target, "a,b\n").read_text() == "a,b\n"
+    with pytest.raises(OSError):  # one more byte than the file system takes: the target itself cannot exist
+        write_text_atomic(tmp_path / ("n" * 252 + ".csv"), "a,b\n")
+    assert [p.name for p in tmp_path.iterdir()] == [target.name]

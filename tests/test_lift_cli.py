@@ -217,9 +217,10 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
         "--jobs",
         "2",
     )
-    code, out, _ = run_cli(*args)
-    assert code == 1
+    code, out, err = run_cli(*args)
+    assert code == 2  # both failures are bad inputs (issue 17.11: the README's exit code)
     assert "3 input(s): 1 ok, 2 failed, 0 skipped" in out
+    assert "warning: good: no --cams" in err  # lift warnings reach the console (issue 17.9)
     summary = json.loads((tmp_path / "summary.json").read_text())
     by_name = {Path(e["input"]).name: e for e in summary["inputs"]}
     assert [Path(e["input"]).name for e in summary["inputs"]] == ["corrupt.mp4", "empty.mp4", "good.mp4"]
@@ -232,6 +233,7 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
     result = read_npz(npz)
     assert result.hypotheses.shape[:3] == (1, 4, 12) and result.cameras[0].size == (960, 540)
     assert "no --cams" in " ".join(result.meta["warnings"])
+    assert by_name["good.mp4"]["warnings"] == result.meta["warnings"]  # and summary.json
     assert (tmp_path / "good" / "good_p0.bvh").read_text().startswith("HIERARCHY")
     assert "no person found" in (tmp_path / "empty" / "log.txt").read_text()
     assert not list(tmp_path.glob(".*partial")) and not list(tmp_path.rglob(".*.tmp"))
@@ -239,14 +241,14 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
     watched = (npz, tmp_path / "empty" / "log.txt", tmp_path / "corrupt" / "log.txt")
     stamps = [p.stat().st_mtime_ns for p in watched]
     code, out, _ = run_cli(*args[:-2], "--resume")
-    assert code == 1 and "0 ok, 2 failed, 1 skipped" in out  # nothing is run again
+    assert code == 2 and "0 ok, 2 failed, 1 skipped" in out  # nothing is run again
     assert [p.stat().st_mtime_ns for p in watched] == stamps
     entries = json.loads((tmp_path / "summary.json").read_text())["inputs"]
     assert [e["status"] for e in entries] == ["failed", "failed", "skipped"]
     assert entries[1]["error"] == "earlier run: " + by_name["empty.mp4"]["error"]
     assert entries[2]["outputs"] == by_name["good.mp4"]["outputs"]
     code, out, _ = run_cli(*args[:-2], "--resume", "--retry-failed")
-    assert code == 1 and "0 ok, 2 failed, 1 skipped" in out
+    assert code == 2 and "0 ok, 2 failed, 1 skipped" in out
     assert (tmp_path / "empty" / "log.txt").stat().st_mtime_ns > stamps[1]  # tried again
 
 
@@ -304,7 +306,7 @@ def test_calibration_mismatches_fail_their_input(run_cli, data_dir, tmp_path, pr
     (folder / "cam01.mp4").symlink_to(batch_folder / "good.mp4")  # cam01 at half the calibrated size
     (folder / "side.mp4").symlink_to(batch_folder / "good.mp4")  # no camera of that name
     code, out, _ = run_cli(*lift_args(data_dir, prior_file, tmp_path / "out", str(folder)))
-    assert code == 1 and "0 ok, 2 failed" in out
+    assert code == 2 and "0 ok, 2 failed" in out  # bad inputs only: exit 2
     errors = {e["name"]: e["error"] for e in json.loads((tmp_path / "out" / "summary.json").read_text())["inputs"]}
     assert "calibration mismatch: calibration says 1088x1920 px for camera cam_01" in errors["cam01"]
     assert "is 540x960" in errors["cam01"]

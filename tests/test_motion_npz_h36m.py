@@ -81,11 +81,11 @@ def test_h36m_layout_gives_one_clip_per_subject_action(tmp_path, cmu):
 
 
 def test_h36m_index_map_picks_the_standard_slots(tmp_path):
-    slots = np.tile(np.arange(32, dtype=float)[None, :, None], (4, 1, 3))
+    slots = np.tile(np.arange(32, dtype=float)[None, :, None], (4, 1, 3)) * 0.01  # slot k at k cm
     path = tmp_path / "slots.npz"
     write_h36m(path, {"S1": {"A": slots}})
     (m,) = load_motion(path)
-    assert m.joints[0, :, 0].tolist() == [0, 1, 2, 3, 6, 7, 8, 12, 13, 14, 15, 17, 18, 19, 25, 26, 27]
+    assert np.round(m.joints[0, :, 0] * 100).tolist() == [0, 1, 2, 3, 6, 7, 8, 12, 13, 14, 15, 17, 18, 19, 25, 26, 27]
 
 
 def test_h36m_bad_clip_named(tmp_path):
@@ -130,7 +130,7 @@ def test_h36m_layout_written_by_numpy_1_still_loads(tmp_path):
     import pickle
     import zipfile
 
-    points = np.random.default_rng(0).normal(size=(3, 32, 3))
+    points = np.random.default_rng(0).normal(size=(3, 32, 3)) * 0.2  # joints within a metre or so
     stream = pickle.dumps(np.array({"S1": {"A": points}}, dtype=object), protocol=2)
     header = io.BytesIO()
     np.lib.format.write_array_header_1_0(header, {"descr": "|O", "fortran_order": False, "shape": ()})

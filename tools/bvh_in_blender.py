@@ -31,7 +31,7 @@ scene = bpy.context.scene
 arm = [o for o in scene.objects if o.type == "ARMATURE"][0]
 fps = scene.render.fps / scene.render.fps_base
 print("blender", bpy.app.version_string, "fps", fps, "frames", scene.frame_start, scene.frame_end)
-with np.load(npz) as f:
+with np.load(npz, allow_pickle=False) as f:
     med = f["median"][person].astype(np.float64)
     names = [str(n) for n in f["joint_names"]]
 err, head_angles = [], []

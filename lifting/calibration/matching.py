@@ -11,6 +11,7 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 
 VIEW_SUFFIXES = ("json", "keypoints", "video")
+NUMBERED_CAMERA = re.compile(r"(cam|camera|c|view)\d+")  # normalised names that name a camera by its number
 EXTENSIONS = re.compile(r"\.(mp4|avi|mov|mkv|webm|m4v|json|npz|csv|txt)$", re.IGNORECASE)
 
 
@@ -25,11 +26,20 @@ def normalise_view_name(name: str) -> str:
 
 
 def match_views(camera_names: Sequence[str], view_names: Sequence[str], allow_missing: bool = False) -> dict[str, str]:
-    """``{camera_name: view_name}``; one camera and one view always pair; otherwise names must match one to one.
+    """``{camera_name: view_name}``: names must match one to one.
 
-    ``allow_missing`` accepts cameras without a view (they are left out of the result); an extra view is always an error.
+    One camera and one view also pair when their names differ, unless both name a camera by number
+    (``cam02`` and ``cam_01``, ``camera3`` and ``c1``): that is another camera's calibration, an error
+    naming both. ``allow_missing`` accepts cameras without a view (they are left out of the result);
+    an extra view is always an error.
     """
     if len(camera_names) == 1 and len(view_names) == 1:
+        camera, view = normalise_view_name(camera_names[0]), normalise_view_name(view_names[0])
+        if camera != view and NUMBERED_CAMERA.fullmatch(camera) and NUMBERED_CAMERA.fullmatch(view):
+            raise InputError(
+                f"view {view_names[0]!r} is another camera than the calibration's only camera {camera_names[0]!r}; "
+                f"give that camera's calibration (or rename the camera if it is the same one)"
+            )
         return {camera_names[0]: view_names[0]}
     by_key: dict[str, str] = {}
     for view in view_names:

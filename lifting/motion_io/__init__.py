@@ -3,7 +3,8 @@
 ``load_motion(path)`` picks the reader by extension (and content where an
 extension is shared), fills each clip's source and licence from the nearest
 ``SOURCE.json``, and raises :class:`lifting.errors.InputError` with a one-line
-message for a broken or unknown file. ``load_motion_paths`` expands folders.
+message for a broken or unknown file, or a clip with infinite or implausible
+values (:mod:`lifting.motion_io.checks`). ``load_motion_paths`` expands folders.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from platypose.lifting.motion import Motion
 from platypose.lifting.motion_io.asf_amc import load_amc
 from platypose.lifting.motion_io.bvh import load_bvh
 from platypose.lifting.motion_io.c3d import load_c3d
+from platypose.lifting.motion_io.checks import check_motion
 from platypose.lifting.motion_io.deepmimic import is_deepmimic, load_deepmimic
 from platypose.lifting.motion_io.h36m import is_h36m_npz, load_h36m
 from platypose.lifting.motion_io.holosoma import load_holosoma
@@ -140,6 +142,8 @@ def load_motion(
         raise
     except (ValueError, KeyError, IndexError, TypeError, OSError, EOFError) as err:
         raise InputError(f"{path}: cannot read as {fmt.name}: {type(err).__name__}: {err}".replace("\n", " ")) from None
+    for clip in clips:
+        check_motion(clip, str(path))
     source, licence = find_provenance(path)
     return [dataclasses.replace(c, source=source, licence=licence) for c in clips]
 

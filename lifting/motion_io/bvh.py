@@ -160,6 +160,9 @@ def bvh_recipe(clip: BvhClip, name_map: Mapping[str, str] | None) -> Recipe:
     raise ValueError(f"joint names fit no known naming ({', '.join(BVH_NAMING)}); pass a name map")
 
 
+MAX_CHANNEL_VALUE = 1e6  # file units or degrees: beyond this a channel value is corrupt
+
+
 def load_bvh(
     path: Path, fps: float | None = None, name_map: Mapping[str, str] | None = None, scale: float | None = None
 ) -> list[Motion]:
@@ -168,6 +171,14 @@ def load_bvh(
         clip = parse_bvh(path.read_text(encoding="utf-8", errors="replace"))
     except (ValueError, IndexError) as err:
         raise InputError(f"{path}: not a valid BVH file ({err})") from None
+    with np.errstate(invalid="ignore"):
+        bad = ~(np.abs(clip.values) <= MAX_CHANNEL_VALUE)  # also NaN and infinite values
+    if bad.any():
+        frame, channel = (int(v[0]) for v in np.nonzero(bad))
+        raise InputError(
+            f"{path}: frame {frame} channel {channel} is {clip.values[frame, channel]:.6g} "
+            f"(not a number, or beyond +-{MAX_CHANNEL_VALUE:g}: a corrupt value)"
+        )
     if not clip.frame_time > 0 and fps is None:
         raise InputError(f"{path}: Frame Time must be positive, got {clip.frame_time}")
     try:
@@ -181,7 +192,8 @@ def load_bvh(
         scale = LENGTH_UNITS[unit]
     points = forward_kinematics(clip.parents, *local_transforms(clip)) * scale
     joints = apply_recipe(y_up_to_z_up(points) if up == "y" else points, clip.names, recipe)
-    if not np.isfinite(joints).all():
-        raise InputError(f"{path}: motion gives NaN or infinite joint positions")
+    finite = np.isfinite(joints).all(axis=(1, 2))
+    if not finite.all():
+        raise InputError(f"{path}: frame {int(np.argmin(finite))} gives NaN or infinite joint positions")
     extra = {"format": "bvh", "metres_per_unit": scale, "unit": unit or "given", "up": up}
     return [Motion(joints=joints, fps=fps or rate_from_step(clip.frame_time), name=path.stem, extra=extra)]
