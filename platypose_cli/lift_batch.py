@@ -70,6 +70,9 @@ def terminate_as_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+SUMMARY_LOCK = ".summary.lock"  # in OUT, beside summary.json
+
+
 @contextmanager
 def _summary_lock(out: Path) -> Iterator[None]:
     """An exclusive lock on ``OUT/.summary.lock`` (POSIX; elsewhere no lock)."""
@@ -78,7 +81,7 @@ def _summary_lock(out: Path) -> Iterator[None]:
     except ImportError:
         yield
         return
-    with open(out / ".summary.lock", "a") as handle:
+    with open(out / SUMMARY_LOCK, "a") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
         try:
             yield

@@ -18,9 +18,7 @@ to clean their staging folders, records whatever finished, and re-raises.
 
 from __future__ import annotations
 
-import glob
 import os
-import shutil
 import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -29,7 +27,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from platypose.cli.lift_jobs import Job
-from platypose.cli.lift_run import MANIFEST, RunSettings
+from platypose.cli.lift_run import MANIFEST, RunSettings, remove_stale_staging
 from platypose.lifting.errors import InputError
 
 INSTALL_HINT = "--executor ray needs Ray on the driver and every worker: pip install 'platypose[ray]'"
@@ -97,12 +95,6 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
         ray.shutdown()
 
 
-def remove_stale_staging(out: Path, name: str) -> None:
-    """Remove staging folders an earlier attempt of job ``name`` left in ``out`` when its process was killed."""
-    for folder in out.glob(f".{glob.escape(name)}.????????.partial"):
-        shutil.rmtree(folder, ignore_errors=True)
-
-
 def lift_on_worker(job: Job, settings: RunSettings, threads: int, cwd: str, collect: bool):
     """Run on a Ray worker: one job -> (summary entry, {relative path: bytes} when ``collect``, worker "ip:pid").
 
@@ -118,7 +110,7 @@ def lift_on_worker(job: Job, settings: RunSettings, threads: int, cwd: str, coll
     limit_threads(threads)
     worker = f"{ray.util.get_node_ip_address()}:{os.getpid()}"
     if not collect:
-        remove_stale_staging(settings.out, job.name)
+        remove_stale_staging(settings.out, job.name, owners_gone=True)  # a retry: the earlier attempt died
         return run_job(job, settings), None, worker
     with tempfile.TemporaryDirectory(prefix="platypose-lift-") as scratch:
         entry = run_job(job, replace(settings, out=Path(scratch)))
@@ -128,21 +120,14 @@ def lift_on_worker(job: Job, settings: RunSettings, threads: int, cwd: str, coll
 
 
 def write_collected(folder: Path, entry: dict, files: dict[str, bytes]) -> dict:
-    """Write a job's collected ``files`` into ``folder`` atomically, ``lift.json`` last with its outputs' paths
-    there; the entry with those paths."""
-    import json
+    """Write a job's collected ``files`` into ``folder`` atomically, ``lift.json`` last (its output names are
+    relative to its folder, so it holds as it was written on the worker); the entry with paths in ``folder``."""
+    from platypose.lifting.atomic import atomic_open
 
-    from platypose.lifting.atomic import atomic_open, write_text_atomic
-
-    for relative, data in files.items():
-        if relative != MANIFEST:
-            with atomic_open(folder / relative) as stream:
-                stream.write(data)
+    for relative in sorted(files, key=lambda name: name == MANIFEST):
+        with atomic_open(folder / relative) as stream:
+            stream.write(files[relative])
     entry = dict(entry, outputs=[str(folder / Path(p).name) for p in entry["outputs"]])
-    if MANIFEST in files:
-        manifest = json.loads(files[MANIFEST])
-        manifest["outputs"] = entry["outputs"]
-        write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
     if entry["status"] == "ok":
         from platypose.cli.lift_run import FAILURE
 
@@ -255,7 +240,7 @@ class RayExecutor:
             else:  # its worker or node died on every attempt
                 error = f"Ray gave up after {self.options.max_retries + 1} attempt(s): {ray_failure(err)}"
             entry = job_entry(job, "failed", seconds=round(seconds, 2), error=error)
-            remove_stale_staging(settings.out, job.name)
+            remove_stale_staging(settings.out, job.name, owners_gone=True)
             record_failure(job, settings, error)
             return entry
         self.workers[worker] = self.workers.get(worker, 0) + 1

@@ -238,13 +238,16 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def remove_stale_staging(out: Path, name: str) -> list[str]:
-    """Remove the staging folders of job ``name`` in ``out`` whose process is gone (killed runs); their names."""
+def remove_stale_staging(out: Path, name: str, owners_gone: bool = False) -> list[str]:
+    """Remove the staging folders of job ``name`` in ``out`` whose process is gone (killed runs); their names.
+
+    ``owners_gone``: every earlier run of the job is known to be dead (a Ray retry, whose dead attempt may have run
+    on another node, where its process id says nothing), so all its staging folders go."""
     removed = []
     short = _short(name)
     for path in out.glob(f".{glob.escape(short)}.*.partial"):
         owner = path.name[len(short) + 2 :].split(".", 1)[0]
-        if path.is_dir() and not (owner.isdigit() and _alive(int(owner))):
+        if path.is_dir() and (owners_gone or not (owner.isdigit() and _alive(int(owner)))):
             shutil.rmtree(path, ignore_errors=True)
             removed.append(path.name)
     return removed

@@ -21,7 +21,7 @@ from test_export_rrd import read_entities
 
 from platypose.cli.commands_lift import lift_settings
 from platypose.cli.detection import DetectOptions
-from platypose.cli.lift_batch import run_batch
+from platypose.cli.lift_batch import SUMMARY_LOCK, run_batch
 from platypose.cli.lift_jobs import discover_jobs
 from platypose.cli.lift_ray import RayExecutor, RayOptions
 
@@ -82,6 +82,11 @@ def assert_same_outputs(local: Path, other: Path) -> None:
             assert a.read_bytes() == b.read_bytes(), name
 
 
+def staging_left(out: Path) -> list[str]:
+    """Hidden entries in ``out`` other than the summary's lock file (staging folders of runs)."""
+    return sorted(p.name for p in out.glob(".*") if p.name != SUMMARY_LOCK)
+
+
 @pytest.fixture(scope="module")
 def local_run(batch_folder, prior_file, tmp_path_factory):
     """The batch lifted with ``--executor local`` (one process): its output folder and summary entries."""
@@ -91,7 +96,7 @@ def local_run(batch_folder, prior_file, tmp_path_factory):
     out = tmp_path_factory.mktemp("local")
     args = batch_args(batch_folder, prior_file, out)
     done = subprocess.run([sys.executable, "-m", "platypose", *args], capture_output=True, text=True)
-    assert done.returncode == 1, done.stderr
+    assert done.returncode == 2, done.stderr  # every failure is bad input
     return out, json.loads((out / "summary.json").read_text())["inputs"]
 
 
@@ -100,18 +105,20 @@ def test_ray_batch_equals_local_batch(cluster, run_cli, batch_folder, prior_file
     local, local_entries = local_run
     extra = ("--executor", "ray", *(["--collect"] if collect else []))
     code, out, _ = run_cli(*batch_args(batch_folder, prior_file, tmp_path, *extra))
-    assert code == 1 and "3 input(s): 1 ok, 2 failed, 0 skipped" in out
+    assert code == 2 and "3 input(s): 1 ok, 2 failed, 0 skipped" in out
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert comparable(summary["inputs"], tmp_path) == comparable(local_entries, local)
     assert summary["counts"] == {"ok": 1, "failed": 2, "skipped": 0}
     assert_same_outputs(local, tmp_path)
     manifest = json.loads((tmp_path / "good" / "lift.json").read_text())
-    assert all(Path(p).parent == tmp_path / "good" for p in manifest["outputs"])
-    assert not list(tmp_path.glob(".*")) and not list(tmp_path.rglob(".*.tmp"))
+    assert manifest["outputs"] and all(
+        (tmp_path / "good" / p).is_file() and p == Path(p).name for p in manifest["outputs"]
+    )
+    assert staging_left(tmp_path) == [] and not list(tmp_path.rglob(".*.tmp"))
 
     stamps = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*") if p.is_file() and p.name != "summary.json"}
     code, out, _ = run_cli(*batch_args(batch_folder, prior_file, tmp_path, *extra), "--resume")
-    assert code == 1 and "0 ok, 2 failed, 1 skipped" in out
+    assert code == 2 and "0 ok, 2 failed, 1 skipped" in out
     assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
 
 
@@ -170,7 +177,7 @@ def test_worker_killed_mid_input_is_retried_or_recorded(
     [entry] = run_batch(jobs, settings, executor=executor)
     killer.join()
     assert len(killed) == 1 and f"{ray.util.get_node_ip_address()}:{killed[0]}" not in executor.workers
-    assert not list(tmp_path.glob(".*"))  # the killed attempt's staging folder is gone
+    assert staging_left(tmp_path) == []  # the killed attempt's staging folder is gone
     if retries:
         assert entry["status"] == "ok" and entry["error"] is None
         assert_same_outputs(local / "good", tmp_path / "good")
@@ -218,7 +225,7 @@ def test_node_lost_mid_input_is_retried_on_another_node(cluster, batch_folder, p
     thread.join()
     assert lost == [True] and entry["status"] == "ok" and entry["error"] is None
     assert_same_outputs(local / "good", tmp_path / "good")
-    assert not list(tmp_path.glob(".*"))
+    assert staging_left(tmp_path) == []
 
 
 @pytest.fixture
@@ -251,7 +258,7 @@ def test_ctrl_c_cancels_tasks_and_keeps_what_finished(
         run_batch(jobs, slower, executor=RayExecutor(RayOptions(cpus_per_input=2)))
     entries = json.loads((tmp_path / "summary.json").read_text())["inputs"]
     assert [e["name"] for e in entries] == ["corrupt", "empty"]  # good was running: cancelled, not recorded
-    assert not (tmp_path / "good" / "lift.json").exists() and not list(tmp_path.glob(".*"))
+    assert not (tmp_path / "good" / "lift.json").exists() and staging_left(tmp_path) == []
 
     entries = run_batch(jobs, settings, resume=True, executor=RayExecutor(RayOptions()))
     assert [e["status"] for e in entries] == ["failed", "failed", "ok"]
