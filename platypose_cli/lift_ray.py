@@ -251,10 +251,6 @@ class RayExecutor:
 
 def record_failure(job: Job, settings: RunSettings, error: str) -> None:
     """Write ``OUT/<name>/failed.json`` for a job whose worker never returned, as the runner does for its own."""
-    import json
+    from platypose.cli.lift_run import fingerprint, write_failure
 
-    from platypose.cli.lift_run import FAILURE, fingerprint
-    from platypose.lifting.atomic import write_text_atomic
-
-    failure = {"input": job.input, "error": error, "fingerprint": fingerprint(job, settings)}
-    write_text_atomic(settings.out / job.name / FAILURE, json.dumps(failure, indent=1))
+    write_failure(settings.out / job.name, job, error, fingerprint(job, settings), transient=False)

@@ -39,6 +39,7 @@ from platypose.cli.detection import Detection, DetectOptions
 from platypose.cli.lift_jobs import Job
 from platypose.cli.options import as_json, cli_message
 from platypose.cli.sync_option import sync_cameras
+from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.errors import InputError
 from platypose.lifting.lift import WindowSettings
 from platypose.lifting.runtime import PriorSettings
@@ -333,6 +334,13 @@ def fingerprint(job: Job, settings: RunSettings) -> str:
     return hashlib.sha256(json.dumps(decisive, sort_keys=True, default=str).encode()).hexdigest()
 
 
+def write_failure(folder: Path, job: Job, error: str, digest: str, transient: bool) -> None:
+    """Record a failed run of ``job`` in ``folder/failed.json``: its error, the fingerprint of its inputs and
+    settings, and whether the failure was transient (retried by ``--resume``)."""
+    failure = {"input": job.input, "error": error, "fingerprint": digest, "transient": transient}
+    write_text_atomic(folder / FAILURE, json.dumps(failure, indent=1))
+
+
 def earlier_failure(folder: Path, digest: str) -> str | None:
     """The error of an earlier failed run of the same input and settings in ``folder`` that was not transient
     (a full disk, an I/O error: worth retrying), else None."""
@@ -374,8 +382,6 @@ def job_entry(
 
 def run_job(job: Job, settings: RunSettings) -> dict:
     """Lift one job; its summary entry (status ok or failed, outputs, seconds, one-line error)."""
-    from platypose.lifting.atomic import write_text_atomic
-
     started = time.perf_counter()
     log = JobLog()
     folder = settings.out / job.name
@@ -413,8 +419,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         if kind == "internal":
             log(traceback.format_exc())
         transient = isinstance(err, OSError) and err.errno in TRANSIENT_ERRNOS
-        failure = {"input": job.input, "error": entry["error"], "fingerprint": digest, "transient": transient}
-        write_text_atomic(folder / FAILURE, json.dumps(failure, indent=1))
+        write_failure(folder, job, entry["error"], digest, transient)
         if (folder / MANIFEST).is_file():
             log_name = "log-failed.txt"  # the good earlier run's outputs stay, and so does its log
     entry["warnings"] = list(log.warnings)
