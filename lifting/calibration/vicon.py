@@ -100,6 +100,9 @@ def vicon_camera(element: ET.Element, source: str) -> tuple[Camera, np.ndarray]:
     aspect = _numbers(element.attrib.get("PIXEL_ASPECT_RATIO", "1"), 1, source, f"{where} PIXEL_ASPECT_RATIO")[0]
     if aspect != 1.0:
         raise InputError(f"{source}: {where} has PIXEL_ASPECT_RATIO {aspect:g}; only square pixels are supported")
+    skew = _numbers(element.attrib.get("SKEW", "0"), 1, source, f"{where} SKEW")[0]
+    if skew != 0.0:
+        raise InputError(f"{source}: {where} has SKEW {skew:g}; only zero skew is supported")
     width, height = _numbers(element.attrib.get("SENSOR_SIZE"), 2, source, f"{where} SENSOR_SIZE")
     size = validate.as_size([height, width], source, f"{where} SENSOR_SIZE")
     focal = _numbers(key.get("FOCAL_LENGTH"), 1, source, f"{where} FOCAL_LENGTH")[0]
