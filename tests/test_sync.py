@@ -155,6 +155,10 @@ def test_lift_with_sync_auto_matches_the_synchronised_lift(run_cli, data_dir: Pa
     common = dict(fps=60, image_size=(1920, 1088), prior=prior_file, samples=2, persons="largest", say=said.append)
     calib = data_dir / TAKE / "calib_pose2sim.toml"
     estimated = platypose.lift(views, calib, sync="auto", **common)
+    frames = {name: round(value * 60, 2) for name, value in estimated.meta["sync"]["offsets_s"].items()}
+    print(
+        f"offsets in frames, API sync='auto': {frames}; CLI --sync auto: {[round(v * 60, 2) for v in offsets.values()]}"
+    )
     assert estimated.meta["sync"] == written and [c.time_offset_s for c in estimated.cameras] == list(offsets.values())
     assert any(line.startswith("sync cam_02: +0.333 s") for line in said)
     from_file = platypose.lift(views, calib, sync=next(out.rglob("sync_offsets.json")), **common)
