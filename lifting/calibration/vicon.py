@@ -125,10 +125,7 @@ def vicon_camera(element: ET.Element, source: str) -> tuple[Camera, np.ndarray]:
 def read_vicon(path: Path) -> Calibration:
     """Read every video camera of a Vicon ``.xcp``; millimetres, Z up as Vicon's lab frame."""
     source = str(path)
-    try:
-        root = ET.fromstring(path.read_bytes())
-    except ET.ParseError as err:
-        raise InputError(f"{source}: not valid Vicon XML ({err})") from None
+    root = validate.read_xml(path, "Vicon")
     if root.tag != "Cameras":
         raise InputError(f"{source}: not a Vicon calibration (no <Cameras> root element)")
     meta = new_meta("vicon-xcp", source, "z", "mm")
