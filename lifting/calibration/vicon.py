@@ -16,7 +16,7 @@ How we read them (docs/calibration.md gives the checks on a real file):
 - ``VICON_RADIAL2`` is read as Vicon's correction from recorded pixels ``d`` to ideal ones:
   ``u = c + (d - c)(1 + k1 r^2 + k2 r^4 + k3 r^6)``, ``r = |d - c|`` in pixels. OpenCV's model goes
   the other way (ideal -> recorded, normalised coordinates), so we fit its ``k1 k2 k3`` by least
-  squares over the image and record the largest remaining difference in pixels in ``meta``.
+  squares over the image and record the remaining difference in pixels (median, largest) in ``meta``.
 """
 
 from __future__ import annotations
