@@ -8,7 +8,7 @@ written. docs/api.md shows it end to end.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -52,6 +52,7 @@ def lift(
     root: str = "auto",
     root_trajectory: str | Path | None = None,
     floor: str = "auto",
+    sync: str | Path | Mapping[str, float] = "none",
     detector: str | Path | None = None,
     stride: int = 1,
     threads: int | None = None,
@@ -72,18 +73,22 @@ def lift(
     :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
     ``persons``: all, largest or N; ``root``: auto, triangulate or solve;
     ``root_trajectory``: a known pelvis path file. ``floor``: auto (the calibration's z = 0; without one,
-    estimated after the lift and reported), z=H, nx,ny,nz,d or none, as ``--floor``. ``stride``: detect
+    estimated after the lift and reported), z=H, nx,ny,nz,d or none, as ``--floor``. ``sync``: how the views
+    are put on one clock, as ``--sync``: none (the calibration's time offsets), auto (each view's offset
+    estimated from its keypoints, logged with its confidence), an offsets JSON file, or a mapping
+    ``{"cam01": 0.0, "cam02": 0.12}`` of seconds added to each view's frame times. ``stride``: detect
     every N-th frame; ``threads``: the detector's threads. ``fps`` and ``image_size`` (height, width): for
     keypoints without a video beside them (as ``--fps``, ``--image-size``). ``say`` receives the log's lines.
 
     Returns the LiftResult (hypotheses (P, N, T, 17, 3) world metres, median, 2D keypoints,
-    cameras, ``meta`` with the arguments, the settings and the log's warnings); InputError for bad
-    input, as the CLI.
+    cameras with their time offsets, ``meta`` with the arguments, the settings, the offsets used
+    (``meta["sync"]``) and the log's warnings); InputError for bad input, as the CLI.
     """
     from platypose import __version__
     from platypose.detectors.sources import view_name
     from platypose.detectors.take import take_keypoints
     from platypose.lifting.floor import floor_for_lift, parse_floor
+    from platypose.lifting.sync_choice import check_choice, synchronise
     from platypose.lifting.take import root_kinds, root_paths
     from platypose.pipeline import lift_take, match_cameras, view_cameras
 
@@ -95,6 +100,7 @@ def lift(
     except (TypeError, ValueError) as err:  # an unknown field, or a value SamplerConfig refuses
         raise InputError(f"sampler: {err}") from None
     windows = windows or WindowSettings()
+    check_choice(sync)
     log = _Log(say)
     names = [view_name(s) for s in sources]
     what = ", ".join(map(str, sources))
@@ -107,6 +113,10 @@ def lift(
     timings = {"keypoints_s": time.perf_counter() - started}
     sizes = [t.image_size for t in tracks]
     cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, "cams")
+    synced = synchronise(
+        sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
+    )
+    cameras = synced.cameras
     keypoints, times, track_ids = take_keypoints(tracks, cameras, persons, what)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (persons {persons})")
     given = None
@@ -126,6 +136,7 @@ def lift(
         "root": root,
         "root_trajectory": str(root_trajectory) if root_trajectory is not None else None,
         "floor": floor,
+        "sync": dict(sync) if isinstance(sync, Mapping) else str(sync),
         "stride": stride,
         "sampler": asdict(sampler),
         "windows": asdict(windows),
@@ -134,6 +145,7 @@ def lift(
         version=__version__,
         input=what,
         arguments=arguments,
+        sync=synced.record(),
         root=root_kinds(roots, given is not None),
         timings=timings,
         warnings=log.warnings,

@@ -67,10 +67,10 @@ def _check_videos(calibration, videos: list[Path]) -> None:
 
 def _check_keypoints(calibration, folder: Path, fps: float | None, sync: str) -> None:
     """Triangulate multi-view 2D keypoints (on one clock as ``sync`` says) and print the median reprojection error."""
-    from platypose.cli.sync_option import sync_cameras
     from platypose.detectors.openpose import read_openpose_folder
     from platypose.lifting.calibration.matching import gather_views, match_views
     from platypose.lifting.errors import InputError
+    from platypose.lifting.sync_choice import synchronise
     from platypose.lifting.triangulation import (
         associate_single_person,
         median_reprojection_error,
@@ -84,9 +84,9 @@ def _check_keypoints(calibration, folder: Path, fps: float | None, sync: str) ->
     matched = match_views(calibration.names, list(views))
     cameras = [calibration.camera(name) for name in matched]
     tracks = [read_openpose_folder(views[matched[c.name]], fps=fps, image_size=c.size) for c in cameras]
-    cameras = sync_cameras(
+    cameras = synchronise(
         sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, typer.echo, _warn
-    )
+    ).cameras
     period = min(float(t.frame_times[1] - t.frame_times[0]) if t.num_frames > 1 else 1.0 for t in tracks)
     candidates = gather_views([t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, 0.5 * period)
     keypoints = associate_single_person(candidates, cameras)

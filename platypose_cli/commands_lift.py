@@ -39,17 +39,16 @@ def lift_settings(
     from platypose.detectors.tracking import persons_count
     from platypose.exporters.export import parse_formats
     from platypose.lifting.atomic import check_writable
-    from platypose.lifting.errors import InputError
     from platypose.lifting.floor import parse_floor
     from platypose.lifting.runtime import resolve_device
+    from platypose.lifting.sync_choice import check_choice
     from platypose.lifting.take import check_root_mode
 
     persons_count(persons)
     resolve_device(prior.device)
     parse_floor(floor)
     check_root_mode(root)
-    if sync not in ("auto", "none") and not Path(sync).is_file():
-        raise InputError(f"{sync}: offsets file not found (--sync takes auto, none or an offsets .json)")
+    check_choice(sync)
     check_writable(out, folder=True)
     return RunSettings(
         out=out,

@@ -38,7 +38,7 @@ from platypose.cli.app import describe_os_error
 from platypose.cli.detection import Detection, DetectOptions
 from platypose.cli.lift_jobs import Job
 from platypose.cli.options import as_json, cli_message
-from platypose.cli.sync_option import sync_cameras
+from platypose.cli.sync_option import write_offsets
 from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.errors import InputError
 from platypose.lifting.lift import WindowSettings
@@ -147,6 +147,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     from platypose.detectors.take import take_keypoints
     from platypose.exporters.frames import FrameArray
     from platypose.lifting.floor import floor_for_lift, parse_floor
+    from platypose.lifting.sync_choice import synchronise
     from platypose.lifting.take import root_kinds
 
     timings: dict[str, float] = {}
@@ -168,9 +169,11 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     timings["keypoints_s"] = time.perf_counter() - started
     names, sources = [v.name for v in job.views], [str(v.source) for v in job.views]
     cameras = view_cameras(calibrated, [t.image_size for t in views], names, sources, job.input, log, "--cams")
-    offsets_file = settings.out / job.name / SYNC_FILE if settings.sync == "auto" else None
     keypoints_2d, frame_times = [t.keypoints for t in views], [t.frame_times for t in views]
-    cameras = sync_cameras(settings.sync, keypoints_2d, frame_times, cameras, log, log.warning, offsets_file)
+    synced = synchronise(settings.sync, keypoints_2d, frame_times, cameras, log, log.warning)
+    cameras = synced.cameras
+    if synced.confidence is not None:
+        write_offsets(settings.out / job.name / SYNC_FILE, synced)
     keypoints, times, track_ids = take_keypoints(views, cameras, settings.persons, job.input)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
     roots = root_paths(keypoints, times, cameras, settings, log)
@@ -200,6 +203,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
         "input": job.input,
         "arguments": settings.arguments,
         **result.meta,
+        "sync": synced.record(),
         "root": root_kinds(roots, settings.root_file is not None),
         "timings": timings,
         "warnings": log.warnings,

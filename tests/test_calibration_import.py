@@ -19,6 +19,7 @@ CALIB = Path(__file__).parent / "data/calib"
 QUALISYS = CALIB / "pose2sim_demo.qca.txt"
 CALISCOPE = CALIB / "caliscope/camera_array.toml"
 FREEMOCAP = CALIB / "freemocap_test_data_camera_calibration.toml"
+VICON = CALIB / "vicon/opencap_testCalibration.xcp"
 POSE2SIM_TOML = "video/pose2sim-balancing/calib_pose2sim.toml"
 
 
@@ -207,7 +208,7 @@ def test_caliscope_ignored_camera_left_out(tmp_path: Path):
     assert load_calibration(path).names == ("cam_1", "cam_2", "cam_3")
 
 
-@pytest.mark.parametrize("source", [QUALISYS, CALISCOPE, FREEMOCAP])
+@pytest.mark.parametrize("source", [QUALISYS, CALISCOPE, FREEMOCAP, VICON])
 def test_cli_convert_round_trip(tmp_path: Path, run_cli, source: Path):
     """``calib convert`` writes calib.json; reading it back gives the same cameras, and ``calib check`` reads it."""
     out = tmp_path / "calib.json"

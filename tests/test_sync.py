@@ -137,10 +137,49 @@ def test_lift_with_sync_auto_matches_the_synchronised_lift(run_cli, data_dir: Pa
     late = _late_take(data_dir, tmp_path / "late", {"cam02_json": 20, "cam04_json": 12})
     synced, out = lift(late, tmp_path / "auto", "auto")
     original, _ = lift(_late_take(data_dir, tmp_path / "original", {}), tmp_path / "none", "none")
-    offsets = json.loads(next(out.rglob("sync_offsets.json")).read_text())["offsets_s"]
+    written = json.loads(next(out.rglob("sync_offsets.json")).read_text())
+    offsets = written["offsets_s"]
     assert abs(offsets["cam_02"] * 60 - 20) < 0.5 and abs(offsets["cam_04"] * 60 - 12) < 0.5
     assert [c.time_offset_s for c in synced.cameras] == list(offsets.values())
+    assert synced.meta["sync"] == written and written["mode"] == "auto"
     assert "sync cam_02: +0.333 s" in next(out.rglob("log.txt")).read_text()
     gap = np.linalg.norm(synced.median[0] - original.median[0], axis=-1) * 1000
     print(f"median joint difference, --sync auto on the late take vs the original: {np.nanmedian(gap):.1f} mm")
     assert np.nanmedian(gap) < 15.0
+
+    # the Python API on the same late take: the same offsets, whether estimated or read from the CLI's file
+    import platypose
+
+    said: list[str] = []
+    views = sorted(late.iterdir())
+    common = dict(fps=60, image_size=(1920, 1088), prior=prior_file, samples=2, persons="largest", say=said.append)
+    calib = data_dir / TAKE / "calib_pose2sim.toml"
+    estimated = platypose.lift(views, calib, sync="auto", **common)
+    frames = {name: round(value * 60, 2) for name, value in estimated.meta["sync"]["offsets_s"].items()}
+    print(
+        f"offsets in frames, API sync='auto': {frames}; CLI --sync auto: {[round(v * 60, 2) for v in offsets.values()]}"
+    )
+    assert estimated.meta["sync"] == written and [c.time_offset_s for c in estimated.cameras] == list(offsets.values())
+    assert any(line.startswith("sync cam_02: +0.333 s") for line in said)
+    from_file = platypose.lift(views, calib, sync=next(out.rglob("sync_offsets.json")), **common)
+    by_name = platypose.lift(
+        views,
+        calib,
+        sync={"cam02": offsets["cam_02"], "cam_04": offsets["cam_04"], "cam01": 0.0, "cam03": offsets["cam_03"]},
+        **common,
+    )
+    for result in (from_file, by_name):
+        assert result.meta["sync"] == {"mode": "offsets", "offsets_s": offsets}
+        assert np.array_equal(result.median, estimated.median)  # same offsets, same seed: the same lift
+
+
+def test_api_sync_refuses_bad_choices(data_dir: Path, tmp_path: Path):
+    import platypose
+    from platypose.lifting.errors import InputError
+
+    views = sorted((data_dir / TAKE / "openpose-body25b").iterdir())
+    calib = data_dir / TAKE / "calib_pose2sim.toml"
+    with pytest.raises(InputError, match="offsets file not found"):
+        platypose.lift(views, calib, sync=tmp_path / "nope.json", fps=60)
+    with pytest.raises(InputError, match="no view for camera.s. cam_04"):
+        platypose.lift(views, calib, sync={"cam01": 0.0, "cam02": 0.1, "cam03": 0.2}, fps=60, image_size=(1920, 1088))

@@ -3,7 +3,7 @@
 ``load_calibration`` dispatches on the path: a folder or ``intri.yml``/``extri.yml`` (EasyMocap),
 ``.toml`` (Pose2Sim / anipose / FreeMoCap / Caliscope, told apart by content), ``.yml``/``.yaml``/``.xml``
 (OpenCV FileStorage), ``.json`` (native ``platypose-calib`` or Human3.6M cameras, told apart by content),
-``.qca.txt`` (Qualisys) and other ``.txt`` (intrinsics only).
+``.qca.txt`` (Qualisys), ``.xcp`` (Vicon) and other ``.txt`` (intrinsics only).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from platypose.lifting.calibration.opencv_yml import is_easymocap, read_opencv_y
 from platypose.lifting.calibration.qualisys import is_qualisys, read_qualisys
 from platypose.lifting.calibration.toml_format import read_toml
 from platypose.lifting.calibration.validate import read_json
+from platypose.lifting.calibration.vicon import is_vicon, read_vicon
 from platypose.lifting.calibration.world import to_z_up_metres
 from platypose.lifting.errors import InputError
 
@@ -50,10 +51,12 @@ def _read_any(path: Path, subject: str | None) -> Calibration:
         return _read_json(path, subject)
     if is_qualisys(path):
         return read_qualisys(path)
+    if is_vicon(path):
+        return read_vicon(path)
     if suffix == ".txt":
         return read_intrinsics(path)
     raise InputError(
-        f"{path}: unknown calibration format (expected .json, .toml, .yml, .qca.txt, .txt or an EasyMocap folder)"
+        f"{path}: unknown calibration format (expected .json, .toml, .yml, .qca.txt, .xcp, .txt or an EasyMocap folder)"
     )
 
 

@@ -97,10 +97,7 @@ def _camera(element: ET.Element, source: str) -> Camera:
 def read_qualisys(path: Path) -> Calibration:
     """Read every active video camera of a Qualisys ``.qca.txt``; millimetres, Z up as QTM's lab frame."""
     source = str(path)
-    try:
-        root = ET.fromstring(path.read_bytes())
-    except ET.ParseError as err:
-        raise InputError(f"{source}: not valid Qualisys XML ({err})") from None
+    root = validate.read_xml(path, "Qualisys")
     if root.tag != "calibration" or root.find("cameras") is None:
         raise InputError(f"{source}: not a Qualisys calibration (no <calibration><cameras>)")
     meta = new_meta("qualisys-qca", source, "z", "mm")

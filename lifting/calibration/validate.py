@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,14 @@ def read_json(path: Path) -> Any:
         return json.loads(path.read_text(encoding="utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as err:
         raise InputError(f"{path}: not valid JSON ({err})") from None
+
+
+def read_xml(path: Path, what: str) -> ET.Element:
+    """The root element of an XML file, else InputError naming the file (``what``: the tool, for the message)."""
+    try:
+        return ET.fromstring(path.read_bytes())
+    except ET.ParseError as err:
+        raise InputError(f"{path}: not valid {what} XML ({err})") from None
 
 
 def as_array(value: object, shape: tuple[int, ...], source: str, what: str) -> np.ndarray:

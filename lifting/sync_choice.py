@@ -1,0 +1,120 @@
+"""How a take's views are put on one clock: ``auto``, ``none``, an offsets file or offsets by name.
+
+Shared by ``platypose lift --sync`` / ``calib check --sync`` and ``platypose.lift(sync=...)``:
+
+- ``none``: the calibration's ``time_offset_s`` as it is;
+- ``auto``: each view's offset estimated from its 2D keypoints (:mod:`platypose.lifting.sync`),
+  logged with its confidence (a low one, or a search stopped at its bound, is a warning);
+- a JSON file ``{"cam01": 0.0, "cam02": 0.12}`` (or the ``offsets_s`` of a file written by ``auto``),
+  or the same mapping given directly: seconds added to each view's frame times, by camera or view name.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from platypose.lifting.calibration.matching import match_views
+from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
+
+LOW_CONFIDENCE = 0.2  # below this an estimated offset is reported as unreliable
+SyncChoice = str | Path | Mapping[str, float]
+
+
+@dataclass(frozen=True)
+class Synced:
+    """The cameras on one clock, and how their offsets were obtained (``record`` for a result's meta or a file)."""
+
+    cameras: list[Camera]
+    mode: str
+    confidence: list[float] | None = None
+
+    def record(self) -> dict[str, Any]:
+        """``{"mode", "offsets_s": {camera: s}}`` plus ``"confidence"`` for estimated offsets; ``--sync`` reads it back."""
+        data: dict[str, Any] = {"mode": self.mode, "offsets_s": {c.name: c.time_offset_s for c in self.cameras}}
+        if self.confidence is not None:
+            data["confidence"] = {c.name: round(float(v), 3) for c, v in zip(self.cameras, self.confidence)}
+        return data
+
+
+def check_choice(choice: SyncChoice) -> None:
+    """InputError unless ``choice`` is auto, none, an existing offsets file or a mapping of names to seconds."""
+    if isinstance(choice, Mapping) or choice in ("auto", "none"):
+        return
+    if not Path(choice).is_file():
+        raise InputError(f"{choice}: offsets file not found (sync takes auto, none or an offsets .json)")
+
+
+def offsets_by_name(offsets: object, camera_names: Sequence[str], where: str) -> list[float]:
+    """Offsets (s) per camera in ``camera_names`` order from a mapping keyed by camera or view name."""
+    if not isinstance(offsets, Mapping) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in offsets.values()
+    ):
+        raise InputError(f"{where}: expected a JSON object of camera name -> offset in seconds")
+    try:
+        matched = match_views(camera_names, [str(k) for k in offsets])
+    except InputError as err:
+        raise InputError(f"{where}: {err}") from None
+    by_key = {str(k): float(v) for k, v in offsets.items()}
+    values = [by_key[matched[name]] for name in camera_names]
+    if not all(np.isfinite(values)):
+        raise InputError(f"{where}: offsets must be finite numbers of seconds")
+    return values
+
+
+def read_offsets(path: Path, camera_names: Sequence[str]) -> list[float]:
+    """Offsets (s) per camera, in ``camera_names`` order, from a JSON file keyed by camera or view name."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path}: offsets file not found (sync takes auto, none or an offsets .json)") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise InputError(f"{path}: not valid JSON ({err})") from None
+    offsets = data.get("offsets_s", data) if isinstance(data, dict) else None
+    return offsets_by_name(offsets, camera_names, str(path))
+
+
+def synchronise(
+    choice: SyncChoice,
+    keypoints: Sequence[np.ndarray],
+    frame_times: Sequence[np.ndarray],
+    cameras: Sequence[Camera],
+    log: Callable[[str], None],
+    warn: Callable[[str], None],
+) -> Synced:
+    """The cameras with the time offsets ``choice`` asks for; ``keypoints[c]`` (T_c, P, J, 3) on ``frame_times[c]``."""
+    from platypose.lifting.sync import estimate_offsets, main_person, with_offsets
+
+    names = [c.name for c in cameras]
+    if isinstance(choice, Mapping):
+        return Synced(with_offsets(cameras, offsets_by_name(choice, names, "sync offsets")), "offsets")
+    if choice == "none" or len(cameras) < 2:
+        return Synced(list(cameras), "none")
+    if choice != "auto":
+        return Synced(with_offsets(cameras, read_offsets(Path(choice), names)), "offsets")
+    estimate = estimate_offsets([main_person(k) for k in keypoints], frame_times, cameras)
+    synced = with_offsets(cameras, estimate.offsets_s)
+    rows = zip(synced[1:], estimate.offsets_frames[1:], estimate.confidence[1:], estimate.at_limit[1:])
+    for camera, frames, confidence, at_limit in rows:
+        log(
+            f"sync {camera.name}: {camera.time_offset_s:+.3f} s ({frames:+.1f} frames) after {synced[0].name}, "
+            f"confidence {confidence:.2f}"
+        )
+        if confidence < LOW_CONFIDENCE:
+            warn(f"sync {camera.name}: low confidence {confidence:.2f}; check the offset or pass an offsets.json")
+        if at_limit:
+            warn(
+                f"sync {camera.name}: the reprojection error still falls at 2 frames from the motion estimate, "
+                "where the search stops: the offset or the calibration may be off by that much"
+            )
+    log(
+        f"sync: median reprojection error {estimate.error_before_px:.1f} px as recorded, "
+        f"{estimate.error_after_px:.1f} px with the offsets"
+    )
+    return Synced(synced, "auto", [float(v) for v in estimate.confidence])
