@@ -209,9 +209,7 @@ class GuidedProblem:
             anchor = None if anchor is None else rigid_motion(anchor.movedim(-1, 0), *frame).movedim(0, -1)
         start = start.contiguous()
         if self.grounding is not None:  # stance detected per hypothesis from where guidance starts
-            normal, level = self.grounding.frame(*(frame or (None, None)))
-            stance = self.grounding.stance(start.movedim(0, -1), normal, level)
-            self.floor_state = (stance, normal, level)
+            self.floor_state = self.grounding.held(start.movedim(0, -1), *(frame or (None, None)))
         moved = torch.zeros_like(start)
         rows = (1, self.batch, -1, 1, 1)  # one hypothesis per row of the component-first arrays
         step = torch.full((x0.shape[0],), c.energy_scale, dtype=x0.dtype, device=x0.device)

@@ -15,9 +15,11 @@ from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.floor import CALIBRATED_FLOOR, estimate_floor, parse_floor
+from platypose.lifting.grounding import Grounding, image_still_ankles
 from platypose.lifting.lift import lift_tracks
 from platypose.lifting.plausibility import lowest_ankle, plausibility, stance_slides
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.sampler import SamplerConfig, cameras_and_rays
+from platypose.lifting.triangulation import triangulate
 
 TAKE = "video/pose2sim-balancing"
 NAMES = ("cam01", "cam02", "cam03", "cam04")
@@ -89,6 +91,65 @@ def test_a_person_seen_by_one_view_among_four_is_grounded(shipped_prior, cameras
     report = plausibility(grounded, alone, CALIBRATED_FLOOR)[0]
     assert "one view" in report["flags"] and "under floor" not in report["flags"]
     assert "under floor" in plausibility(free, alone, CALIBRATED_FLOOR)[0]["flags"]
+
+
+def test_ankles_count_as_one_view_where_no_two_views_measure_their_depth(cameras, athlete):
+    """The athlete's triangulated ankles: measured where two cameras far apart see them; one view where the others
+    miss them, or where the second camera sits beside the first (their rays meet at under 5 degrees)."""
+    keypoints, times = athlete
+    pair = keypoints[:2, :8].swapaxes(1, 2)  # cam01 and cam02, (C, 1, 8, 17, 3)
+    joints = torch.as_tensor(triangulate(pair[..., :2], pair[..., 2], cameras[:2]), dtype=torch.float32)[:, None]
+    for seen_by_both, second, one_view in ((True, cameras[1], 0.0), (False, cameras[1], 1.0), (True, None, 1.0)):
+        views = pair.copy()
+        if not seen_by_both:
+            views[1, ..., 2] = 0.0
+        beside = [cameras[0], second or cameras[0]]
+        obs, _ = cameras_and_rays(beside, views[..., :2], views[..., 2])
+        grounding = Grounding(CALIBRATED_FLOOR.plane, obs, SamplerConfig(), 30.0)
+        centers = torch.as_tensor(np.stack([c.center for c in beside]), dtype=torch.float32)
+        if second is None:
+            centers[1] += torch.tensor([0.1, 0.0, 0.0])  # 10 cm beside cam01, 3.5 m from the ankles
+        flags = grounding.one_view_ankles(joints, centers)
+        assert flags.shape == (1, 1, 8, 2) and torch.all(flags == one_view), (seen_by_both, second, flags)
+
+
+def test_ankles_still_in_each_image_agree_with_the_four_views(cameras, athlete):
+    """Each camera alone: an ankle is still in its image where the four views' triangulated ankle moves slower than
+    1.5 m/s (60 fps; the athlete keeps both feet down most of the take) in at least 80 % of ankle-frames, and the
+    image calls a standing ankle moving in at most 5 %; missing keypoints are never still."""
+    keypoints, times = athlete
+    fps = 1 / np.median(np.diff(times))
+    ankles = triangulate(keypoints[..., :2], keypoints[..., 2], cameras)[:, 0, [3, 6]]  # (T, 2, 3)
+    step = np.linalg.norm(np.diff(ankles, axis=0), axis=-1) * fps
+    moving = np.concatenate([step[:1], np.minimum(step[1:], step[:-1]), step[-1:]]) > 1.5
+    for c, camera in enumerate(cameras):
+        view = keypoints[c : c + 1].swapaxes(1, 2)  # (1, 1, T, 17, 3)
+        obs, _ = cameras_and_rays([camera], view[..., :2], view[..., 2])
+        still = image_still_ankles(obs, fps)[0].numpy()
+        assert np.mean(still == ~moving) > 0.8 and np.mean(~still & ~moving) < 0.05, camera.name
+    view[..., 40:, :, 2] = 0.0
+    obs, _ = cameras_and_rays([camera], view[..., :2], view[..., 2])
+    assert not image_still_ankles(obs, fps)[0, 40:].any()
+
+
+@pytest.mark.slow
+def test_legs_seen_by_one_view_among_four_are_grounded(shipped_prior, cameras, athlete):
+    """Four cameras see the athlete's body, only cam01 the knees and ankles: those ankles' depth is one view's, so
+    contact and sliding hold them (they were left to the prior before): the median ankle comes nearer the four
+    views' triangulation and slides less, and none goes under the floor."""
+    keypoints, times = athlete
+    hidden = keypoints.copy()
+    hidden[1:, ..., [2, 3, 5, 6], 2] = 0.0  # cam02-cam04 miss both knees and ankles
+    truth = triangulate(keypoints[..., :2], keypoints[..., 2], cameras)[:, 0, [3, 6]]  # (T, 2, 3)
+    errors, slides = [], []
+    for floor in (CALIBRATED_FLOOR, None):
+        hypotheses = _lift(shipped_prior, cameras, hidden, times, floor)[0]
+        errors.append(np.median(np.linalg.norm(np.median(hypotheses, axis=0)[:, [3, 6]] - truth, axis=-1)))
+        slides.append(np.median(stance_slides(hypotheses, CALIBRATED_FLOOR)))
+        if floor is not None:
+            assert np.mean(lowest_ankle(hypotheses, CALIBRATED_FLOOR) < -0.03) < 0.01
+    assert errors[0] < 0.1 and errors[0] < 0.75 * errors[1], errors
+    assert slides[0] < 0.6 * slides[1], slides
 
 
 @pytest.mark.slow
