@@ -128,6 +128,17 @@ class Grounding:
         joints = stance.new_zeros(*stance.shape[:-1], 17).index_add(-1, _ankle_index(stance), stance)
         return (joints > 0)[None]
 
+    @staticmethod
+    def sunk(
+        start: torch.Tensor, moved: torch.Tensor, settled: torch.Tensor, normal: torch.Tensor, offset: float
+    ) -> torch.Tensor:
+        """Boolean ``(1, B, N, F, 17)``: joints that the move ``settled`` (after guidance's ``moved``, both from
+        ``start``, component-first ``(3, B, N, F, 17)``) puts below the floor ``(normal, offset)`` and below where
+        ``moved`` left them (one view's depth smoothing runs along rays that slope down to the floor)."""
+        guided = torch.einsum("c...,c->...", start + moved, normal) + offset
+        smoothed = torch.einsum("c...,c->...", start + settled, normal) + offset
+        return (smoothed < guided.clamp(max=0.0))[None]
+
     def place(self, placed: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
         """Offsets ``(B, N, F, 3)`` of the placed poses ``placed`` ``(B, N, F, 17, 3)`` (world, before the offset),
         rescaled about the camera of windows seen by one camera so that their stance ankles stand on the floor."""

@@ -234,8 +234,10 @@ class GuidedProblem:
                 break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
         anchored = None if self.anchor is None else self.anchor.mask
         settled = self.views.settle_move(start, moved, frame is not None, anchored, c)
-        if self.floor_state is not None:  # standing ankles stay where guidance held them
-            settled = torch.where(self.grounding.standing_joints(self.floor_state[0]), moved, settled)
+        if self.floor_state is not None:  # standing ankles stay where guidance held them, no joint sinks further
+            stance, normal, level = self.floor_state
+            kept = self.grounding.standing_joints(stance) | self.grounding.sunk(start, moved, settled, normal, level)
+            settled = torch.where(kept, moved, settled)
         moved = settled
         if frame is not None:  # the move back in world axes
             moved = rigid_motion(moved, frame[0].T)

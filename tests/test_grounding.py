@@ -17,7 +17,7 @@ from platypose.lifting.errors import InputError
 from platypose.lifting.floor import CALIBRATED_FLOOR, estimate_floor, parse_floor
 from platypose.lifting.grounding import Grounding, image_still_ankles
 from platypose.lifting.lift import lift_tracks
-from platypose.lifting.plausibility import lowest_ankle, plausibility, stance_slides
+from platypose.lifting.plausibility import lowest_ankle, plausibility, plausibility_lines, stance_slides
 from platypose.lifting.sampler import SamplerConfig, cameras_and_rays
 from platypose.lifting.triangulation import triangulate
 
@@ -150,6 +150,48 @@ def test_legs_seen_by_one_view_among_four_are_grounded(shipped_prior, cameras, a
             assert np.mean(lowest_ankle(hypotheses, CALIBRATED_FLOOR) < -0.03) < 0.01
     assert errors[0] < 0.1 and errors[0] < 0.75 * errors[1], errors
     assert slides[0] < 0.6 * slides[1], slides
+
+
+@pytest.mark.slow
+def test_support_is_measured_below_the_floor_where_two_views_place_the_feet(shipped_prior, data_dir: Path, cameras):
+    """The Pose2Sim take, both persons: the athlete stands on the force plate (the calibration's z = 0, plus its few
+    centimetres); the person behind, seen by cam01 and cam02 (rays 23 degrees apart: two views measure her feet, so
+    contact does not pull them), stands on the room's floor about 0.3 m lower (her triangulated ankles are 0.19 m
+    under z = 0), and is reported so, not only flagged."""
+    views = [read_openpose_folder(data_dir / TAKE / "openpose-body25b" / f"{n}_json") for n in NAMES]
+    matched = match_across_views(views, cameras)
+    keypoints, times = np.stack([m.keypoints for m in matched]), matched[0].frame_times  # (C, T, P, 17, 3)
+    hypotheses = _lift(shipped_prior, cameras, keypoints, times, CALIBRATED_FLOOR)
+    athlete, behind = plausibility(hypotheses, keypoints, CALIBRATED_FLOOR, 1 / np.median(np.diff(times)))
+    assert [len(athlete["support"]), len(behind["support"])] == [1, 1], (athlete, behind)
+    assert 0.0 < athlete["support"][0]["height_m"] < 0.1 and athlete["flags"] == []
+    assert -0.4 < behind["support"][0]["height_m"] < -0.2 and behind["flags"] == ["under floor"]
+    assert behind["support"][0]["last_frame"] - behind["support"][0]["first_frame"] > 90
+    assert "m below the floor in frames" in plausibility_lines([behind], [1])[0]
+
+
+@pytest.mark.slow
+def test_sports2d_roof_person_keeps_the_roof_and_stands_still_on_it(shipped_prior, data_dir: Path):
+    """The Sports2D demo with its calibration, one view: the man walks on a roof about 2 m up, then jumps down; the
+    woman walks on the floor. His support is the roof for the first 4 s, then the floor; hers is the floor. No more
+    than 1 % of either's hypothesis-frames has its lowest ankle under -3 cm, and stance feet slide under 2 cm per
+    frame (median): on the roof, small and 10 m away, his ankles are held where the image says they stand."""
+    from platypose.detectors.cache import read_detections
+    from platypose.detectors.keypoints import to_our_joints
+    from platypose.detectors.tracking import track_detections
+
+    camera = load_calibration(data_dir / "video/sports2d-demo/Calib_demo.toml").cameras[0]
+    _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
+    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
+    keypoints, times = tracks.keypoints[None], tracks.frame_times  # (1, T, P, 17, 3)
+    hypotheses = _lift(shipped_prior, [camera], keypoints, times, CALIBRATED_FLOOR, samples=20)
+    reports = plausibility(hypotheses, keypoints, CALIBRATED_FLOOR, 30.0)
+    man, woman = sorted(reports, key=lambda r: -r["support"][0]["height_m"])
+    assert 1.7 < man["support"][0]["height_m"] < 2.2 and man["support"][0]["last_frame"] > 100, man
+    assert abs(man["support"][-1]["height_m"]) < 0.15 and man["support"][-1]["first_frame"] > 150, man
+    assert [abs(level["height_m"]) < 0.15 for level in woman["support"]] == [True], woman
+    for report in (man, woman):
+        assert report["under_floor_share"] < 0.01 and report["stance_slide_median_m"] < 0.02, report
 
 
 @pytest.mark.slow
