@@ -20,7 +20,6 @@ which several views can measure).
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Iterable
 
 import numpy as np
@@ -34,11 +33,12 @@ SPREAD = 1.0  # metres
 STANCE_BAND = 0.05  # metres above a hypothesis's standing height
 SUPPORT_WINDOW = 1.0  # seconds either side of a frame over which its standing height is taken
 STANDING_QUANTILE = 10  # percentile of the lower ankle's height there: its standing height (a jump's flight is higher)
-SUPPORT_STEP = 0.15  # metres: the support changes level where it moves this far from the level's median
+SUPPORT_STEP = 0.15  # metres: the support changes level where it moves this far from the level's running mean
 MIN_LEVEL = 0.5  # seconds: a level held shorter is not reported (steps, landings)
 ON_FLOOR = SUPPORT_STEP  # metres: a level nearer the floor than a change of level (a stair) is the floor
 
 CHUNK = 1024  # frames read at a time
+HYPOTHESES_AT_ONCE = 64  # hypotheses whose standing heights are found at a time
 UP = Floor((0.0, 0.0, 1.0), 0.0, "world")  # heights along world z when no floor is known
 
 
@@ -49,14 +49,20 @@ def lowest_ankle(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
 
 def standing_heights(lower: np.ndarray, fps: float) -> np.ndarray:
     """Standing heights ``(N, T)`` of lower-ankle heights ``(N, T)`` (NaN where absent): at each frame the low
-    ``STANDING_QUANTILE`` over the frames within ``SUPPORT_WINDOW`` either side (a support that changes, as a
-    person jumping off a roof, is followed; a jump's flight is not standing)."""
+    ``STANDING_QUANTILE`` (an order statistic) over the frames within ``SUPPORT_WINDOW`` either side (a support
+    that changes, as a person jumping off a roof, is followed; a jump's flight is not standing)."""
     half = max(1, round(SUPPORT_WINDOW * fps))
-    padded = np.pad(np.asarray(lower, dtype=np.float64), ((0, 0), (half, half)), constant_values=np.nan)
-    windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * half + 1, axis=-1)  # (N, T, 2 half + 1)
-    with warnings.catch_warnings():  # frames with no standing ankle within reach stay NaN
-        warnings.simplefilter("ignore", RuntimeWarning)
-        heights = np.nanpercentile(windows, STANDING_QUANTILE, axis=-1) if windows.size else lower
+    lower = np.asarray(lower, dtype=np.float64)
+    heights = np.full_like(lower, np.nan)
+    for first in range(0, len(lower), HYPOTHESES_AT_ONCE):  # the windows' copy stays small
+        rows = np.pad(lower[first : first + HYPOTHESES_AT_ONCE], ((0, 0), (half, half)), constant_values=np.nan)
+        windows = np.lib.stride_tricks.sliding_window_view(rows, 2 * half + 1, axis=-1)  # (n, T, 2 half + 1)
+        known = np.isfinite(windows)
+        ordered = np.sort(np.where(known, windows, np.inf), axis=-1)
+        count = known.sum(axis=-1)
+        rank = np.floor(STANDING_QUANTILE / 100 * (count - 1)).clip(min=0).astype(np.intp)
+        low = np.take_along_axis(ordered, rank[..., None], axis=-1)[..., 0]
+        heights[first : first + HYPOTHESES_AT_ONCE] = np.where(count > 0, low, np.nan)
     return np.where(np.isfinite(lower), heights, np.nan)
 
 
@@ -165,7 +171,8 @@ def plausibility(
 
 
 def plausibility_lines(reports: list[dict], track_ids: list | np.ndarray) -> list[str]:
-    """One console line per person with a flag: what is implausible and the figure behind it."""
+    """One console line per person with a flag (what is implausible and the figure behind it) or standing off the
+    floor (where: a roof, a platform, a lower floor)."""
     lines = []
     for track, report in zip(track_ids, reports):
         raised = [level for level in report.get("support", []) if abs(level["height_m"]) > ON_FLOOR]
