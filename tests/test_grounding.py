@@ -79,12 +79,14 @@ def test_one_view_lift_of_a_real_take_stands_on_the_floor_without_sliding(shippe
 
 @pytest.mark.slow
 def test_a_person_seen_by_one_view_among_four_is_grounded(shipped_prior, cameras, athlete):
-    """Four calibrated cameras, the athlete seen by cam01 only: the window is grounded as a one-view lift (stance
-    ankles' rays meet the floor), and flagged as seen by one view."""
+    """Four calibrated cameras, the athlete seen by cam01 only: the window is lifted with cam01's one-view steps (the
+    same hypotheses as lifting cam01 alone), grounded (stance ankles' rays meet the floor), and flagged as seen by
+    one view."""
     keypoints, times = athlete
     alone = keypoints.copy()
     alone[1:, ..., 2] = 0.0  # cam02-cam04 see nothing
     grounded = _lift(shipped_prior, cameras, alone, times, CALIBRATED_FLOOR)
+    assert np.array_equal(grounded, _lift(shipped_prior, cameras[:1], keypoints[:1], times, CALIBRATED_FLOOR))
     free = _lift(shipped_prior, cameras, alone, times, None)
     assert np.mean(lowest_ankle(grounded[0], CALIBRATED_FLOOR) < -0.03) < 0.01
     assert np.mean(lowest_ankle(free[0], CALIBRATED_FLOOR) < -0.03) > 0.3
