@@ -16,14 +16,16 @@ Given a floor ``n . x + d = 0`` (world metres, ``n`` up; :mod:`lifting.floor`):
   platform, a climber on a wall), a share in between (each hypothesis's own uniform draw against it);
   airborne windows and stance ankles above the camera keep the size prior's placement.
 - energies (:meth:`Grounding.add_terms`), per hypothesis, in the guidance frame: penetration (every
-  joint below the floor, ``floor_weight`` per squared metre, however many cameras see it); and where
-  one camera sees the window, contact (stance ankles held at their stance height, ``contact_weight``)
-  and sliding (a stance ankle's distance along the floor from where it stands over its run of stance
-  frames, ``slide_weight``). Several cameras measure the feet themselves (an ankle rolls over its
-  stance; pinning it cost 4-view accuracy). Stance is detected from each hypothesis itself
-  (:meth:`Grounding.stance`): its lower ankle, slower than ``STANCE_SPEED``. Sliding holds stance ankles
-  wherever they stand (a roof too); contact pulls only those within ``CONTACT_BAND`` of their stance
-  height on the floor.
+  joint below the floor, ``floor_weight`` per squared metre, however many cameras see it); and on ankles
+  whose depth one view alone fixes (:meth:`Grounding.one_view_ankles`), contact (stance ankles held at
+  their stance height, ``contact_weight``) and sliding (a stance ankle's distance along the floor from
+  where it stands over its run of stance frames, ``slide_weight``). Several cameras apart measure the feet
+  themselves (an ankle rolls over its stance; pinning it cost 4-view accuracy). Stance is detected from
+  each hypothesis itself (:meth:`Grounding.stance`): its lower ankle, slower than ``STANCE_SPEED`` or
+  still in the image. Sliding holds stance ankles wherever they stand (a roof too); contact pulls only
+  those within ``CONTACT_BAND`` of their stance height on the floor. One view's depth smoothing after
+  guidance leaves stance ankles where guidance held them and sinks no joint under the floor
+  (:meth:`Grounding.sunk`).
 """
 
 from __future__ import annotations
@@ -90,11 +92,12 @@ class Grounding:
         stance = self.stance(joints, normal, offset) * self.one_view_ankles(joints, centers)
         return stance, normal, offset
 
-    def stance(self, joints: torch.Tensor, normal: torch.Tensor, offset: float) -> torch.Tensor:
+    def stance(self, joints: torch.Tensor, normal: torch.Tensor, offset: float, image: bool = True) -> torch.Tensor:
         """Stance ankles ``(B, N, F, 2)`` (1 standing, 0 not) of joints ``(B, N, F, 17, 3)``: the lower ankle of each
-        frame, slower than ``STANCE_SPEED`` along the floor (on the floor or on a raised support), or still in the
-        image (:func:`image_still_ankles`: one view's depth jitter moves a hypothesis's ankle along its ray, which
-        the image does not see)."""
+        frame, slower than ``STANCE_SPEED`` along the floor (on the floor or on a raised support), or, with
+        ``image``, still in the image (:func:`image_still_ankles`: one view's depth jitter moves a hypothesis's
+        ankle along its ray, which the image does not see; the placement does not use it, which cost held-out
+        accuracy)."""
         ankles = joints[..., list(ANKLES), :]  # (B, N, F, 2, 3)
         height = ankles @ normal + offset  # (B, N, F, 2)
         lower = height == height.min(dim=-1, keepdim=True).values
@@ -104,7 +107,7 @@ class Grounding:
             along = step - (step @ normal)[..., None] * normal
             speed = along.norm(dim=-1) * self.fps
             speed = torch.cat([speed[:, :, :1], torch.minimum(speed[:, :, 1:], speed[:, :, :-1]), speed[:, :, -1:]], 2)
-            stance = stance & ((speed < STANCE_SPEED) | self.image_still[:, None])
+            stance = stance & ((speed < STANCE_SPEED) | (self.image_still[:, None] & image))
         return stance.to(joints.dtype)
 
     def one_view_ankles(self, joints: torch.Tensor, centers: torch.Tensor) -> torch.Tensor:
@@ -146,7 +149,7 @@ class Grounding:
             return offset
         world = placed + offset[..., None, :]
         center = self.centers[self.viewer][:, None, None, :]  # (B, 1, 1, 3)
-        stance = self.stance(world, self.normal, self.offset) > 0  # (B, N, F, 2)
+        stance = self.stance(world, self.normal, self.offset, image=False) > 0  # (B, N, F, 2)
         ankles = world[..., list(ANKLES), :]
         drop = (ankles - center[..., None, :]) @ self.normal  # (B, N, F, 2): below the camera is negative
         camera_height = center[..., 0, :] @ self.normal + self.offset  # (B, 1)
