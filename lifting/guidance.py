@@ -209,9 +209,7 @@ class GuidedProblem:
             anchor = None if anchor is None else rigid_motion(anchor.movedim(-1, 0), *frame).movedim(0, -1)
         start = start.contiguous()
         if self.grounding is not None:  # stance detected per hypothesis from where guidance starts
-            normal, level = self.grounding.frame(*(frame or (None, None)))
-            stance = self.grounding.stance(start.movedim(0, -1), normal, level)
-            self.floor_state = (stance, normal, level)
+            self.floor_state = self.grounding.held(start.movedim(0, -1), *(frame or (None, None)))
         moved = torch.zeros_like(start)
         rows = (1, self.batch, -1, 1, 1)  # one hypothesis per row of the component-first arrays
         step = torch.full((x0.shape[0],), c.energy_scale, dtype=x0.dtype, device=x0.device)
@@ -236,8 +234,10 @@ class GuidedProblem:
                 break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
         anchored = None if self.anchor is None else self.anchor.mask
         settled = self.views.settle_move(start, moved, frame is not None, anchored, c)
-        if self.floor_state is not None:  # standing ankles stay where guidance held them
-            settled = torch.where(self.grounding.standing_joints(self.floor_state[0]), moved, settled)
+        if self.floor_state is not None:  # standing ankles stay where guidance held them, no joint sinks further
+            stance, normal, level = self.floor_state
+            kept = self.grounding.standing_joints(stance) | self.grounding.sunk(start, moved, settled, normal, level)
+            settled = torch.where(kept, moved, settled)
         moved = settled
         if frame is not None:  # the move back in world axes
             moved = rigid_motion(moved, frame[0].T)

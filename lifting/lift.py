@@ -312,11 +312,15 @@ class _WindowRunner:
         """Results (batch of one) of ``items`` = (span index, window, anchor or None) in their order; an anchor is
         (joints (1, N, F, 17, 3), mask (F,)) continuing the span's previous window."""
         results: list[SampleResult | None] = [None] * len(items)
-        groups: dict[tuple[int, bool], list[int]] = {}
+        groups: dict[tuple[int, bool, int | None], list[int]] = {}
+        keypoints = [self._keypoints(spans[s], w) for s, w, _ in items]
         for i, (s, _, anchor) in enumerate(items):
-            groups.setdefault((spans[s].plan.length, anchor is not None), []).append(i)
-        for members in groups.values():
-            batch = self._sample([(spans[items[i][0]], items[i][1], items[i][2]) for i in members])
+            key = (spans[s].plan.length, anchor is not None, only_viewer(keypoints[i]))
+            groups.setdefault(key, []).append(i)
+        for (_, _, viewer), members in groups.items():
+            kp = np.concatenate([keypoints[i] for i in members], axis=1)  # (C, B, F, 17, 3)
+            windows = [(spans[items[i][0]], items[i][1], items[i][2]) for i in members]
+            batch = self._sample(windows, kp, viewer)
             for b, i in enumerate(members):
                 results[i] = SampleResult(batch.joints[b : b + 1], batch.energy[b : b + 1], batch.fitted[b : b + 1])
             self.done += len(members)
@@ -324,17 +328,17 @@ class _WindowRunner:
                 self.progress(self.done, self.total)
         return results
 
-    def _sample(self, windows: list) -> SampleResult:
-        """Hypotheses of windows (span, window, anchor) of one length, all anchored or none, as one batch."""
+    def _keypoints(self, span: Span, w: int) -> np.ndarray:
+        """Keypoints ``(C, 1, F, 17, 3)`` of window ``w`` of ``span``."""
+        return self.per_window.window(span.start(w), span.plan.length, [span.person], span.first + span.plan.total)
+
+    def _sample(self, windows: list, kp: np.ndarray, viewer: int | None) -> SampleResult:
+        """Hypotheses of windows (span, window, anchor) of one length, all anchored or none, as one batch, from their
+        keypoints ``kp`` ``(C, B, F, 17, 3)``; windows that camera ``viewer`` alone sees are lifted as one view."""
         F = windows[0][0].plan.length
-        kp = np.concatenate(
-            [
-                self.per_window.window(span.start(w), F, [span.person], span.first + span.plan.total)
-                for span, w, _ in windows
-            ],
-            axis=1,
-        )  # (C, B, F, 17, 3)
-        obs, rays = cameras_and_rays(self.cameras, kp[..., :2], kp[..., 2], device=self.prior.device)
+        cameras = self.cameras if viewer is None else [self.cameras[viewer]]
+        kp = kp if viewer is None else kp[viewer : viewer + 1]
+        obs, rays = cameras_and_rays(cameras, kp[..., :2], kp[..., 2], device=self.prior.device)
         dtype, device = obs.keypoints.dtype, obs.keypoints.device
         root = None
         if self.roots is not None:
@@ -348,6 +352,13 @@ class _WindowRunner:
             mask = torch.as_tensor(np.stack([a[1] for _, _, a in windows]), dtype=dtype, device=device)
             held = Anchor(joints, mask, self.settings.anchor_weight)
         return sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
+
+
+def only_viewer(keypoints: np.ndarray) -> int | None:
+    """The one camera seeing a window of keypoints ``(C, B, F, 17, 3)`` when no other sees it (and there are several),
+    else None: the sampler's one-view steps (:mod:`lifting.views`) are then that window's, among any cameras."""
+    seeing = np.flatnonzero((np.nan_to_num(keypoints[..., 2]) > 0).reshape(len(keypoints), -1).any(-1))
+    return int(seeing[0]) if len(keypoints) > 1 and len(seeing) == 1 else None
 
 
 class _PersonFrames:

@@ -6,10 +6,16 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
 - ``under floor``: more than ``UNDER_SHARE`` of hypothesis-frames have their lowest ankle more than
   ``UNDER_FLOOR`` below the floor;
 - ``sliding``: stance ankles (each hypothesis's lower ankle within ``STANCE_BAND`` of its own standing
-  height, in two consecutive frames) move along the floor by more than ``SLIDE`` per frame (median);
+  height at that time, in two consecutive frames) move along the floor by more than ``SLIDE`` per frame (median);
 - ``spread``: the hypotheses' pelvises lie more than ``SPREAD`` from their median (90 % of them, median
   over frames);
 - ``one view``: the person is seen by fewer than two cameras in most frames they are present.
+
+Not everyone stands on the floor: a hypothesis's standing height at a time (:func:`standing_heights`) is the low
+``STANDING_QUANTILE`` of its lower ankle within ``SUPPORT_WINDOW`` either side, and the person's support
+(:func:`support_levels`: the median hypothesis's standing height less ``ANKLE_HEIGHT``, in levels) says where
+they stand: on the floor, on a roof or a platform, or below the floor (a lower floor than the calibration's z = 0,
+which several views can measure).
 """
 
 from __future__ import annotations
@@ -18,15 +24,21 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from platypose.lifting.floor import ANKLES, Floor
+from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
 
 UNDER_FLOOR = 0.03  # metres below the floor
 UNDER_SHARE = 0.01  # share of hypothesis-frames
 SLIDE = 0.02  # metres per frame
 SPREAD = 1.0  # metres
-STANCE_BAND = 0.05  # metres above a hypothesis's standing height (5th percentile of its lower ankle)
+STANCE_BAND = 0.05  # metres above a hypothesis's standing height
+SUPPORT_WINDOW = 1.0  # seconds either side of a frame over which its standing height is taken
+STANDING_QUANTILE = 10  # percentile of the lower ankle's height there: its standing height (a jump's flight is higher)
+SUPPORT_STEP = 0.15  # metres: the support changes level where it moves this far from the level's running mean
+MIN_LEVEL = 0.5  # seconds: a level held shorter is not reported (steps, landings)
+ON_FLOOR = SUPPORT_STEP  # metres: a level nearer the floor than a change of level (a stair) is the floor
 
 CHUNK = 1024  # frames read at a time
+HYPOTHESES_AT_ONCE = 64  # hypotheses whose standing heights are found at a time
 UP = Floor((0.0, 0.0, 1.0), 0.0, "world")  # heights along world z when no floor is known
 
 
@@ -35,11 +47,31 @@ def lowest_ankle(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
     return (floor or UP).height(hypotheses[..., list(ANKLES), :]).min(axis=-1)
 
 
-def stance_slides(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
-    """Moves along the floor (m) of stance ankles between consecutive frames, pooled over hypotheses ``(N, T, 17, 3)``.
+def standing_heights(lower: np.ndarray, fps: float) -> np.ndarray:
+    """Standing heights ``(N, T)`` of lower-ankle heights ``(N, T)`` (NaN where absent): at each frame the low
+    ``STANDING_QUANTILE`` (an order statistic) over the frames within ``SUPPORT_WINDOW`` either side (a support
+    that changes, as a person jumping off a roof, is followed; a jump's flight is not standing)."""
+    half = max(1, round(SUPPORT_WINDOW * fps))
+    lower = np.asarray(lower, dtype=np.float64)
+    heights = np.full_like(lower, np.nan)
+    for first in range(0, len(lower), HYPOTHESES_AT_ONCE):  # the windows' copy stays small
+        rows = np.pad(lower[first : first + HYPOTHESES_AT_ONCE], ((0, 0), (half, half)), constant_values=np.nan)
+        windows = np.lib.stride_tricks.sliding_window_view(rows, 2 * half + 1, axis=-1)  # (n, T, 2 half + 1)
+        known = np.isfinite(windows)
+        ordered = np.sort(np.where(known, windows, np.inf), axis=-1)
+        count = known.sum(axis=-1)
+        rank = np.floor(STANDING_QUANTILE / 100 * (count - 1)).clip(min=0).astype(np.intp)
+        low = np.take_along_axis(ordered, rank[..., None], axis=-1)[..., 0]
+        heights[first : first + HYPOTHESES_AT_ONCE] = np.where(count > 0, low, np.nan)
+    return np.where(np.isfinite(lower), heights, np.nan)
 
-    A hypothesis's stance ankle is its lower ankle while within ``STANCE_BAND`` of its standing height (the 5th
-    percentile of its lower ankle's height); a move counts when the same ankle stands in both frames.
+
+def stance_slides(hypotheses: np.ndarray, floor: Floor | None, fps: float = 30.0) -> np.ndarray:
+    """Moves along the floor (m) of stance ankles between consecutive frames, pooled over hypotheses ``(N, T, 17, 3)``
+    at ``fps`` frames per second.
+
+    A hypothesis's stance ankle is its lower ankle while within ``STANCE_BAND`` of its standing height at that time
+    (:func:`standing_heights`); a move counts when the same ankle stands in both frames.
     """
     plane = floor or UP
     normal = np.asarray(plane.normal)
@@ -47,8 +79,8 @@ def stance_slides(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
     height = plane.height(ankles)  # (N, T, 2)
     if height.shape[1] < 2:
         return np.zeros(0)
-    lower = np.nanmin(height, axis=-1)  # (N, T)
-    standing = np.nanpercentile(lower, 5, axis=-1)[:, None, None]  # (N, 1, 1)
+    lower = np.fmin(height[..., 0], height[..., 1])  # (N, T)
+    standing = standing_heights(lower, fps)[..., None]  # (N, T, 1)
     stance = (height == lower[..., None]) & (height < standing + STANCE_BAND)
     step = np.diff(ankles, axis=1)
     along = np.linalg.norm(step - (step @ normal)[..., None] * normal, axis=-1)  # (N, T-1, 2)
@@ -56,20 +88,46 @@ def stance_slides(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
     return along[both]
 
 
-def person_plausibility(blocks: Iterable[np.ndarray], views_seen: np.ndarray, floor: Floor | None) -> dict:
+def support_levels(support: np.ndarray, fps: float) -> list[dict]:
+    """Levels of a person's support heights ``(T,)`` (metres above the floor, NaN where absent): runs of frames
+    within ``SUPPORT_STEP`` of their running mean, held at least ``MIN_LEVEL``; each ``{"first_frame", "last_frame",
+    "height_m"}`` (the run's median)."""
+    runs: list[list[int]] = []
+    mean = np.nan
+    for t, height in enumerate(np.asarray(support, dtype=np.float64)):
+        if not np.isfinite(height):
+            mean = np.nan
+            continue
+        if not (abs(height - mean) <= SUPPORT_STEP) or runs[-1][-1] != t - 1:
+            runs.append([])
+            mean = height
+        runs[-1].append(t)
+        mean += (height - mean) / len(runs[-1])
+    return [
+        {"first_frame": run[0], "last_frame": run[-1], "height_m": round(float(np.median(support[run])), 3)}
+        for run in runs
+        if len(run) >= MIN_LEVEL * fps
+    ]
+
+
+def person_plausibility(
+    blocks: Iterable[np.ndarray], views_seen: np.ndarray, floor: Floor | None, fps: float = 30.0
+) -> dict:
     """Figures and flags of one person: their hypotheses as consecutive blocks of frames ``(N, t, 17, 3)`` (NaN
-    where absent), ``views_seen`` ``(T,)`` the number of cameras seeing the person per frame."""
-    under, counted, slides, spreads, lows = 0, 0, [], [], []
+    where absent) at ``fps``, ``views_seen`` ``(T,)`` the number of cameras seeing the person per frame."""
+    under, counted, slides, spreads, lows, support = 0, 0, [], [], [], []
     for block in blocks:
         block = np.asarray(block, dtype=np.float64)
-        block = block[:, np.isfinite(block).all(axis=(0, -1, -2))]
+        present = np.isfinite(block).all(axis=(0, -1, -2))
+        lower = np.where(present, lowest_ankle(block, floor), np.nan)  # (N, t)
+        support.append(np.median(standing_heights(lower, fps), axis=0) - ANKLE_HEIGHT)
+        slides.append(stance_slides(np.where(present[:, None, None], block, np.nan), floor, fps))
+        block, lower = block[:, present], lower[:, present]
         if block.shape[1] == 0:
             continue
         if floor is not None:
-            low = lowest_ankle(block, floor)
-            under, counted = under + int((low < -UNDER_FLOOR).sum()), counted + low.size
-            lows.append(np.median(low, axis=0))
-        slides.append(stance_slides(block, floor))
+            under, counted = under + int((lower < -UNDER_FLOOR).sum()), counted + lower.size
+            lows.append(np.median(lower, axis=0))
         pelvis = block[:, :, 0]
         radius = np.linalg.norm(pelvis - np.median(pelvis, axis=0), axis=-1)  # (N, t)
         spreads.append(np.percentile(radius, 90, axis=0))
@@ -81,6 +139,7 @@ def person_plausibility(blocks: Iterable[np.ndarray], views_seen: np.ndarray, fl
     if floor is not None:
         report["under_floor_share"] = under / max(counted, 1)
         report["lowest_ankle_median_m"] = float(np.median(np.concatenate(lows)))
+        report["support"] = support_levels(np.concatenate(support), fps)
         if report["under_floor_share"] > UNDER_SHARE:
             flags.append("under floor")
     pooled = np.concatenate(slides)
@@ -96,23 +155,29 @@ def person_plausibility(blocks: Iterable[np.ndarray], views_seen: np.ndarray, fl
     return {**report, "flags": flags}
 
 
-def plausibility(hypotheses, keypoints: np.ndarray, floor: Floor | None, chunk: int = CHUNK) -> list[dict]:
+def plausibility(
+    hypotheses, keypoints: np.ndarray, floor: Floor | None, fps: float = 30.0, chunk: int = CHUNK
+) -> list[dict]:
     """:func:`person_plausibility` of every person: hypotheses ``(P, N, T, 17, 3)`` (an array, or anything indexed
-    like one, read ``chunk`` frames at a time), keypoints ``(C, T, P, 17, 3)`` (x, y, confidence) on the same
-    frames."""
+    like one, read ``chunk`` frames at a time) at ``fps``, keypoints ``(C, T, P, 17, 3)`` (x, y, confidence) on the
+    same frames."""
     seen = ((np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= 4).sum(axis=0)  # (T, P) cameras seeing 4+ joints
     P, T = hypotheses.shape[0], hypotheses.shape[2]
     reports = []
     for p in range(P):
         blocks = (hypotheses[p, :, start : start + chunk] for start in range(0, T, chunk))
-        reports.append(person_plausibility(blocks, seen[:, p], floor))
+        reports.append(person_plausibility(blocks, seen[:, p], floor, fps))
     return reports
 
 
 def plausibility_lines(reports: list[dict], track_ids: list | np.ndarray) -> list[str]:
-    """One console line per person with a flag: what is implausible and the figure behind it."""
+    """One console line per person with a flag (what is implausible and the figure behind it) or standing off the
+    floor (where: a roof, a platform, a lower floor)."""
     lines = []
     for track, report in zip(track_ids, reports):
+        raised = [level for level in report.get("support", []) if abs(level["height_m"]) > ON_FLOOR]
+        if raised and not report["flags"]:
+            lines.append(f"person {track}: {support_text(raised)}")
         if not report["flags"]:
             continue
         details = []
@@ -124,5 +189,17 @@ def plausibility_lines(reports: list[dict], track_ids: list | np.ndarray) -> lis
             details.append(f"hypotheses spread over {report['pelvis_spread_m']:.1f} m")
         if "one view" in report["flags"]:
             details.append("seen by one camera: depth and size from the prior")
+        if raised:
+            details.append(support_text(raised))
         lines.append(f"person {track}: flagged ({', '.join(report['flags'])}): {'; '.join(details)}")
     return lines
+
+
+def support_text(levels: list[dict]) -> str:
+    """Where a person stands off the floor, from their support ``levels`` (:func:`support_levels`)."""
+    parts = [
+        f"{abs(level['height_m']):.2f} m {'above' if level['height_m'] > 0 else 'below'} the floor in frames "
+        f"{level['first_frame']}-{level['last_frame']}"
+        for level in levels
+    ]
+    return "stands " + ", ".join(parts)

@@ -169,7 +169,7 @@ def lift_take(
             f"pitched {floor_meta['camera_pitch_deg']:.1f} degrees down ({floor_meta['stance_points']} standing "
             "ankles; reported, not used to ground this lift: --floor z=H or a calibration does)"
         )
-    persons = plausibility(hypotheses, keypoints, standing)
+    persons = plausibility(hypotheses, keypoints, standing, fps)
     for track, person in zip(track_ids, persons):
         person["track_id"] = int(track)
     for line in plausibility_lines(persons, track_ids):

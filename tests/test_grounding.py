@@ -15,9 +15,11 @@ from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.floor import CALIBRATED_FLOOR, estimate_floor, parse_floor
+from platypose.lifting.grounding import Grounding, image_still_ankles
 from platypose.lifting.lift import lift_tracks
-from platypose.lifting.plausibility import lowest_ankle, plausibility, stance_slides
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.plausibility import lowest_ankle, plausibility, plausibility_lines, stance_slides
+from platypose.lifting.sampler import SamplerConfig, cameras_and_rays
+from platypose.lifting.triangulation import triangulate
 
 TAKE = "video/pose2sim-balancing"
 NAMES = ("cam01", "cam02", "cam03", "cam04")
@@ -77,18 +79,121 @@ def test_one_view_lift_of_a_real_take_stands_on_the_floor_without_sliding(shippe
 
 @pytest.mark.slow
 def test_a_person_seen_by_one_view_among_four_is_grounded(shipped_prior, cameras, athlete):
-    """Four calibrated cameras, the athlete seen by cam01 only: the window is grounded as a one-view lift (stance
-    ankles' rays meet the floor), and flagged as seen by one view."""
+    """Four calibrated cameras, the athlete seen by cam01 only: the window is lifted with cam01's one-view steps (the
+    same hypotheses as lifting cam01 alone), grounded (stance ankles' rays meet the floor), and flagged as seen by
+    one view."""
     keypoints, times = athlete
     alone = keypoints.copy()
     alone[1:, ..., 2] = 0.0  # cam02-cam04 see nothing
     grounded = _lift(shipped_prior, cameras, alone, times, CALIBRATED_FLOOR)
+    assert np.array_equal(grounded, _lift(shipped_prior, cameras[:1], keypoints[:1], times, CALIBRATED_FLOOR))
     free = _lift(shipped_prior, cameras, alone, times, None)
     assert np.mean(lowest_ankle(grounded[0], CALIBRATED_FLOOR) < -0.03) < 0.01
     assert np.mean(lowest_ankle(free[0], CALIBRATED_FLOOR) < -0.03) > 0.3
     report = plausibility(grounded, alone, CALIBRATED_FLOOR)[0]
     assert "one view" in report["flags"] and "under floor" not in report["flags"]
     assert "under floor" in plausibility(free, alone, CALIBRATED_FLOOR)[0]["flags"]
+
+
+def test_ankles_count_as_one_view_where_no_two_views_measure_their_depth(cameras, athlete):
+    """The athlete's triangulated ankles: measured where two cameras far apart see them; one view where the others
+    miss them, or where the second camera sits beside the first (their rays meet at under 5 degrees)."""
+    keypoints, times = athlete
+    pair = keypoints[:2, :8].swapaxes(1, 2)  # cam01 and cam02, (C, 1, 8, 17, 3)
+    joints = torch.as_tensor(triangulate(pair[..., :2], pair[..., 2], cameras[:2]), dtype=torch.float32)[:, None]
+    for seen_by_both, second, one_view in ((True, cameras[1], 0.0), (False, cameras[1], 1.0), (True, None, 1.0)):
+        views = pair.copy()
+        if not seen_by_both:
+            views[1, ..., 2] = 0.0
+        beside = [cameras[0], second or cameras[0]]
+        obs, _ = cameras_and_rays(beside, views[..., :2], views[..., 2])
+        grounding = Grounding(CALIBRATED_FLOOR.plane, obs, SamplerConfig(), 30.0)
+        centers = torch.as_tensor(np.stack([c.center for c in beside]), dtype=torch.float32)
+        if second is None:
+            centers[1] += torch.tensor([0.1, 0.0, 0.0])  # 10 cm beside cam01, 3.5 m from the ankles
+        flags = grounding.one_view_ankles(joints, centers)
+        assert flags.shape == (1, 1, 8, 2) and torch.all(flags == one_view), (seen_by_both, second, flags)
+
+
+def test_ankles_still_in_each_image_agree_with_the_four_views(cameras, athlete):
+    """Each camera alone: an ankle is still in its image where the four views' triangulated ankle moves slower than
+    1.5 m/s (60 fps; the athlete keeps both feet down most of the take) in at least 80 % of ankle-frames, and the
+    image calls a standing ankle moving in at most 5 %; missing keypoints are never still."""
+    keypoints, times = athlete
+    fps = 1 / np.median(np.diff(times))
+    ankles = triangulate(keypoints[..., :2], keypoints[..., 2], cameras)[:, 0, [3, 6]]  # (T, 2, 3)
+    step = np.linalg.norm(np.diff(ankles, axis=0), axis=-1) * fps
+    moving = np.concatenate([step[:1], np.minimum(step[1:], step[:-1]), step[-1:]]) > 1.5
+    for c, camera in enumerate(cameras):
+        view = keypoints[c : c + 1].swapaxes(1, 2)  # (1, 1, T, 17, 3)
+        obs, _ = cameras_and_rays([camera], view[..., :2], view[..., 2])
+        still = image_still_ankles(obs, fps)[0].numpy()
+        assert np.mean(still == ~moving) > 0.8 and np.mean(~still & ~moving) < 0.05, camera.name
+    view[..., 40:, :, 2] = 0.0
+    obs, _ = cameras_and_rays([camera], view[..., :2], view[..., 2])
+    assert not image_still_ankles(obs, fps)[0, 40:].any()
+
+
+@pytest.mark.slow
+def test_legs_seen_by_one_view_among_four_are_grounded(shipped_prior, cameras, athlete):
+    """Four cameras see the athlete's body, only cam01 the knees and ankles: those ankles' depth is one view's, so
+    contact and sliding hold them (they were left to the prior before): the median ankle comes nearer the four
+    views' triangulation and slides less, and none goes under the floor."""
+    keypoints, times = athlete
+    hidden = keypoints.copy()
+    hidden[1:, ..., [2, 3, 5, 6], 2] = 0.0  # cam02-cam04 miss both knees and ankles
+    truth = triangulate(keypoints[..., :2], keypoints[..., 2], cameras)[:, 0, [3, 6]]  # (T, 2, 3)
+    errors, slides = [], []
+    for floor in (CALIBRATED_FLOOR, None):
+        hypotheses = _lift(shipped_prior, cameras, hidden, times, floor)[0]
+        errors.append(np.median(np.linalg.norm(np.median(hypotheses, axis=0)[:, [3, 6]] - truth, axis=-1)))
+        slides.append(np.median(stance_slides(hypotheses, CALIBRATED_FLOOR)))
+        if floor is not None:
+            assert np.mean(lowest_ankle(hypotheses, CALIBRATED_FLOOR) < -0.03) < 0.01
+    assert errors[0] < 0.1 and errors[0] < 0.75 * errors[1], errors
+    assert slides[0] < 0.6 * slides[1], slides
+
+
+@pytest.mark.slow
+def test_support_is_measured_below_the_floor_where_two_views_place_the_feet(shipped_prior, data_dir: Path, cameras):
+    """The Pose2Sim take, both persons: the athlete stands on the force plate (the calibration's z = 0, plus its few
+    centimetres); the person behind, seen by cam01 and cam02 (rays 23 degrees apart: two views measure her feet, so
+    contact does not pull them), stands on the room's floor about 0.3 m lower (her triangulated ankles are 0.19 m
+    under z = 0), and is reported so, not only flagged."""
+    views = [read_openpose_folder(data_dir / TAKE / "openpose-body25b" / f"{n}_json") for n in NAMES]
+    matched = match_across_views(views, cameras)
+    keypoints, times = np.stack([m.keypoints for m in matched]), matched[0].frame_times  # (C, T, P, 17, 3)
+    hypotheses = _lift(shipped_prior, cameras, keypoints, times, CALIBRATED_FLOOR)
+    athlete, behind = plausibility(hypotheses, keypoints, CALIBRATED_FLOOR, 1 / np.median(np.diff(times)))
+    assert [len(athlete["support"]), len(behind["support"])] == [1, 1], (athlete, behind)
+    assert 0.0 < athlete["support"][0]["height_m"] < 0.1 and athlete["flags"] == []
+    assert -0.4 < behind["support"][0]["height_m"] < -0.2 and behind["flags"] == ["under floor"]
+    assert behind["support"][0]["last_frame"] - behind["support"][0]["first_frame"] > 90
+    assert "m below the floor in frames" in plausibility_lines([behind], [1])[0]
+
+
+@pytest.mark.slow
+def test_sports2d_roof_person_keeps_the_roof_and_stands_still_on_it(shipped_prior, data_dir: Path):
+    """The Sports2D demo with its calibration, one view: the man walks on a roof about 2 m up, then jumps down; the
+    woman walks on the floor. His support is the roof for the first 4 s, then the floor; hers is the floor. No more
+    than 1 % of either's hypothesis-frames has its lowest ankle under -3 cm, and stance feet slide under 2 cm per
+    frame (median): on the roof, small and 10 m away, his ankles are held where the image says they stand."""
+    from platypose.detectors.cache import read_detections
+    from platypose.detectors.keypoints import to_our_joints
+    from platypose.detectors.tracking import track_detections
+
+    camera = load_calibration(data_dir / "video/sports2d-demo/Calib_demo.toml").cameras[0]
+    _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
+    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
+    keypoints, times = tracks.keypoints[None], tracks.frame_times  # (1, T, P, 17, 3)
+    hypotheses = _lift(shipped_prior, [camera], keypoints, times, CALIBRATED_FLOOR, samples=20)
+    reports = plausibility(hypotheses, keypoints, CALIBRATED_FLOOR, 30.0)
+    man, woman = sorted(reports, key=lambda r: -r["support"][0]["height_m"])
+    assert 1.7 < man["support"][0]["height_m"] < 2.2 and man["support"][0]["last_frame"] > 100, man
+    assert abs(man["support"][-1]["height_m"]) < 0.15 and man["support"][-1]["first_frame"] > 150, man
+    assert [abs(level["height_m"]) < 0.15 for level in woman["support"]] == [True], woman
+    for report in (man, woman):
+        assert report["under_floor_share"] < 0.01 and report["stance_slide_median_m"] < 0.02, report
 
 
 @pytest.mark.slow

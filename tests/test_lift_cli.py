@@ -149,7 +149,8 @@ def test_given_root_trajectory_npz_and_csv(run_cli, data_dir, tmp_path, prior_fi
 
 def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir, tmp_path, prior_file) -> None:
     """``--depth-smoothness``: with one view the hypotheses' depth paths accelerate less with it than without
-    (0); a negative value is a one-line error."""
+    (0); a negative value is a one-line error. Without the floor: grounding holds stance ankles where they stand,
+    unsmoothed (tests/test_grounding.py)."""
     from platypose.exporters.npz import read_npz
 
     keypoints = str(data_dir / TAKE / "openpose-body25b" / "cam01_json")
@@ -169,6 +170,8 @@ def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir,
                 "npz",
                 "--depth-smoothness",
                 value,
+                "--floor",
+                "none",
             )
         )
         assert code == 0, err
