@@ -243,7 +243,9 @@ def test_ctrl_c_cancels_tasks_and_keeps_what_finished(
     local, _ = local_run
     jobs = discover_jobs([batch_folder])
     settings = ray_settings(prior_file, tmp_path)
-    slower = replace(settings, sampler=replace(settings.sampler, samples=1000))  # good lifts for a long while
+    slower = replace(
+        settings, sampler=replace(settings.sampler, samples=5000)
+    )  # good lifts for a long while, also on a loaded machine
 
     def interrupt_when_lifting() -> None:
         deadline = time.monotonic() + 60
