@@ -1,0 +1,233 @@
+"""Rigid bones: every hypothesis keeps one length per bone over the whole clip, and its image positions.
+
+The sampler's motions stretch: a bone of one hypothesis changes its length between frames by
+centimetres (up to 35 cm on real one-camera video), while a person's bones do not. After lifting,
+each hypothesis gets one length per bone, its median over the frames where the person is present
+(one camera leaves every hypothesis its own size, so lengths are per hypothesis), and every
+frame is moved to those lengths from the pelvis outwards: each child joint goes to the point at
+its bone's length from its (already placed) parent that moves it least *across the rays* of the
+views that see it, that is, in the images:
+
+    minimise (x - x0)^T H (x - x0)  subject to  |x - parent| = length,
+    H = sum over the views seeing the joint of (I - d d^T)  +  ALONG_RAY I,
+
+with ``d`` the unit ray from the view's centre to the joint. One view leaves the depth along its
+ray nearly free (``ALONG_RAY``), so the joint slides along its own ray and its projection stays
+where it was, wherever that ray comes within the bone's length of the parent; where it does not,
+the joint takes the point of the sphere nearest the ray. Several views weigh the image
+displacement in all of them (a small least squares per joint). A joint no view sees moves along
+its bone. The problem is a trust-region subproblem on a sphere, solved exactly per joint
+(:func:`place_on_sphere`).
+
+Each frame is solved alone, and where a bone lies nearly across the ray a small change of length
+needs a large change of depth: frame-to-frame jitter. So each bone's direction is then smoothed over
+time (``s`` sum of squared accelerations against the squared change, ``DIRECTION_SMOOTHNESS`` at 30
+fps: a change at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the
+clip lengths: rigid and smooth. Last, a frame whose lowest joint the above took under the floor (and
+under where the sampler had it) is raised along the floor's normal to where the sampler had it.
+
+The median motion (``lifting.take``) is then the coordinate-wise median of these rigid
+hypotheses, made rigid the same way with its own median lengths: a median of rigid motions is
+not rigid itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.linalg import solveh_banded
+
+from platypose.lifting.camera import Camera
+from platypose.lifting.skeleton import BONES, bone_lengths, bone_vectors
+
+ALONG_RAY = 1e-3  # weight of moving along a view's ray against moving across it (one view: depth nearly free)
+BISECTIONS = 60  # halvings of the multiplier's log-range: far below a micrometre before the exact rescale
+LOWEST_SHIFT = -30.0  # log10 of the smallest multiplier shift tried
+DIRECTION_SMOOTHNESS = 1.0  # at 30 fps: halves a bone's turn at 5 Hz (scaled with the frame rate to stay there)
+MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
+
+
+def clip_lengths(joints: np.ndarray) -> np.ndarray:
+    """One length per bone of motions ``(..., T, 17, 3)``: the median over present frames, ``(..., 16)``.
+
+    NaN frames (absent) do not count; a motion absent throughout gets NaN lengths.
+    """
+    lengths = bone_lengths(np.asarray(joints, np.float64))  # (..., T, 16)
+    if not np.isfinite(lengths).any():
+        return np.full(lengths.shape[:-2] + lengths.shape[-1:], np.nan)
+    return np.nanmedian(lengths, axis=-2)
+
+
+def image_weights(joints: np.ndarray, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """Per joint, the quadratic form ``(M, 17, 3, 3)`` of its displacement across the rays of the views seeing it.
+
+    ``joints`` ``(M, 17, 3)`` world metres, ``centres`` ``(C, 3)`` the views' centres, ``seen`` ``(M, 17, C)``
+    whether each view sees each joint; ``ALONG_RAY`` times the identity is added so that it is never singular.
+    """
+    rays = joints[:, :, None, :] - centres  # (M, 17, C, 3)
+    rays = rays / np.maximum(np.linalg.norm(rays, axis=-1, keepdims=True), 1e-9)
+    across = np.eye(3) - rays[..., :, None] * rays[..., None, :]  # (M, 17, C, 3, 3)
+    return np.einsum("mjc,mjcab->mjab", seen.astype(np.float64), across) + ALONG_RAY * np.eye(3)
+
+
+def place_on_sphere(target: np.ndarray, weight: np.ndarray, centre: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """The point ``x`` ``(M, 3)`` with ``|x - centre| = radius`` that minimises ``(x - target)^T weight (x - target)``.
+
+    ``target``, ``centre`` ``(M, 3)``, ``weight`` ``(M, 3, 3)`` symmetric positive definite, ``radius`` ``(M,)``.
+    The minimiser is ``y = (W + mu I)^-1 W b`` (``y = x - centre``, ``b = target - centre``) with the
+    multiplier ``mu`` above minus W's smallest eigenvalue where ``|y| = radius`` (``|y|`` falls with
+    ``mu``): found by bisection in the log of ``mu`` + that eigenvalue, then ``y`` is rescaled to the
+    radius exactly. If even the smallest multiplier leaves ``|y|`` short (``b`` has no component along the
+    smallest eigenvector), the rest is added along that eigenvector, on ``b``'s side.
+    """
+    values, vectors = np.linalg.eigh(weight)  # ascending (M, 3), columns (M, 3, 3)
+    b = target - centre
+    pulled = values * np.einsum("mab,ma->mb", vectors, b)  # W b in the eigenbasis
+    low = np.full(len(b), LOWEST_SHIFT)  # log10 of mu + smallest eigenvalue
+    high = np.log10(np.linalg.norm(pulled, axis=-1) / np.maximum(radius, 1e-9) + values[:, -1] + 1.0)
+
+    def length(log_shift: np.ndarray) -> np.ndarray:
+        shift = 10.0**log_shift
+        return np.linalg.norm(pulled / (values - values[:, :1] + shift[:, None]), axis=-1)
+
+    short = length(low) < radius  # the hard case: no multiplier reaches the radius
+    for _ in range(BISECTIONS):
+        middle = (low + high) / 2
+        too_long = length(middle) > radius
+        low, high = np.where(too_long, middle, low), np.where(too_long, high, middle)
+    y = pulled / (values - values[:, :1] + (10.0**high)[:, None])
+    rest = np.sqrt(np.maximum(radius**2 - np.sum(y[:, 1:] ** 2, -1), 0.0))
+    side = np.where(np.einsum("ma,ma->m", vectors[:, :, 0], b) < 0, -1.0, 1.0)
+    y[:, 0] = np.where(short, side * rest, y[:, 0])
+    y = np.einsum("mab,mb->ma", vectors, y)
+    y *= (radius / np.maximum(np.linalg.norm(y, axis=-1), 1e-12))[:, None]
+    return centre + y
+
+
+def rigid_motion(joints: np.ndarray, lengths: np.ndarray, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """Joints ``(M, 17, 3)`` moved, pelvis outwards, so that their bones have ``lengths`` ``(M, 16)`` (module doc).
+
+    ``centres`` ``(C, 3)`` are the views' centres and ``seen`` ``(M, 17, C)`` says which views see which joint.
+    Rows with any NaN (absent frames) or NaN lengths come back as they are.
+    """
+    joints = np.asarray(joints, np.float64)
+    out = joints.copy()
+    rows = np.isfinite(joints).all(axis=(1, 2)) & np.isfinite(lengths).all(axis=1)
+    if not rows.any():
+        return out
+    weights = image_weights(joints[rows], centres, seen[rows])
+    placed = joints[rows].copy()
+    for b, (child, parent) in enumerate(BONES):  # parents come before their children
+        placed[:, child] = place_on_sphere(joints[rows, child], weights[:, child], placed[:, parent], lengths[rows, b])
+    out[rows] = placed
+    return out
+
+
+def smooth_over_time(values: np.ndarray, smoothness: float) -> np.ndarray:
+    """Paths ``(T, ...)`` smoothed along T: the minimiser of ``|v' - v|^2 + smoothness * |D2 v'|^2``.
+
+    ``D2`` is the second difference; the system is pentadiagonal and solved banded (memory linear in T).
+    Fewer than 3 frames come back as they are.
+    """
+    T = len(values)
+    if T < 3 or smoothness <= 0:
+        return values
+    diagonal, first, second = np.zeros(T), np.zeros(T - 1), np.ones(T - 2)  # of D2^T D2, rows (1, -2, 1)
+    diagonal[:-2] += 1.0
+    diagonal[1:-1] += 4.0
+    diagonal[2:] += 1.0
+    first[:-1] -= 2.0
+    first[1:] -= 2.0
+    banded = np.zeros((3, T))  # upper form of I + s D2^T D2 (scipy.linalg.solveh_banded)
+    banded[2] = 1.0 + smoothness * diagonal
+    banded[1, 1:] = smoothness * first
+    banded[0, 2:] = smoothness * second
+    flat = values.reshape(T, -1)
+    return solveh_banded(banded, flat).reshape(values.shape)
+
+
+def rebuild(joints: np.ndarray, lengths: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Joints ``(..., 17, 3)`` with the pelvis of ``joints`` and bones of ``lengths`` ``(16,)`` along unit
+    ``directions`` ``(..., 16, 3)``, placed from the pelvis outwards."""
+    out = joints.copy()
+    for b, (child, parent) in enumerate(BONES):
+        out[..., child, :] = out[..., parent, :] + lengths[b] * directions[..., b, :]
+    return out
+
+
+def present_spans(present: np.ndarray) -> list[slice]:
+    """The runs of True in ``present`` ``(T,)``, as slices."""
+    edges = np.diff(np.concatenate([[0], present.astype(np.int8), [0]]))
+    return [slice(int(a), int(b)) for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0])]
+
+
+def rigid_path(
+    joints: np.ndarray,
+    lengths: np.ndarray,
+    centres: np.ndarray,
+    seen: np.ndarray,
+    fps: float,
+    floor: tuple[float, float, float, float] | None = None,
+) -> np.ndarray:
+    """One motion ``(T, 17, 3)`` (NaN where absent) made rigid with bone ``lengths`` ``(16,)`` (module doc).
+
+    ``centres`` ``(C, 3)``: the views' centres; ``seen`` ``(T, 17, C)``: which view sees which joint;
+    ``fps``: the motion's frame rate; ``floor`` ``(nx, ny, nz, d)`` or None.
+    """
+    joints = np.asarray(joints, np.float64)
+    if not np.isfinite(lengths).all():
+        return joints.copy()
+    placed = rigid_motion(joints, np.broadcast_to(lengths, (len(joints), len(lengths))), centres, seen)
+    smoothness = DIRECTION_SMOOTHNESS * (fps / 30.0) ** 4  # same cut-off in Hz at any frame rate
+    for span in present_spans(np.isfinite(placed).all(axis=(1, 2))):
+        directions = smooth_over_time(bone_vectors(placed[span]) / lengths[:, None], smoothness)
+        directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
+        placed[span] = rebuild(placed[span], lengths, directions)
+    if floor is not None:
+        normal, offset = np.asarray(floor[:3]), float(floor[3])
+        lowest = (placed @ normal).min(axis=-1) + offset  # (T,)
+        allowed = np.minimum((joints @ normal).min(axis=-1) + offset, 0.0)
+        raise_by = np.where(lowest < allowed, allowed - lowest, 0.0)
+        placed += raise_by[:, None, None] * normal
+    return placed
+
+
+def rigid_person(
+    hypotheses,
+    median,
+    keypoints: np.ndarray,
+    cameras: Sequence[Camera],
+    person: int,
+    fps: float,
+    floor: tuple[float, float, float, float] | None = None,
+) -> dict[str, float]:
+    """Make person ``person``'s hypotheses ``(P, N, T, 17, 3)`` and median ``(P, T, 17, 3)`` rigid, in place.
+
+    Arrays may be memory maps: one hypothesis, or ``MEDIAN_CHUNK`` frames of all, is in memory at a
+    time. ``keypoints`` ``(C, T, P, 17, 3)`` say which view sees which joint (confidence > 0). The median is
+    recomputed from the rigid hypotheses, then made rigid with its own lengths. Returns, for the median
+    motion, the largest change of a bone's length against its clip length as the sampler gave it
+    (``stretch_m``) and the median and largest displacement of a joint by this module (``moved_m``,
+    ``moved_max_m``).
+    """
+    N, T = hypotheses.shape[1:3]
+    centres = np.stack([cam.center for cam in cameras])
+    seen = np.moveaxis(keypoints[:, :, person, :, 2] > 0, 0, -1)  # (T, 17, C)
+    before = np.array(median[person], np.float64)  # (T, 17, 3)
+    stretch = np.abs(bone_lengths(before) - clip_lengths(before))
+    for n in range(N):
+        motion = np.asarray(hypotheses[person, n], np.float64)
+        hypotheses[person, n] = rigid_path(motion, clip_lengths(motion), centres, seen, fps, floor)
+    for start in range(0, T, MEDIAN_CHUNK):
+        t = slice(start, min(start + MEDIAN_CHUNK, T))
+        median[person, t] = np.median(np.asarray(hypotheses[person, :, t], np.float64), axis=0)
+    middle = np.asarray(median[person], np.float64)
+    median[person] = rigid_path(middle, clip_lengths(middle), centres, seen, fps, floor)
+    moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
+    moved = moved[np.isfinite(moved)]
+    return {
+        "stretch_m": round(float(np.nanmax(stretch, initial=0.0)), 4),
+        "moved_m": round(float(np.median(moved)) if moved.size else 0.0, 4),
+        "moved_max_m": round(float(moved.max(initial=0.0)), 4),
+    }
