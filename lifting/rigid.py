@@ -1,34 +1,35 @@
-"""Rigid bones: every hypothesis keeps one length per bone over the whole clip, and its image positions.
+"""Rigid people: every hypothesis keeps one shape over the whole clip, and its image positions.
 
 The sampler's motions stretch: a bone of one hypothesis changes its length between frames by
-centimetres (up to 35 cm on real one-camera video), while a person's bones do not. After lifting,
-each hypothesis gets one length per bone, its median over the frames where the person is present
-(one camera leaves every hypothesis its own size, so lengths are per hypothesis), and every
-frame is moved to those lengths from the pelvis outwards: each child joint goes to the point at
-its bone's length from its (already placed) parent that moves it least *across the rays* of the
-views that see it, that is, in the images:
+centimetres (up to 35 cm on real one-camera video), and the hips, spine, shoulders and neck move
+against each other, while a person's bones do not. After lifting, each hypothesis gets one rigid
+shape (:mod:`lifting.rigid_shape`: one length per bone, one shape per rigid body, the medians over
+the frames where the person is present; one camera leaves every hypothesis its own size, so shapes
+are per hypothesis), and every frame is moved onto it from the pelvis outwards, each joint moving
+as little as it can *across the rays* of the views that see it, that is, in the images:
 
-    minimise (x - x0)^T H (x - x0)  subject to  |x - parent| = length,
-    H = sum over the views seeing the joint of (I - d d^T)  +  ALONG_RAY I,
+    minimise (x - x0)^T H (x - x0),  H = sum over the views seeing the joint of (I - d d^T) + ALONG_RAY I,
 
-with ``d`` the unit ray from the view's centre to the joint. One view leaves the depth along its
-ray nearly free (``ALONG_RAY``), so the joint slides along its own ray and its projection stays
-where it was, wherever that ray comes within the bone's length of the parent; where it does not,
-the joint takes the point of the sphere nearest the ray. Several views weigh the image
-displacement in all of them (a small least squares per joint). A joint no view sees moves along
-its bone. The problem is a trust-region subproblem on a sphere, solved exactly per joint
-(:func:`place_on_sphere`).
+with ``d`` the unit ray from the view's centre to the joint. A child of a single bone goes to the
+point at the bone's length from its (already placed) parent (:func:`place_on_sphere`, exact); the
+three children of a body turn together about the body joint (:func:`fit_body`, damped Gauss-Newton
+on the rotation from the least-squares one). One view leaves the depth along its ray nearly free
+(``ALONG_RAY``), so a joint slides along its own ray and its projection stays where it was wherever
+that ray comes within reach; where it does not, the joint takes the nearest reachable point.
+Several views weigh the image displacement in all of them. A joint no view sees moves as little as
+it can in space.
 
 Each frame is solved alone, and where a bone lies nearly across the ray a small change of length
-needs a large change of depth: frame-to-frame jitter. So each bone's direction is then smoothed over
-time (``s`` sum of squared accelerations against the squared change, ``DIRECTION_SMOOTHNESS`` at 30
-fps: a change at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the
-clip lengths: rigid and smooth. Last, a frame whose lowest joint the above took under the floor (and
-under where the sampler had it) is raised along the floor's normal to where the sampler had it.
+needs a large change of depth: frame-to-frame jitter. So each bone's direction and each body's
+rotation is then smoothed over time (``s`` sum of squared accelerations against the squared change,
+``SMOOTHNESS`` at 30 fps: a change at 5 Hz is halved, slower ones pass) and the motion rebuilt from
+the pelvis with the clip's shape: rigid and smooth. Last, a frame whose lowest joint the above took
+under the floor (and under where the sampler had it) is raised along the floor's normal to where
+the sampler had it.
 
 The median motion (``lifting.take``) is then the coordinate-wise median of these rigid
-hypotheses, made rigid the same way with its own median lengths: a median of rigid motions is
-not rigid itself.
+hypotheses, made rigid the same way with its own shape: a median of rigid motions is not rigid
+itself.
 """
 
 from __future__ import annotations
@@ -37,26 +38,26 @@ from collections.abc import Sequence
 
 import numpy as np
 from scipy.linalg import solveh_banded
+from scipy.spatial.transform import Rotation
 
 from platypose.lifting.camera import Camera
-from platypose.lifting.skeleton import BONES, bone_lengths, bone_vectors
+from platypose.lifting.rigid_shape import (
+    BODY_JOINTS,
+    RigidShape,
+    body_offsets,
+    clip_shape,
+    rebuild,
+)
+from platypose.lifting.rotations import kabsch, skew
+from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
 
 ALONG_RAY = 1e-3  # weight of moving along a view's ray against moving across it (one view: depth nearly free)
 BISECTIONS = 60  # halvings of the multiplier's log-range: far below a micrometre before the exact rescale
 LOWEST_SHIFT = -30.0  # log10 of the smallest multiplier shift tried
-DIRECTION_SMOOTHNESS = 1.0  # at 30 fps: halves a bone's turn at 5 Hz (scaled with the frame rate to stay there)
+BODY_STEPS = 10  # Gauss-Newton steps of a body's rotation
+BODY_DAMPING = 1e-3  # of the Gauss-Newton system's mean diagonal
+SMOOTHNESS = 1.0  # at 30 fps: halves a bone's or body's turn at 5 Hz (scaled with the frame rate to stay there)
 MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
-
-
-def clip_lengths(joints: np.ndarray) -> np.ndarray:
-    """One length per bone of motions ``(..., T, 17, 3)``: the median over present frames, ``(..., 16)``.
-
-    NaN frames (absent) do not count; a motion absent throughout gets NaN lengths.
-    """
-    lengths = bone_lengths(np.asarray(joints, np.float64))  # (..., T, 16)
-    if not np.isfinite(lengths).any():
-        return np.full(lengths.shape[:-2] + lengths.shape[-1:], np.nan)
-    return np.nanmedian(lengths, axis=-2)
 
 
 def image_weights(joints: np.ndarray, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
@@ -105,21 +106,52 @@ def place_on_sphere(target: np.ndarray, weight: np.ndarray, centre: np.ndarray, 
     return centre + y
 
 
-def rigid_motion(joints: np.ndarray, lengths: np.ndarray, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
-    """Joints ``(M, 17, 3)`` moved, pelvis outwards, so that their bones have ``lengths`` ``(M, 16)`` (module doc).
+def fit_body(targets: np.ndarray, weights: np.ndarray, origin: np.ndarray, shape: np.ndarray) -> np.ndarray:
+    """Rotations ``(M, 3, 3)`` turning a body's ``shape`` ``(M, 3, 3)`` (children's offsets in the body frame) about
+    ``origin`` ``(M, 3)`` onto its children's ``targets`` ``(M, 3, 3)``, minimising the sum of
+    ``(x - target)^T weight (x - target)`` (``weights`` ``(M, 3, 3, 3)``, one per child).
+
+    Starts from the least-squares rotation (Kabsch) and takes ``BODY_STEPS`` damped Gauss-Newton steps.
+    """
+    rotation = kabsch(shape, targets - origin[:, None], np.ones(3))
+    for _ in range(BODY_STEPS):
+        offsets = np.einsum("mij,mkj->mki", rotation, shape)
+        error = origin[:, None] + offsets - targets  # (M, 3, 3)
+        jacobian = -skew(offsets)  # d offset / d small turn, (M, 3, 3, 3)
+        normal = np.einsum("mkai,mkab,mkbj->mij", jacobian, weights, jacobian)
+        gradient = np.einsum("mkai,mkab,mkb->mi", jacobian, weights, error)
+        damping = BODY_DAMPING * np.trace(normal, axis1=1, axis2=2)[:, None, None] / 3 + 1e-12
+        turn = -np.linalg.solve(normal + damping * np.eye(3), gradient[..., None])[..., 0]
+        rotation = Rotation.from_rotvec(turn).as_matrix() @ rotation
+    return rotation
+
+
+def rigid_motion(joints: np.ndarray, shape: RigidShape, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """Joints ``(M, 17, 3)`` moved, pelvis outwards, onto the rigid ``shape`` (per row, leading axis M; module doc).
 
     ``centres`` ``(C, 3)`` are the views' centres and ``seen`` ``(M, 17, C)`` says which views see which joint.
-    Rows with any NaN (absent frames) or NaN lengths come back as they are.
+    Rows with any NaN (absent frames, or no shape) come back as they are.
     """
     joints = np.asarray(joints, np.float64)
     out = joints.copy()
-    rows = np.isfinite(joints).all(axis=(1, 2)) & np.isfinite(lengths).all(axis=1)
+    rows = np.isfinite(joints).all(axis=(1, 2)) & np.isfinite(shape.lengths).all(axis=1)
     if not rows.any():
         return out
-    weights = image_weights(joints[rows], centres, seen[rows])
-    placed = joints[rows].copy()
+    shape = shape.rows(rows)
+    targets = joints[rows]
+    weights = image_weights(targets, centres, seen[rows])
+    placed = targets.copy()
     for b, (child, parent) in enumerate(BONES):  # parents come before their children
-        placed[:, child] = place_on_sphere(joints[rows, child], weights[:, child], placed[:, parent], lengths[rows, b])
+        if parent in BODIES:
+            kids = list(BODIES[parent])
+            if child == min(kids):  # the body's first child in joint order: place all three now
+                body = BODY_JOINTS.index(parent)
+                turn = fit_body(targets[:, kids], weights[:, kids], placed[:, parent], shape.bodies[:, body])
+                placed[:, kids] = placed[:, parent, None] + np.einsum("mij,mkj->mki", turn, shape.bodies[:, body])
+        else:
+            placed[:, child] = place_on_sphere(
+                targets[:, child], weights[:, child], placed[:, parent], shape.lengths[:, b]
+            )
     out[rows] = placed
     return out
 
@@ -147,15 +179,6 @@ def smooth_over_time(values: np.ndarray, smoothness: float) -> np.ndarray:
     return solveh_banded(banded, flat).reshape(values.shape)
 
 
-def rebuild(joints: np.ndarray, lengths: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """Joints ``(..., 17, 3)`` with the pelvis of ``joints`` and bones of ``lengths`` ``(16,)`` along unit
-    ``directions`` ``(..., 16, 3)``, placed from the pelvis outwards."""
-    out = joints.copy()
-    for b, (child, parent) in enumerate(BONES):
-        out[..., child, :] = out[..., parent, :] + lengths[b] * directions[..., b, :]
-    return out
-
-
 def present_spans(present: np.ndarray) -> list[slice]:
     """The runs of True in ``present`` ``(T,)``, as slices."""
     edges = np.diff(np.concatenate([[0], present.astype(np.int8), [0]]))
@@ -164,32 +187,41 @@ def present_spans(present: np.ndarray) -> list[slice]:
 
 def rigid_path(
     joints: np.ndarray,
-    lengths: np.ndarray,
+    shape: RigidShape,
     centres: np.ndarray,
     seen: np.ndarray,
     fps: float,
     floor: tuple[float, float, float, float] | None = None,
 ) -> np.ndarray:
-    """One motion ``(T, 17, 3)`` (NaN where absent) made rigid with bone ``lengths`` ``(16,)`` (module doc).
+    """One motion ``(T, 17, 3)`` (NaN where absent) made rigid with ``shape`` (lengths (16,), bodies (B, 3, 3)).
 
     ``centres`` ``(C, 3)``: the views' centres; ``seen`` ``(T, 17, C)``: which view sees which joint;
-    ``fps``: the motion's frame rate; ``floor`` ``(nx, ny, nz, d)`` or None.
+    ``fps``: the motion's frame rate; ``floor`` ``(nx, ny, nz, d)`` or None. See the module.
     """
     joints = np.asarray(joints, np.float64)
-    if not np.isfinite(lengths).all():
+    if not np.isfinite(shape.lengths).all():
         return joints.copy()
-    placed = rigid_motion(joints, np.broadcast_to(lengths, (len(joints), len(lengths))), centres, seen)
-    smoothness = DIRECTION_SMOOTHNESS * (fps / 30.0) ** 4  # same cut-off in Hz at any frame rate
+    T = len(joints)
+    every = RigidShape(
+        np.broadcast_to(shape.lengths, (T, *shape.lengths.shape)),
+        np.broadcast_to(shape.bodies, (T, *shape.bodies.shape)),
+    )
+    placed = rigid_motion(joints, every, centres, seen)
+    smoothness = SMOOTHNESS * (fps / 30.0) ** 4  # the same cut-off in Hz at any frame rate
     for span in present_spans(np.isfinite(placed).all(axis=(1, 2))):
-        directions = smooth_over_time(bone_vectors(placed[span]) / lengths[:, None], smoothness)
+        here = placed[span]
+        offsets = body_offsets(here)  # (t, B, 3, 3)
+        turns = kabsch(shape.bodies, offsets, np.ones(3))  # (t, B, 3, 3), exact: the bodies are rigid
+        turns = smooth_over_time(turns, smoothness)
+        turns = kabsch(np.eye(3), np.swapaxes(turns, -1, -2), np.ones(3))  # back to rotations
+        directions = smooth_over_time(bone_vectors(here) / shape.lengths[:, None], smoothness)
         directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
-        placed[span] = rebuild(placed[span], lengths, directions)
+        placed[span] = rebuild(here[:, 0], shape, turns, directions)
     if floor is not None:
         normal, offset = np.asarray(floor[:3]), float(floor[3])
         lowest = (placed @ normal).min(axis=-1) + offset  # (T,)
         allowed = np.minimum((joints @ normal).min(axis=-1) + offset, 0.0)
-        raise_by = np.where(lowest < allowed, allowed - lowest, 0.0)
-        placed += raise_by[:, None, None] * normal
+        placed += np.where(lowest < allowed, allowed - lowest, 0.0)[:, None, None] * normal
     return placed
 
 
@@ -206,7 +238,7 @@ def rigid_person(
 
     Arrays may be memory maps: one hypothesis, or ``MEDIAN_CHUNK`` frames of all, is in memory at a
     time. ``keypoints`` ``(C, T, P, 17, 3)`` say which view sees which joint (confidence > 0). The median is
-    recomputed from the rigid hypotheses, then made rigid with its own lengths. Returns, for the median
+    recomputed from the rigid hypotheses, then made rigid with its own shape. Returns, for the median
     motion, the largest change of a bone's length against its clip length as the sampler gave it
     (``stretch_m``) and the median and largest displacement of a joint by this module (``moved_m``,
     ``moved_max_m``).
@@ -215,15 +247,15 @@ def rigid_person(
     centres = np.stack([cam.center for cam in cameras])
     seen = np.moveaxis(keypoints[:, :, person, :, 2] > 0, 0, -1)  # (T, 17, C)
     before = np.array(median[person], np.float64)  # (T, 17, 3)
-    stretch = np.abs(bone_lengths(before) - clip_lengths(before))
+    stretch = np.abs(bone_lengths(before) - clip_shape(before).lengths)
     for n in range(N):
         motion = np.asarray(hypotheses[person, n], np.float64)
-        hypotheses[person, n] = rigid_path(motion, clip_lengths(motion), centres, seen, fps, floor)
+        hypotheses[person, n] = rigid_path(motion, clip_shape(motion), centres, seen, fps, floor)
     for start in range(0, T, MEDIAN_CHUNK):
         t = slice(start, min(start + MEDIAN_CHUNK, T))
         median[person, t] = np.median(np.asarray(hypotheses[person, :, t], np.float64), axis=0)
     middle = np.asarray(median[person], np.float64)
-    median[person] = rigid_path(middle, clip_lengths(middle), centres, seen, fps, floor)
+    median[person] = rigid_path(middle, clip_shape(middle), centres, seen, fps, floor)
     moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
     moved = moved[np.isfinite(moved)]
     return {
