@@ -17,7 +17,7 @@ import numpy as np
 from platypose.lifting import metrics
 from platypose.lifting.camera import Camera, project
 from platypose.lifting.prior import PriorBundle
-from platypose.lifting.rigid import rigid_path
+from platypose.lifting.rigid import rigid_paths
 from platypose.lifting.rigid_shape import clip_shape
 from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, sample
 
@@ -151,14 +151,13 @@ def lift_windows(
 def rigid_windows(
     hypotheses: np.ndarray, cameras: Sequence[Camera], fps: float, floor: tuple[float, float, float, float] | None
 ) -> np.ndarray:
-    """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.rigid.rigid_path`, each
+    """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.rigid.rigid_paths`, each
     hypothesis on its own shape over its window), every view seeing every joint."""
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
     out = np.empty_like(hypotheses)
-    for b, n in np.ndindex(*hypotheses.shape[:2]):
-        motion = np.asarray(hypotheses[b, n], np.float64)
-        out[b, n] = rigid_path(motion, clip_shape(motion), centres, seen, fps, floor)
+    for b, window in enumerate(np.asarray(hypotheses, np.float64)):
+        out[b] = rigid_paths(window, clip_shape(window), centres, seen, fps, floor)
     return out
 
 

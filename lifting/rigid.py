@@ -54,10 +54,12 @@ from platypose.lifting.skeleton import BODIES, BONES, JOINT_INDEX, PARENTS, bone
 ALONG_RAY = 1e-3  # weight of moving along a view's ray against moving across it (one view: depth nearly free)
 BISECTIONS = 60  # halvings of the multiplier's log-range: far below a micrometre before the exact rescale
 LOWEST_SHIFT = -30.0  # log10 of the smallest multiplier shift tried
-BODY_STEPS = 10  # Gauss-Newton steps of a body's rotation
+BODY_STEPS = 6  # Gauss-Newton steps of a body's rotation
 BODY_DAMPING = 1e-3  # of the Gauss-Newton system's mean diagonal
 SMOOTHNESS = 1.0  # at 30 fps: halves a bone's or body's turn at 5 Hz (scaled with the frame rate to stay there)
 MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
+HYPOTHESES_AT_ONCE = 10  # hypotheses made rigid together (their whole clip in memory)
+ROW_CHUNK = 4096  # hypothesis-frames placed at once (each view adds 17 3x3 matrices per row)
 REACH_MARGIN = 1e-4  # metres: a limb's end is kept this far inside its reach (a straight limb has no bend plane)
 COARSE_ANGLES = 36  # first look around a limb's circle for its middle joint, every 10 degrees
 ANGLE_PASSES = 5  # then each of the two deepest dips refined, each round 6x finer (to 0.002 degrees)
@@ -135,8 +137,9 @@ def fit_body(targets: np.ndarray, weights: np.ndarray, origin: np.ndarray, shape
         offsets = np.einsum("mij,mkj->mki", rotation, shape)
         error = origin[:, None] + offsets - targets  # (M, 3, 3)
         jacobian = -skew(offsets)  # d offset / d small turn, (M, 3, 3, 3)
-        normal = np.einsum("mkai,mkab,mkbj->mij", jacobian, weights, jacobian)
-        gradient = np.einsum("mkai,mkab,mkb->mi", jacobian, weights, error)
+        weighted = np.swapaxes(jacobian, -1, -2) @ weights  # J^T W per child, (M, 3, 3, 3)
+        normal = (weighted @ jacobian).sum(axis=1)
+        gradient = (weighted @ error[..., None])[..., 0].sum(axis=1)
         damping = BODY_DAMPING * np.trace(normal, axis1=1, axis2=2)[:, None, None] / 3 + 1e-12
         turn = -np.linalg.solve(normal + damping * np.eye(3), gradient[..., None])[..., 0]
         rotation = Rotation.from_rotvec(turn).as_matrix() @ rotation
@@ -179,14 +182,15 @@ def place_limb(
     u /= np.linalg.norm(u, axis=-1, keepdims=True)
     v = np.cross(axis, u)
 
-    def around(angles: np.ndarray) -> np.ndarray:  # (M, K) -> points (M, K, 3)
-        return centre[:, None] + radius[:, None, None] * (
-            np.cos(angles)[..., None] * u[:, None] + np.sin(angles)[..., None] * v[:, None]
-        )
+    # the cost at angle a is a trig quadratic: miss = offset + cos(a) p + sin(a) q
+    offset, p, q = centre - middle_target, radius[:, None] * u, radius[:, None] * v
+    wo, wp, wq = ((middle_weight @ x[..., None])[..., 0] for x in (offset, p, q))
+    oo, pp, qq = (np.sum(x * w, axis=-1)[:, None] for x, w in ((offset, wo), (p, wp), (q, wq)))
+    op, oq, pq = (np.sum(x * w, axis=-1)[:, None] for x, w in ((offset, wp), (offset, wq), (p, wq)))
 
     def cost(angles: np.ndarray) -> np.ndarray:  # (M, K)
-        miss = around(angles) - middle_target[:, None]
-        return np.einsum("mka,mab,mkb->mk", miss, middle_weight, miss)
+        cos, sin = np.cos(angles), np.sin(angles)
+        return oo + pp * cos**2 + qq * sin**2 + 2 * (op * cos + oq * sin + pq * cos * sin)
 
     coarse = np.linspace(0.0, 2 * np.pi, COARSE_ANGLES, endpoint=False)[None].repeat(len(upper), 0)
     values = cost(coarse)
@@ -201,23 +205,28 @@ def place_limb(
         width /= 6
     final = cost(best)
     best = np.take_along_axis(best, final.argmin(axis=1)[:, None], axis=1)[:, 0]
-    return around(best[:, None])[:, 0], end
+    return centre + np.cos(best)[:, None] * p + np.sin(best)[:, None] * q, end
 
 
 def rigid_motion(joints: np.ndarray, shape: RigidShape, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
     """Joints ``(M, 17, 3)`` moved, pelvis outwards, onto the rigid ``shape`` (per row, leading axis M; module doc).
 
     ``centres`` ``(C, 3)`` are the views' centres and ``seen`` ``(M, 17, C)`` says which views see which joint.
-    Rows with any NaN (absent frames, or no shape) come back as they are.
+    Rows with any NaN (absent frames, or no shape) come back as they are. ``ROW_CHUNK`` rows at a time.
     """
     joints = np.asarray(joints, np.float64)
     out = joints.copy()
     rows = np.isfinite(joints).all(axis=(1, 2)) & np.isfinite(shape.lengths).all(axis=1)
-    if not rows.any():
-        return out
-    shape = shape.rows(rows)
-    targets = joints[rows]
-    weights = image_weights(targets, centres, seen[rows])
+    picked = np.nonzero(rows)[0]
+    for start in range(0, len(picked), ROW_CHUNK):
+        some = picked[start : start + ROW_CHUNK]
+        out[some] = _place_rows(joints[some], shape.rows(some), centres, seen[some])
+    return out
+
+
+def _place_rows(targets: np.ndarray, shape: RigidShape, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """:func:`rigid_motion` of rows that are all present."""
+    weights = image_weights(targets, centres, seen)
     placed = targets.copy()
     for b, (child, parent) in enumerate(BONES):  # parents come before their children
         if parent in BODIES:
@@ -240,8 +249,7 @@ def rigid_motion(joints: np.ndarray, shape: RigidShape, centres: np.ndarray, see
             placed[:, child] = place_on_sphere(
                 targets[:, child], weights[:, child], placed[:, parent], shape.lengths[:, b]
             )
-    out[rows] = placed
-    return out
+    return placed
 
 
 def smooth_over_time(values: np.ndarray, smoothness: float) -> np.ndarray:
@@ -273,7 +281,7 @@ def present_spans(present: np.ndarray) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0])]
 
 
-def rigid_path(
+def rigid_paths(
     joints: np.ndarray,
     shape: RigidShape,
     centres: np.ndarray,
@@ -281,47 +289,52 @@ def rigid_path(
     fps: float,
     floor: tuple[float, float, float, float] | None = None,
 ) -> np.ndarray:
-    """One motion ``(T, 17, 3)`` (NaN where absent) made rigid with ``shape`` (lengths (16,), bodies (B, 3, 3)).
+    """Motions ``(K, T, 17, 3)`` of one person (NaN where absent) made rigid, each with its ``shape`` (lengths
+    ``(K, 16)``, bodies ``(K, B, 3, 3)``; :func:`lifting.rigid_shape.clip_shape`). See the module.
 
     ``centres`` ``(C, 3)``: the views' centres; ``seen`` ``(T, 17, C)``: which view sees which joint;
-    ``fps``: the motion's frame rate; ``floor`` ``(nx, ny, nz, d)`` or None. See the module.
+    ``fps``: the motions' frame rate; ``floor`` ``(nx, ny, nz, d)`` or None.
     """
     joints = np.asarray(joints, np.float64)
-    if not np.isfinite(shape.lengths).all():
-        return joints.copy()
-    T = len(joints)
-    every = RigidShape(
-        np.broadcast_to(shape.lengths, (T, *shape.lengths.shape)),
-        np.broadcast_to(shape.bodies, (T, *shape.bodies.shape)),
-    )
-    placed = rigid_motion(joints, every, centres, seen)
+    K, T = joints.shape[:2]
+    every = RigidShape(np.repeat(shape.lengths, T, axis=0), np.repeat(shape.bodies, T, axis=0))
+    views = np.broadcast_to(seen, (K, *seen.shape)).reshape(K * T, *seen.shape[1:])
+    placed = rigid_motion(joints.reshape(K * T, 17, 3), every, centres, views).reshape(joints.shape)
     smoothness = SMOOTHNESS * (fps / 30.0) ** 4  # the same cut-off in Hz at any frame rate
-    for span in present_spans(np.isfinite(placed).all(axis=(1, 2))):
-        here = placed[span]
-        offsets = body_offsets(here)  # (t, B, 3, 3)
-        turns = kabsch(shape.bodies, offsets, np.ones(3))  # (t, B, 3, 3), exact: the bodies are rigid
-        turns = smooth_over_time(turns, smoothness)
-        turns = kabsch(np.eye(3), np.swapaxes(turns, -1, -2), np.ones(3))  # back to rotations
-        directions = smooth_over_time(bone_vectors(here) / shape.lengths[:, None], smoothness)
+    lengths, bodies = shape.lengths[:, None], shape.bodies[:, None]  # (K, 1, ...): over frames
+    for span in present_spans(np.isfinite(placed).all(axis=(0, 2, 3))):
+        here = placed[:, span]  # (K, t, 17, 3)
+        turns = kabsch(bodies, body_offsets(here), np.ones(3))  # (K, t, B, 3, 3), exact: the bodies are rigid
+        turns = kabsch(np.eye(3), np.swapaxes(_smooth_frames(turns, smoothness), -1, -2), np.ones(3))
+        directions = _smooth_frames(bone_vectors(here) / lengths[..., None], smoothness)
         directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
-        smooth = rebuild(here[:, 0], shape, turns, directions)
-        t, identity = len(here), np.broadcast_to(np.eye(3), (len(here), 3, 3))
+        smooth = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
+        flat, identity = K * here.shape[1], np.broadcast_to(np.eye(3), (K * here.shape[1], 3, 3))
         for upper, middle, end in LIMBS:  # ends stay where they were placed, middle joints follow smoothed paths
-            smooth[:, middle], smooth[:, end] = place_limb(
-                smooth[:, upper],
-                here[:, end],
+            legs = place_limb(
+                smooth[:, :, upper].reshape(flat, 3),
+                here[:, :, end].reshape(flat, 3),
                 identity,
-                smooth_over_time(here[:, middle], smoothness),
+                _smooth_frames(here[:, :, middle], smoothness).reshape(flat, 3),
                 identity,
-                (np.full(t, shape.lengths[middle - 1]), np.full(t, shape.lengths[end - 1])),
+                (
+                    np.repeat(shape.lengths[:, middle - 1], here.shape[1]),
+                    np.repeat(shape.lengths[:, end - 1], here.shape[1]),
+                ),
             )
-        placed[span] = smooth
+            smooth[:, :, middle], smooth[:, :, end] = (x.reshape(K, -1, 3) for x in legs)
+        placed[:, span] = smooth
     if floor is not None:
         normal, offset = np.asarray(floor[:3]), float(floor[3])
-        lowest = (placed @ normal).min(axis=-1) + offset  # (T,)
+        lowest = (placed @ normal).min(axis=-1) + offset  # (K, T)
         allowed = np.minimum((joints @ normal).min(axis=-1) + offset, 0.0)
-        placed += np.where(lowest < allowed, allowed - lowest, 0.0)[:, None, None] * normal
+        placed += np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
     return placed
+
+
+def _smooth_frames(values: np.ndarray, smoothness: float) -> np.ndarray:
+    """:func:`smooth_over_time` along axis 1 of ``values`` ``(K, T, ...)``."""
+    return np.moveaxis(smooth_over_time(np.moveaxis(values, 1, 0), smoothness), 0, 1)
 
 
 def rigid_person(
@@ -335,8 +348,8 @@ def rigid_person(
 ) -> dict[str, float]:
     """Make person ``person``'s hypotheses ``(P, N, T, 17, 3)`` and median ``(P, T, 17, 3)`` rigid, in place.
 
-    Arrays may be memory maps: one hypothesis, or ``MEDIAN_CHUNK`` frames of all, is in memory at a
-    time. ``keypoints`` ``(C, T, P, 17, 3)`` say which view sees which joint (confidence > 0). The median is
+    Arrays may be memory maps: ``HYPOTHESES_AT_ONCE`` hypotheses, or ``MEDIAN_CHUNK`` frames of all, are in
+    memory at a time. ``keypoints`` ``(C, T, P, 17, 3)`` say which view sees which joint (confidence > 0). The median is
     recomputed from the rigid hypotheses, then made rigid with its own shape. Returns, for the median
     motion, the largest change of a bone's length against its clip length as the sampler gave it
     (``stretch_m``) and the median and largest displacement of a joint by this module (``moved_m``,
@@ -347,14 +360,15 @@ def rigid_person(
     seen = np.moveaxis(keypoints[:, :, person, :, 2] > 0, 0, -1)  # (T, 17, C)
     before = np.array(median[person], np.float64)  # (T, 17, 3)
     stretch = np.abs(bone_lengths(before) - clip_shape(before).lengths)
-    for n in range(N):
-        motion = np.asarray(hypotheses[person, n], np.float64)
-        hypotheses[person, n] = rigid_path(motion, clip_shape(motion), centres, seen, fps, floor)
+    for start in range(0, N, HYPOTHESES_AT_ONCE):
+        n = slice(start, min(start + HYPOTHESES_AT_ONCE, N))
+        motions = np.asarray(hypotheses[person, n], np.float64)
+        hypotheses[person, n] = rigid_paths(motions, clip_shape(motions), centres, seen, fps, floor)
     for start in range(0, T, MEDIAN_CHUNK):
         t = slice(start, min(start + MEDIAN_CHUNK, T))
         median[person, t] = np.median(np.asarray(hypotheses[person, :, t], np.float64), axis=0)
-    middle = np.asarray(median[person], np.float64)
-    median[person] = rigid_path(middle, clip_shape(middle), centres, seen, fps, floor)
+    middle = np.asarray(median[person], np.float64)[None]
+    median[person] = rigid_paths(middle, clip_shape(middle), centres, seen, fps, floor)[0]
     moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
     moved = moved[np.isfinite(moved)]
     return {

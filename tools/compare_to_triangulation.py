@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.npz import read_npz
-from platypose.lifting.rigid import rigid_path
+from platypose.lifting.rigid import rigid_paths
 from platypose.lifting.rigid_shape import clip_shape
 from platypose.lifting.triangulation import triangulate
 
@@ -53,11 +53,11 @@ def reference_joints(path: Path) -> np.ndarray:
 
 
 def rigid_reference(path: Path, reference: np.ndarray) -> np.ndarray:
-    """``reference`` ``(T, 17, 3)`` made rigid (``lifting.rigid.rigid_path``) with the views of the lift ``path``."""
+    """``reference`` ``(T, 17, 3)`` made rigid (``lifting.rigid.rigid_paths``) with the views of the lift ``path``."""
     result = read_npz(path)
     seen = np.moveaxis(np.nan_to_num(np.asarray(result.keypoints2d)[:, 0, ..., 2]) > 0, 0, -1)  # (T, 17, C)
     centres = np.stack([cam.center for cam in result.cameras])
-    return rigid_path(reference, clip_shape(reference), centres, seen, result.fps)
+    return rigid_paths(reference[None], clip_shape(reference[None]), centres, seen, result.fps)[0]
 
 
 def compare(path: Path, reference: np.ndarray, rigid: np.ndarray) -> str:
