@@ -49,7 +49,7 @@ from platypose.lifting.rigid_shape import (
     rebuild,
 )
 from platypose.lifting.rotations import kabsch, skew
-from platypose.lifting.skeleton import BODIES, BONES, JOINT_INDEX, PARENTS, bone_lengths, bone_vectors
+from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
 
 ALONG_RAY = 1e-3  # weight of moving along a view's ray against moving across it (one view: depth nearly free)
 BISECTIONS = 60  # halvings of the multiplier's log-range: far below a micrometre before the exact rescale
@@ -60,23 +60,6 @@ SMOOTHNESS = 1.0  # at 30 fps: halves a bone's or body's turn at 5 Hz (scaled wi
 MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
 HYPOTHESES_AT_ONCE = 10  # hypotheses made rigid together (their whole clip in memory)
 ROW_CHUNK = 4096  # hypothesis-frames placed at once (each view adds 17 3x3 matrices per row)
-REACH_MARGIN = 1e-4  # metres: a limb's end is kept this far inside its reach (a straight limb has no bend plane)
-COARSE_ANGLES = 36  # first look around a limb's circle for its middle joint, every 10 degrees
-ANGLE_PASSES = 5  # then each of the two deepest dips refined, each round 6x finer (to 0.002 degrees)
-
-
-def _child(joint: int) -> int:
-    """The (first) child of ``joint``."""
-    return PARENTS.index(joint)
-
-
-# Legs: (hip, knee, ankle), two-bone limbs whose ankle stays where the sampler put it (which holds stance feet).
-# Arms go bone by bone, and their directions are smoothed: the sampler's median wrist can jump.
-LIMBS: tuple[tuple[int, int, int], ...] = tuple(
-    (hip, _child(hip), _child(_child(hip))) for hip in BODIES[JOINT_INDEX["pelvis"]][:2]
-)
-_LIMB_OF_MIDDLE = {middle: (upper, end) for upper, middle, end in LIMBS}
-_LIMB_ENDS = {end for _, _, end in LIMBS}
 
 
 def image_weights(joints: np.ndarray, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
@@ -146,68 +129,6 @@ def fit_body(targets: np.ndarray, weights: np.ndarray, origin: np.ndarray, shape
     return rotation
 
 
-def place_limb(
-    upper: np.ndarray,
-    end_target: np.ndarray,
-    end_weight: np.ndarray,
-    middle_target: np.ndarray,
-    middle_weight: np.ndarray,
-    lengths: tuple[np.ndarray, np.ndarray],
-) -> tuple[np.ndarray, np.ndarray]:
-    """The middle and end joints ``(M, 3)`` of two-bone limbs from their placed upper joints ``(M, 3)`` and
-    ``lengths`` (upper bone, lower bone; ``(M,)`` each).
-
-    The end joint (ankle, wrist) stays at its target where the limb reaches it, which keeps a standing foot where
-    the sampler put it; else it goes to the nearest reachable distance (:func:`place_on_sphere` with
-    ``end_weight``). The middle joint (knee, elbow) takes the point of the circle where both bones have their
-    lengths that minimises ``(x - middle_target)^T middle_weight (x - middle_target)``: a look around the circle,
-    then its two deepest dips refined (one view leaves two readings of nearly equal cost, a knee in front of or
-    behind the ray; the along-ray weight picks the one nearer the target, which a coarse look alone would not).
-    """
-    first, second = lengths
-    reach = np.linalg.norm(end_target - upper, axis=-1)
-    low, high = np.abs(first - second) + REACH_MARGIN, first + second - REACH_MARGIN
-    end = end_target.copy()
-    out = (reach < low) | (reach > high)
-    if out.any():
-        end[out] = place_on_sphere(end_target[out], end_weight[out], upper[out], np.clip(reach, low, high)[out])
-    axis = end - upper
-    span = np.linalg.norm(axis, axis=-1)
-    axis /= span[:, None]
-    along = (span**2 + first**2 - second**2) / (2 * span)
-    centre = upper + along[:, None] * axis
-    radius = np.sqrt(np.maximum(first**2 - along**2, 0.0))
-    helper = np.where(np.abs(axis[:, :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    u = np.cross(axis, helper)
-    u /= np.linalg.norm(u, axis=-1, keepdims=True)
-    v = np.cross(axis, u)
-
-    # the cost at angle a is a trig quadratic: miss = offset + cos(a) p + sin(a) q
-    offset, p, q = centre - middle_target, radius[:, None] * u, radius[:, None] * v
-    wo, wp, wq = ((middle_weight @ x[..., None])[..., 0] for x in (offset, p, q))
-    oo, pp, qq = (np.sum(x * w, axis=-1)[:, None] for x, w in ((offset, wo), (p, wp), (q, wq)))
-    op, oq, pq = (np.sum(x * w, axis=-1)[:, None] for x, w in ((offset, wp), (offset, wq), (p, wq)))
-
-    def cost(angles: np.ndarray) -> np.ndarray:  # (M, K)
-        cos, sin = np.cos(angles), np.sin(angles)
-        return oo + pp * cos**2 + qq * sin**2 + 2 * (op * cos + oq * sin + pq * cos * sin)
-
-    coarse = np.linspace(0.0, 2 * np.pi, COARSE_ANGLES, endpoint=False)[None].repeat(len(upper), 0)
-    values = cost(coarse)
-    dips = (values <= np.roll(values, 1, axis=1)) & (values <= np.roll(values, -1, axis=1))
-    two = np.argsort(np.where(dips, values, np.inf), axis=1)[:, :2]  # the two deepest dips: both readings
-    best = np.take_along_axis(coarse, two, axis=1)  # (M, 2)
-    width = np.pi / COARSE_ANGLES
-    for _ in range(ANGLE_PASSES):
-        angles = best[..., None] + np.linspace(-width, width, 13)  # (M, 2, 13)
-        values = cost(angles.reshape(len(upper), -1)).reshape(angles.shape)
-        best = np.take_along_axis(angles, values.argmin(axis=2)[..., None], axis=2)[..., 0]
-        width /= 6
-    final = cost(best)
-    best = np.take_along_axis(best, final.argmin(axis=1)[:, None], axis=1)[:, 0]
-    return centre + np.cos(best)[:, None] * p + np.sin(best)[:, None] * q, end
-
-
 def rigid_motion(joints: np.ndarray, shape: RigidShape, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
     """Joints ``(M, 17, 3)`` moved, pelvis outwards, onto the rigid ``shape`` (per row, leading axis M; module doc).
 
@@ -235,17 +156,7 @@ def _place_rows(targets: np.ndarray, shape: RigidShape, centres: np.ndarray, see
                 body = BODY_JOINTS.index(parent)
                 turn = fit_body(targets[:, kids], weights[:, kids], placed[:, parent], shape.bodies[:, body])
                 placed[:, kids] = placed[:, parent, None] + np.einsum("mij,mkj->mki", turn, shape.bodies[:, body])
-        elif child in _LIMB_OF_MIDDLE:  # the limb's middle and end joints together
-            end = _LIMB_OF_MIDDLE[child][1]
-            placed[:, child], placed[:, end] = place_limb(
-                placed[:, parent],
-                targets[:, end],
-                weights[:, end],
-                targets[:, child],
-                weights[:, child],
-                (shape.lengths[:, b], shape.lengths[:, end - 1]),
-            )
-        elif child not in _LIMB_ENDS:
+        else:
             placed[:, child] = place_on_sphere(
                 targets[:, child], weights[:, child], placed[:, parent], shape.lengths[:, b]
             )
@@ -309,20 +220,6 @@ def rigid_paths(
         directions = _smooth_frames(bone_vectors(here) / lengths[..., None], smoothness)
         directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
         smooth = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
-        flat, identity = K * here.shape[1], np.broadcast_to(np.eye(3), (K * here.shape[1], 3, 3))
-        for upper, middle, end in LIMBS:  # ends stay where they were placed, middle joints follow smoothed paths
-            legs = place_limb(
-                smooth[:, :, upper].reshape(flat, 3),
-                here[:, :, end].reshape(flat, 3),
-                identity,
-                _smooth_frames(here[:, :, middle], smoothness).reshape(flat, 3),
-                identity,
-                (
-                    np.repeat(shape.lengths[:, middle - 1], here.shape[1]),
-                    np.repeat(shape.lengths[:, end - 1], here.shape[1]),
-                ),
-            )
-            smooth[:, :, middle], smooth[:, :, end] = (x.reshape(K, -1, 3) for x in legs)
         placed[:, span] = smooth
     if floor is not None:
         normal, offset = np.asarray(floor[:3]), float(floor[3])

@@ -163,11 +163,12 @@ def lift_take(
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
     rigid = {}
     for p, track in enumerate(track_ids):
+        began = time.perf_counter()
         rigid[f"p{track}"] = stats = rigid_person(hypotheses, median, keypoints, cameras, p, fps, sampler.floor)
         log(
-            f"person {track}: bones made rigid (the sampler's median motion stretched them by up to "
-            f"{1000 * stats['stretch_m']:.0f} mm); its joints moved {1000 * stats['moved_m']:.0f} mm (median), "
-            f"{1000 * stats['moved_max_m']:.0f} mm at most"
+            f"person {track}: made rigid in {time.perf_counter() - began:.1f} s (the sampler's median motion "
+            f"stretched its bones by up to {1000 * stats['stretch_m']:.0f} mm); its joints moved "
+            f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
         )
     report = report_reprojection(median, keypoints, cameras, log)
     standing, floor_meta = floor_after_lift(floor, median, list(cameras), fps, keypoints)

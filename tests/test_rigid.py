@@ -86,8 +86,7 @@ def test_smooth_over_time_solves_its_banded_system():
 def test_one_view_puts_real_motion_back_on_its_rays(real_clips):
     """A real walk seen by one camera, every joint but the pelvis slid along its ray by up to 3 cm (so bones
     stretch by centimetres and the image does not change): made rigid with the walk's shape, each joint
-    returns near its true place and its projection stays within a pixel (knees: a few, as they carry the
-    length of legs whose ankles stay put)."""
+    returns near its true place and its projection stays within a pixel."""
     truth = _walk(real_clips)
     (camera,) = ring_cameras(4)[:1]
     rng = np.random.default_rng(2)
@@ -103,12 +102,7 @@ def test_one_view_puts_real_motion_back_on_its_rays(real_clips):
     np.testing.assert_allclose(bone_lengths(rigid), np.broadcast_to(shape.lengths, (T, 16)), atol=1e-9)
     np.testing.assert_allclose(_local_bodies(rigid), np.broadcast_to(shape.bodies, (T, 2, 3, 3)), atol=1e-9)
     moved_px = np.linalg.norm(project(rigid, camera) - project(truth, camera), axis=-1)
-    knees = [2, 5]  # a leg's ankle stays where it was (a standing foot stays put); its knee takes up the rest
-    kept = np.linalg.norm(rigid[:, [3, 6]] - stretched[:, [3, 6]], axis=-1) < 1e-12  # out of reach: on its ray
-    assert kept.mean() > 0.5, kept.mean()
-    others = np.delete(moved_px, knees, axis=1)
-    assert np.median(others) < 0.05 and others.max() < 1.0, (np.median(others), others.max())
-    assert np.median(moved_px[:, knees]) < 2.0, np.median(moved_px[:, knees])
+    assert np.median(moved_px) < 0.05 and moved_px.max() < 1.0, (np.median(moved_px), moved_px.max())
     off = np.linalg.norm(rigid - truth, axis=-1)
     assert np.median(off) < 0.005 < np.median(np.linalg.norm(stretched - truth, axis=-1)), np.median(off)
 
