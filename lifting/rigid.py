@@ -19,13 +19,14 @@ that ray comes within reach; where it does not, the joint takes the nearest reac
 Several views weigh the image displacement in all of them. A joint no view sees moves as little as
 it can in space.
 
-Each frame is solved alone, and where a bone lies nearly across the ray a small change of length
-needs a large change of depth: frame-to-frame jitter. So each bone's direction and each body's
-rotation is then smoothed over time (``s`` sum of squared accelerations against the squared change,
-``SMOOTHNESS`` at 30 fps: a change at 5 Hz is halved, slower ones pass) and the motion rebuilt from
-the pelvis with the clip's shape: rigid and smooth. Last, a frame whose lowest joint the above took
-under the floor (and under where the sampler had it) is raised along the floor's normal to where
-the sampler had it.
+Each frame is solved alone, and with one view, where a bone lies nearly across the ray, a small
+change of length needs a large change of depth: frame-to-frame jitter. So for a person seen by one
+view (in most frames) each bone's direction and each body's rotation is then smoothed over time
+(``s`` sum of squared accelerations against the squared change, ``SMOOTHNESS`` at 30 fps: a change
+at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the clip's shape:
+rigid and smooth. Several views need no smoothing (it cost them accuracy). Last, a frame whose
+lowest joint the above took under the floor (and under where the sampler had it) is raised along
+the floor's normal to where the sampler had it.
 
 The median motion (``lifting.take``) is then the coordinate-wise median of these rigid
 hypotheses, made rigid the same way with its own shape: a median of rigid motions is not rigid
@@ -211,9 +212,12 @@ def rigid_paths(
     every = RigidShape(np.repeat(shape.lengths, T, axis=0), np.repeat(shape.bodies, T, axis=0))
     views = np.broadcast_to(seen, (K, *seen.shape)).reshape(K * T, *seen.shape[1:])
     placed = rigid_motion(joints.reshape(K * T, 17, 3), every, centres, views).reshape(joints.shape)
+    present = np.isfinite(placed).all(axis=(0, 2, 3))
+    if not present.any() or np.median(seen[present].sum(axis=-1)) >= 2:  # several views: no jitter to take out
+        return _above_floor(placed, joints, floor)
     smoothness = SMOOTHNESS * (fps / 30.0) ** 4  # the same cut-off in Hz at any frame rate
     lengths, bodies = shape.lengths[:, None], shape.bodies[:, None]  # (K, 1, ...): over frames
-    for span in present_spans(np.isfinite(placed).all(axis=(0, 2, 3))):
+    for span in present_spans(present):
         here = placed[:, span]  # (K, t, 17, 3)
         turns = kabsch(bodies, body_offsets(here), np.ones(3))  # (K, t, B, 3, 3), exact: the bodies are rigid
         turns = kabsch(np.eye(3), np.swapaxes(_smooth_frames(turns, smoothness), -1, -2), np.ones(3))
@@ -221,12 +225,18 @@ def rigid_paths(
         directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
         smooth = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
         placed[:, span] = smooth
-    if floor is not None:
-        normal, offset = np.asarray(floor[:3]), float(floor[3])
-        lowest = (placed @ normal).min(axis=-1) + offset  # (K, T)
-        allowed = np.minimum((joints @ normal).min(axis=-1) + offset, 0.0)
-        placed += np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
-    return placed
+    return _above_floor(placed, joints, floor)
+
+
+def _above_floor(placed: np.ndarray, before: np.ndarray, floor: tuple[float, float, float, float] | None) -> np.ndarray:
+    """Frames of ``placed`` ``(..., 17, 3)`` whose lowest joint is under the floor and under where it was in
+    ``before``, raised along the floor's normal to there (to the floor if it was above it)."""
+    if floor is None:
+        return placed
+    normal, offset = np.asarray(floor[:3]), float(floor[3])
+    lowest = (placed @ normal).min(axis=-1) + offset
+    allowed = np.minimum((before @ normal).min(axis=-1) + offset, 0.0)
+    return placed + np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
 
 
 def _smooth_frames(values: np.ndarray, smoothness: float) -> np.ndarray:
