@@ -230,14 +230,14 @@ _MOVERS = [p for p in range(NUM_JOINTS) if CHILDREN[p]]  # rotations that move s
 
 
 def refine_rotations(
-    rot: np.ndarray, positions: np.ndarray, offsets: np.ndarray, iterations: int = 16, damping: float = 1e-2
+    rot: np.ndarray, positions: np.ndarray, offsets: np.ndarray, iterations: int = 8, damping: float = 1e-2
 ) -> tuple[np.ndarray, np.ndarray]:
     """Global rotations (T, 17, 3, 3) and root positions (T, 3) improved by damped Gauss-Newton on the forward-kinematics error.
 
     Parameters are the root translation and a small rotation of each joint with children, applied
     on the left (in the world frame); the rotation about each single-child bone's own axis leaves
-    every joint in place and so stays as given. ``damping`` is relative to the squared bone scale. A rigid
-    lift is matched exactly after 16 iterations (4 left the thorax up to 19 cm off where the trunk bends
+    every joint in place and so stays as given. ``damping`` is relative to the squared bone scale. 8
+    iterations match a rigid lift to within 10 mm (4 left the thorax up to 19 cm off where the trunk bends
     against the shoulders: the thorax's first fit also aims at the spine).
     Finally the neck is turned so that the neck-to-head bone points exactly as in ``positions``.
     """
