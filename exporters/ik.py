@@ -237,8 +237,8 @@ def refine_rotations(
     Parameters are the root translation and a small rotation of each joint with children, applied
     on the left (in the world frame); the rotation about each single-child bone's own axis leaves
     every joint in place and so stays as given. ``damping`` is relative to the squared bone scale. 8
-    iterations match a rigid lift to within 10 mm (4 left the thorax up to 19 cm off where the trunk bends
-    against the shoulders: the thorax's first fit also aims at the spine).
+    iterations match a rigid lift to within millimetres where 4 left the thorax decimetres off (its first fit
+    also aims at the spine, which a rigid lift's trunk bends against; docs/results.md).
     Finally the neck is turned so that the neck-to-head bone points exactly as in ``positions``.
     """
     rot = rot.copy()
