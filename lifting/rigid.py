@@ -1,12 +1,13 @@
 """Rigid people: every hypothesis keeps one shape over the whole clip, and its image positions.
 
 The sampler's motions stretch: a bone of one hypothesis changes its length between frames by
-centimetres with several views and by decimetres with one (docs/results.md), and the hips, spine, shoulders and neck move against each other, while a person's bones
-do not. After lifting, each hypothesis gets one rigid
-shape (:mod:`lifting.rigid_shape`: one length per bone, one shape per rigid body, the medians over
-the frames where the person is present; one camera leaves every hypothesis its own size, so shapes
-are per hypothesis), and every frame is moved onto it from the pelvis outwards, each joint moving
-as little as it can *across the rays* of the views that see it, that is, in the images:
+centimetres with several views and by decimetres with one (docs/results.md), and the hips, spine,
+shoulders and neck move against each other, while a person's bones do not. After lifting, each
+hypothesis gets one rigid shape (:mod:`lifting.rigid_shape`: one length per bone, one shape per rigid
+body, the medians over the frames where the person is present; one camera leaves every hypothesis its
+own size, so shapes are per hypothesis), and every frame is moved onto it from the pelvis outwards,
+each joint moving as little as it can *across the rays* of the views that see it, that is, in the
+images:
 
     minimise (x - x0)^T H (x - x0),  H = sum over the views seeing the joint of (I - d d^T) + ALONG_RAY I,
 
