@@ -40,7 +40,6 @@ from collections.abc import Sequence
 
 import numpy as np
 from scipy.linalg import solveh_banded
-from scipy.spatial.transform import Rotation
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.rigid_shape import (
@@ -50,7 +49,7 @@ from platypose.lifting.rigid_shape import (
     clip_shape,
     rebuild,
 )
-from platypose.lifting.rotations import kabsch, skew
+from platypose.lifting.rotations import kabsch, rotvec_matrices, skew
 from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
 
 ALONG_RAY = 1e-3  # weight of moving along a view's ray against moving across it (one view: depth nearly free)
@@ -127,7 +126,7 @@ def fit_body(targets: np.ndarray, weights: np.ndarray, origin: np.ndarray, shape
         gradient = (weighted @ error[..., None])[..., 0].sum(axis=1)
         damping = BODY_DAMPING * np.trace(normal, axis1=1, axis2=2)[:, None, None] / 3 + 1e-12
         turn = -np.linalg.solve(normal + damping * np.eye(3), gradient[..., None])[..., 0]
-        rotation = Rotation.from_rotvec(turn).as_matrix() @ rotation
+        rotation = rotvec_matrices(turn) @ rotation
     return rotation
 
 

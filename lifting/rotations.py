@@ -45,3 +45,14 @@ def skew(v: np.ndarray) -> np.ndarray:
     x, y, z = np.moveaxis(v, -1, 0)
     zero = np.zeros_like(x)
     return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
+
+
+def rotvec_matrices(rotvec: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) (axis times angle, radians; Rodrigues' formula).
+
+    Plain numpy, so an interrupt (Ctrl-C, a cancelled task) lands between calls, never inside compiled code that
+    would drop it.
+    """
+    angle = np.linalg.norm(rotvec, axis=-1)[..., None, None]
+    k = skew(rotvec / np.maximum(angle[..., 0], 1e-300))
+    return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)

@@ -19,6 +19,7 @@ from platypose.lifting.lift import WindowSettings
 from platypose.lifting.rigid import place_on_sphere, rigid_motion, rigid_paths, smooth_over_time
 from platypose.lifting.rigid_shape import RigidShape, body_frames, body_offsets, clip_shape
 from platypose.lifting.root import presence
+from platypose.lifting.rotations import rotvec_matrices
 from platypose.lifting.sampler import SamplerConfig
 from platypose.lifting.skeleton import bone_lengths
 from platypose.lifting.take import lift_persons
@@ -69,6 +70,14 @@ def test_place_on_sphere_is_the_constrained_minimiser():
         best = np.einsum("ka,ab,kb->k", d, weight[m], d).min()
         found = (x[m] - target[m]) @ weight[m] @ (x[m] - target[m])
         assert found <= best + 1e-9, (m, found, best)
+
+
+def test_rotvec_matrices_equal_scipy():
+    from scipy.spatial.transform import Rotation
+
+    rotvec = np.random.default_rng(4).normal(size=(500, 3))
+    rotvec[0], rotvec[1] = 0.0, 1e-13
+    np.testing.assert_allclose(rotvec_matrices(rotvec), Rotation.from_rotvec(rotvec).as_matrix(), atol=1e-14)
 
 
 def test_smooth_over_time_solves_its_banded_system():
