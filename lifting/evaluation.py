@@ -17,6 +17,8 @@ import numpy as np
 from platypose.lifting import metrics
 from platypose.lifting.camera import Camera, project
 from platypose.lifting.prior import PriorBundle
+from platypose.lifting.rigid import rigid_paths
+from platypose.lifting.rigid_shape import clip_shape
 from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, sample
 
 METRIC_NAMES = ("minMPJPE", "minMPSPE", "PA-MPJPE", "PA-MPSPE", "MPJVE", "root", "ECE", "ECE worst")
@@ -122,8 +124,10 @@ def lift_windows(
     noise_px: float,
     frame_by_frame: bool,
     batch_windows: int = 8,
+    rigid: bool = True,
 ) -> np.ndarray:
-    """Hypotheses ``(B, N, F, 17, 3)`` for true windows ``(B, F, 17, 3)`` seen by ``cameras``."""
+    """Hypotheses ``(B, N, F, 17, 3)`` for true windows ``(B, F, 17, 3)`` seen by ``cameras``; ``rigid``: made
+    rigid as ``platypose lift`` makes its output (not the frame-by-frame baseline)."""
     rng = np.random.default_rng(config.seed + 1)
     pixels = np.stack([project(windows, c) for c in cameras])  # (C, B, F, 17, 2)
     pixels = pixels + rng.normal(0.0, noise_px, pixels.shape) if noise_px > 0 else pixels
@@ -139,7 +143,22 @@ def lift_windows(
     joints = np.concatenate(out)  # (B or B*F, N, F or 1, 17, 3)
     if frame_by_frame:
         joints = joints.reshape(B, F, config.samples, 17, 3).transpose(0, 2, 1, 3, 4)
+    elif rigid:
+        joints = rigid_windows(joints, cameras, prior.fps, config.floor)
     return joints
+
+
+def rigid_windows(
+    hypotheses: np.ndarray, cameras: Sequence[Camera], fps: float, floor: tuple[float, float, float, float] | None
+) -> np.ndarray:
+    """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.rigid.rigid_paths`, each
+    hypothesis on its own shape over its window), every view seeing every joint."""
+    centres = np.stack([cam.center for cam in cameras])
+    seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
+    out = np.empty_like(hypotheses)
+    for b, window in enumerate(np.asarray(hypotheses, np.float64)):
+        out[b] = rigid_paths(window, clip_shape(window), centres, seen, fps, floor)
+    return out
 
 
 def evaluate(
@@ -153,11 +172,12 @@ def evaluate(
     noise_px: float = 0.0,
     baseline: bool = True,
     progress: Callable[[str], None] | None = None,
+    rigid: bool = True,
 ) -> list[EvalRow]:
     """The evaluation table: one row per method x frames x samples for these cameras.
 
     With ``config.floor`` set (a level floor), every window stands on it (the clips' floor is z = 0) and is
-    moved only along it.
+    moved only along it. ``rigid``: hypotheses made rigid as the lift's output is (:mod:`lifting.rigid`).
     """
     target = look_target(cameras)
     height = floor_height(config.floor)
@@ -171,7 +191,9 @@ def evaluate(
             methods = [("platypose", False)] + ([("frame-by-frame", True)] if baseline and frames > 1 else [])
             for method, per_frame in methods:
                 began = time.time()
-                hyps = lift_windows(prior, cameras, truth, replace(config, samples=samples), noise_px, per_frame)
+                hyps = lift_windows(
+                    prior, cameras, truth, replace(config, samples=samples), noise_px, per_frame, rigid=rigid
+                )
                 values = score_windows(hyps, truth, clip_of_window)
                 row = EvalRow(method, len(cameras), frames, samples, len(windows), values, time.time() - began)
                 rows.append(row)

@@ -58,6 +58,13 @@ SYMMETRIC_BONES: tuple[tuple[int, int], ...] = tuple(
 
 ROOT = 0
 
+# Joints with several children, which move their children as one rigid body (a pelvis carries its hips and the
+# spine, a thorax its shoulders and neck): joint -> (left child, right child, midline child).
+BODIES: dict[int, tuple[int, int, int]] = {
+    JOINT_INDEX["pelvis"]: (JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"], JOINT_INDEX["spine"]),
+    JOINT_INDEX["thorax"]: (JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"], JOINT_INDEX["neck"]),
+}
+
 # Median adult bone lengths (m) of the bundled real mocap (holosoma, DeepMimic, CMU,
 # mocapbank; medians per clip, then across clips), in BONES order.
 TYPICAL_BONE_LENGTHS: tuple[float, ...] = (

@@ -30,6 +30,7 @@ from platypose.lifting.floor import ESTIMATE, Floor, floor_after_lift
 from platypose.lifting.lift import WindowSettings
 from platypose.lifting.plausibility import plausibility, plausibility_lines
 from platypose.lifting.prior import PriorBundle
+from platypose.lifting.rigid import rigid_person
 from platypose.lifting.root import presence
 from platypose.lifting.sampler import SamplerConfig
 from platypose.lifting.take import lift_persons, reprojection_report
@@ -141,8 +142,9 @@ def lift_take(
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
     sampler; ``ESTIMATE`` finds the floor under the lift afterwards (one camera; reported, not used to ground
     it); None: no floor. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view),
-    ``floor`` and ``plausibility`` (per person, :mod:`platypose.lifting.plausibility`; each flag is also a
-    warning); the caller adds its own.
+    ``floor``, ``plausibility`` (per person, :mod:`platypose.lifting.plausibility`; each flag is also a
+    warning) and ``rigid_bones`` (per person, :func:`platypose.lifting.rigid.rigid_person`: every
+    hypothesis and the median get one length per bone over the clip); the caller adds its own.
     """
     log = log if log is not None else JobLog()
     if isinstance(floor, Floor):
@@ -158,8 +160,17 @@ def lift_take(
         prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress
     )
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
-    report = report_reprojection(median, keypoints, cameras, log)
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
+    rigid = {}
+    for p, track in enumerate(track_ids):
+        began = time.perf_counter()
+        rigid[f"p{track}"] = stats = rigid_person(hypotheses, median, keypoints, cameras, p, fps, sampler.floor)
+        log(
+            f"person {track}: made rigid in {time.perf_counter() - began:.1f} s (the sampler's median motion "
+            f"stretched its bones by up to {1000 * stats['stretch_m']:.0f} mm); its joints moved "
+            f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
+        )
+    report = report_reprojection(median, keypoints, cameras, log)
     standing, floor_meta = floor_after_lift(floor, median, list(cameras), fps, keypoints)
     if floor == ESTIMATE:
         log(
@@ -174,7 +185,13 @@ def lift_take(
         person["track_id"] = int(track)
     for line in plausibility_lines(persons, track_ids):
         log.warning(line)
-    meta = {"prior_sha256": prior.checksum, "reprojection_px": report, "floor": floor_meta, "plausibility": persons}
+    meta = {
+        "prior_sha256": prior.checksum,
+        "reprojection_px": report,
+        "floor": floor_meta,
+        "plausibility": persons,
+        "rigid_bones": rigid,
+    }
     return LiftResult(
         hypotheses=hypotheses,
         median=median,

@@ -47,6 +47,7 @@ def evaluate_command(
     windows: int = typer.Option(2, help="Windows cut from each clip per window length."),
     heldout: bool = typer.Option(False, "--heldout", help="Only clips the prior held out of training (its manifest)."),
     baseline: bool = typer.Option(True, help="Also run the frame-by-frame baseline."),
+    rigid: bool = typer.Option(True, help="Make hypotheses rigid as platypose lift does (--no-rigid: as sampled)."),
     json_out: Path = typer.Option(None, "--json", help="Also write the table as JSON here."),
     floor: str = typer.Option(
         "auto",
@@ -94,13 +95,24 @@ def evaluate_command(
     )
     typer.echo(format_header())
     rows = evaluate(
-        bundle, clips, cameras, frames_list, samples_list, config, windows, noise_px, baseline, progress=typer.echo
+        bundle,
+        clips,
+        cameras,
+        frames_list,
+        samples_list,
+        config,
+        windows,
+        noise_px,
+        baseline,
+        progress=typer.echo,
+        rigid=rigid,
     )
     if json_out:
         payload = {
             "prior": bundle.checksum,
             "cameras": len(cameras),
             "noise_px": noise_px,
+            "rigid": rigid,
             "config": config.__dict__,
             "rows": [r.as_dict() for r in rows],
         }

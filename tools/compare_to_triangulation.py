@@ -12,6 +12,10 @@ by frame where the reference has all 17 joints, and printed as a Markdown table 
 
 - median vs triangulation: mean / median over joints and frames of the distance from
   the hypotheses' median to the reference (mm); and the pelvis alone;
+- median vs rigid triangulation: the same against the reference made rigid as a lift is
+  (``lifting.rigid``: one length per bone, one shape per body over the clip): a person is rigid, a
+  triangulation of detected keypoints is not (its bones stretch by centimetres), and a rigid lift
+  cannot follow that stretch;
 - best hypothesis per joint: for each joint and frame the nearest hypothesis (mm, mean);
 - hip-centred best hypothesis per frame: per frame the hypothesis whose pelvis-relative joints are nearest the
   reference's (mean over joints), mean over frames (mm);
@@ -31,6 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.npz import read_npz
+from platypose.lifting.rigid import rigid_paths
+from platypose.lifting.rigid_shape import clip_shape
 from platypose.lifting.triangulation import triangulate
 
 
@@ -46,14 +52,23 @@ def reference_joints(path: Path) -> np.ndarray:
     return np.where(seen[..., None], points, np.nan)
 
 
-def compare(path: Path, reference: np.ndarray) -> str:
-    """One Markdown row of figures for the lift ``path`` against ``reference`` ``(T, 17, 3)``."""
+def rigid_reference(path: Path, reference: np.ndarray) -> np.ndarray:
+    """``reference`` ``(T, 17, 3)`` made rigid (``lifting.rigid.rigid_paths``) with the views of the lift ``path``."""
+    result = read_npz(path)
+    seen = np.moveaxis(np.nan_to_num(np.asarray(result.keypoints2d)[:, 0, ..., 2]) > 0, 0, -1)  # (T, 17, C)
+    centres = np.stack([cam.center for cam in result.cameras])
+    return rigid_paths(reference[None], clip_shape(reference[None]), centres, seen, result.fps)[0]
+
+
+def compare(path: Path, reference: np.ndarray, rigid: np.ndarray) -> str:
+    """One Markdown row of figures for the lift ``path`` against ``reference`` ``(T, 17, 3)`` and its ``rigid`` one."""
     result = read_npz(path)
     hyps = np.asarray(result.hypotheses)[0].astype(np.float64)  # (N, T, 17, 3)
     median = np.asarray(result.median)[0].astype(np.float64)
     frames = np.isfinite(reference).all(axis=(-1, -2)) & np.isfinite(hyps).all(axis=(0, -1, -2))
     ref, hyps, median = reference[frames], hyps[:, frames], median[frames]
     to_median = np.linalg.norm(median - ref, axis=-1) * 1000
+    to_rigid = np.linalg.norm(median - rigid[frames], axis=-1) * 1000
     best = np.linalg.norm(hyps - ref, axis=-1).min(axis=0) * 1000
     inside = ((hyps.min(0) <= ref) & (ref <= hyps.max(0))).all(-1).mean()
     cam = result.cameras[0]
@@ -67,11 +82,18 @@ def compare(path: Path, reference: np.ndarray) -> str:
     ref_lowest = np.median(ref[:, [3, 6], 2].min(-1))
     return (
         f"| {path.parent.parent.name} ({len(result.cameras)} view(s), {hyps.shape[0]} hypotheses, {frames.sum()} frames) "
-        f"| {to_median.mean():.1f} / {np.median(to_median):.1f} mm | {to_median[:, 0].mean():.1f} mm "
+        f"| {to_median.mean():.1f} / {np.median(to_median):.1f} mm | {to_rigid.mean():.1f} mm "
+        f"| {to_median[:, 0].mean():.1f} mm "
         f"| {best.mean():.1f} mm | {centred.min(axis=0).mean():.1f} mm | {100 * inside:.0f} % "
         f"| {low:.2f} / {mid:.2f} / {high:.2f} m vs {np.median(ref_depth):.2f} m ({100 * within:.0f} % of frames inside) "
         f"| {100 * np.mean(lowest < -0.03):.1f} % ({100 * ref_lowest:.0f} cm) |"
     )
+
+
+def rigid_gap(reference: np.ndarray, rigid: np.ndarray) -> float:
+    """Mean distance (mm) between the reference and its rigid version over frames where it has every joint."""
+    frames = np.isfinite(reference).all(axis=(-1, -2))
+    return float(np.linalg.norm(reference[frames] - rigid[frames], axis=-1).mean() * 1000)
 
 
 def main() -> None:
@@ -81,14 +103,17 @@ def main() -> None:
     args = parser.parse_args()
     lifts = [path for path in args.lifts if not path.name.endswith(".detections.npz")]  # a glob's detection caches
     reference = reference_joints(lifts[0])
+    rigid = rigid_reference(lifts[0], reference)
+    print(f"The rigid triangulation lies {rigid_gap(reference, rigid):.1f} mm (mean) from the triangulation.\n")
     print(
-        "| lift | median vs triangulation (mean / median) | pelvis | best hypothesis per joint "
+        "| lift | median vs triangulation (mean / median) | median vs rigid triangulation | pelvis "
+        "| best hypothesis per joint "
         "| hip-centred best hypothesis per frame | inside min-max box | pelvis depth 5 / 50 / 95 % "
         "| lowest ankle under -3 cm (reference's) |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for path in lifts:
-        print(compare(path, reference))
+        print(compare(path, reference, rigid))
 
 
 if __name__ == "__main__":

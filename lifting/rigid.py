@@ -1,0 +1,285 @@
+"""Rigid people: every hypothesis keeps one shape over the whole clip, and its image positions.
+
+The sampler's motions stretch: a bone of one hypothesis changes its length between frames by
+centimetres with several views and by decimetres with one (docs/results.md), and the hips, spine,
+shoulders and neck move against each other, while a person's bones do not. After lifting, each
+hypothesis gets one rigid shape (:mod:`lifting.rigid_shape`: one length per bone, one shape per rigid
+body, the medians over the frames where the person is present; one camera leaves every hypothesis its
+own size, so shapes are per hypothesis), and every frame is moved onto it from the pelvis outwards,
+each joint moving as little as it can *across the rays* of the views that see it, that is, in the
+images:
+
+    minimise (x - x0)^T H (x - x0),  H = sum over the views seeing the joint of (I - d d^T) + ALONG_RAY I,
+
+with ``d`` the unit ray from the view's centre to the joint. A child of a single bone goes to the
+point at the bone's length from its (already placed) parent (:func:`place_on_sphere`, exact); the
+three children of a body turn together about the body joint (:func:`fit_body`, damped Gauss-Newton
+on the rotation from the least-squares one). One view leaves the depth along its ray nearly free
+(``ALONG_RAY``), so a joint slides along its own ray and its projection stays where it was wherever
+that ray comes within reach; where it does not, the joint takes the nearest reachable point.
+Several views weigh the image displacement in all of them. A joint no view sees moves as little as
+it can in space.
+
+Each frame is solved alone, and with one view, where a bone lies nearly across the ray, a small
+change of length needs a large change of depth: frame-to-frame jitter. So for a person seen by one
+view (in most frames) each bone's direction and each body's rotation is then smoothed over time
+(``s`` sum of squared accelerations against the squared change, ``SMOOTHNESS`` at 30 fps: a change
+at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the clip's shape:
+rigid and smooth. Several views need no smoothing (it cost them accuracy). Last, a frame whose
+lowest joint the above took under the floor (and under where the sampler had it) is raised along
+the floor's normal to where the sampler had it.
+
+The median motion (``lifting.take``) is then the coordinate-wise median of these rigid
+hypotheses, made rigid the same way with its own shape: a median of rigid motions is not rigid
+itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.linalg import solveh_banded
+
+from platypose.lifting.camera import Camera
+from platypose.lifting.rigid_shape import (
+    BODY_JOINTS,
+    RigidShape,
+    body_offsets,
+    clip_shape,
+    rebuild,
+)
+from platypose.lifting.rotations import kabsch, rotvec_matrices, skew
+from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
+
+ALONG_RAY = 1e-3  # weight of moving along a view's ray against moving across it (one view: depth nearly free)
+BISECTIONS = 60  # halvings of the multiplier's log-range: far below a micrometre before the exact rescale
+LOWEST_SHIFT = -30.0  # log10 of the smallest multiplier shift tried
+BODY_STEPS = 6  # Gauss-Newton steps of a body's rotation
+BODY_DAMPING = 1e-3  # of the Gauss-Newton system's mean diagonal
+SMOOTHNESS = 1.0  # at 30 fps: halves a bone's or body's turn at 5 Hz (scaled with the frame rate to stay there)
+MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
+HYPOTHESES_AT_ONCE = 10  # hypotheses made rigid together (their whole clip in memory)
+ROW_CHUNK = 4096  # hypothesis-frames placed at once (each view adds 17 3x3 matrices per row)
+
+
+def image_weights(joints: np.ndarray, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """Per joint, the quadratic form ``(M, 17, 3, 3)`` of its displacement across the rays of the views seeing it.
+
+    ``joints`` ``(M, 17, 3)`` world metres, ``centres`` ``(C, 3)`` the views' centres, ``seen`` ``(M, 17, C)``
+    whether each view sees each joint; ``ALONG_RAY`` times the identity is added so that it is never singular.
+    """
+    rays = joints[:, :, None, :] - centres  # (M, 17, C, 3)
+    rays = rays / np.maximum(np.linalg.norm(rays, axis=-1, keepdims=True), 1e-9)
+    across = np.eye(3) - rays[..., :, None] * rays[..., None, :]  # (M, 17, C, 3, 3)
+    return np.einsum("mjc,mjcab->mjab", seen.astype(np.float64), across) + ALONG_RAY * np.eye(3)
+
+
+def place_on_sphere(target: np.ndarray, weight: np.ndarray, centre: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """The point ``x`` ``(M, 3)`` with ``|x - centre| = radius`` that minimises ``(x - target)^T weight (x - target)``.
+
+    ``target``, ``centre`` ``(M, 3)``, ``weight`` ``(M, 3, 3)`` symmetric positive definite, ``radius`` ``(M,)``.
+    The minimiser is ``y = (W + mu I)^-1 W b`` (``y = x - centre``, ``b = target - centre``) with the
+    multiplier ``mu`` above minus W's smallest eigenvalue where ``|y| = radius`` (``|y|`` falls with
+    ``mu``): found by bisection in the log of ``mu`` + that eigenvalue, then ``y`` is rescaled to the
+    radius exactly. If even the smallest multiplier leaves ``|y|`` short (``b`` has no component along the
+    smallest eigenvector), the rest is added along that eigenvector, on ``b``'s side.
+    """
+    values, vectors = np.linalg.eigh(weight)  # ascending (M, 3), columns (M, 3, 3)
+    b = target - centre
+    pulled = values * np.einsum("mab,ma->mb", vectors, b)  # W b in the eigenbasis
+    low = np.full(len(b), LOWEST_SHIFT)  # log10 of mu + smallest eigenvalue
+    high = np.log10(np.linalg.norm(pulled, axis=-1) / np.maximum(radius, 1e-9) + values[:, -1] + 1.0)
+
+    def length(log_shift: np.ndarray) -> np.ndarray:
+        shift = 10.0**log_shift
+        return np.linalg.norm(pulled / (values - values[:, :1] + shift[:, None]), axis=-1)
+
+    short = length(low) < radius  # the hard case: no multiplier reaches the radius
+    for _ in range(BISECTIONS):
+        middle = (low + high) / 2
+        too_long = length(middle) > radius
+        low, high = np.where(too_long, middle, low), np.where(too_long, high, middle)
+    y = pulled / (values - values[:, :1] + (10.0**high)[:, None])
+    rest = np.sqrt(np.maximum(radius**2 - np.sum(y[:, 1:] ** 2, -1), 0.0))
+    side = np.where(np.einsum("ma,ma->m", vectors[:, :, 0], b) < 0, -1.0, 1.0)
+    y[:, 0] = np.where(short, side * rest, y[:, 0])
+    y = np.einsum("mab,mb->ma", vectors, y)
+    y *= (radius / np.maximum(np.linalg.norm(y, axis=-1), 1e-12))[:, None]
+    return centre + y
+
+
+def fit_body(targets: np.ndarray, weights: np.ndarray, origin: np.ndarray, shape: np.ndarray) -> np.ndarray:
+    """Rotations ``(M, 3, 3)`` turning a body's ``shape`` ``(M, 3, 3)`` (children's offsets in the body frame) about
+    ``origin`` ``(M, 3)`` onto its children's ``targets`` ``(M, 3, 3)``, minimising the sum of
+    ``(x - target)^T weight (x - target)`` (``weights`` ``(M, 3, 3, 3)``, one per child).
+
+    Starts from the least-squares rotation (Kabsch) and takes ``BODY_STEPS`` damped Gauss-Newton steps.
+    """
+    rotation = kabsch(shape, targets - origin[:, None], np.ones(3))
+    for _ in range(BODY_STEPS):
+        offsets = np.einsum("mij,mkj->mki", rotation, shape)
+        error = origin[:, None] + offsets - targets  # (M, 3, 3)
+        jacobian = -skew(offsets)  # d offset / d small turn, (M, 3, 3, 3)
+        weighted = np.swapaxes(jacobian, -1, -2) @ weights  # J^T W per child, (M, 3, 3, 3)
+        normal = (weighted @ jacobian).sum(axis=1)
+        gradient = (weighted @ error[..., None])[..., 0].sum(axis=1)
+        damping = BODY_DAMPING * np.trace(normal, axis1=1, axis2=2)[:, None, None] / 3 + 1e-12
+        turn = -np.linalg.solve(normal + damping * np.eye(3), gradient[..., None])[..., 0]
+        rotation = rotvec_matrices(turn) @ rotation
+    return rotation
+
+
+def rigid_motion(joints: np.ndarray, shape: RigidShape, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """Joints ``(M, 17, 3)`` moved, pelvis outwards, onto the rigid ``shape`` (per row, leading axis M; module doc).
+
+    ``centres`` ``(C, 3)`` are the views' centres and ``seen`` ``(M, 17, C)`` says which views see which joint.
+    Rows with any NaN (absent frames, or no shape) come back as they are. ``ROW_CHUNK`` rows at a time.
+    """
+    joints = np.asarray(joints, np.float64)
+    out = joints.copy()
+    rows = np.isfinite(joints).all(axis=(1, 2)) & np.isfinite(shape.lengths).all(axis=1)
+    picked = np.nonzero(rows)[0]
+    for start in range(0, len(picked), ROW_CHUNK):
+        some = picked[start : start + ROW_CHUNK]
+        out[some] = _place_rows(joints[some], shape.rows(some), centres, seen[some])
+    return out
+
+
+def _place_rows(targets: np.ndarray, shape: RigidShape, centres: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """:func:`rigid_motion` of rows that are all present."""
+    weights = image_weights(targets, centres, seen)
+    placed = targets.copy()
+    for b, (child, parent) in enumerate(BONES):  # parents come before their children
+        if parent in BODIES:
+            kids = list(BODIES[parent])
+            if child == min(kids):  # the body's first child in joint order: place all three now
+                body = BODY_JOINTS.index(parent)
+                turn = fit_body(targets[:, kids], weights[:, kids], placed[:, parent], shape.bodies[:, body])
+                placed[:, kids] = placed[:, parent, None] + np.einsum("mij,mkj->mki", turn, shape.bodies[:, body])
+        else:
+            placed[:, child] = place_on_sphere(
+                targets[:, child], weights[:, child], placed[:, parent], shape.lengths[:, b]
+            )
+    return placed
+
+
+def smooth_over_time(values: np.ndarray, smoothness: float) -> np.ndarray:
+    """Paths ``(T, ...)`` smoothed along T: the minimiser of ``|v' - v|^2 + smoothness * |D2 v'|^2``.
+
+    ``D2`` is the second difference; the system is pentadiagonal and solved banded (memory linear in T).
+    Fewer than 3 frames come back as they are.
+    """
+    T = len(values)
+    if T < 3 or smoothness <= 0:
+        return values
+    diagonal, first, second = np.zeros(T), np.zeros(T - 1), np.ones(T - 2)  # of D2^T D2, rows (1, -2, 1)
+    diagonal[:-2] += 1.0
+    diagonal[1:-1] += 4.0
+    diagonal[2:] += 1.0
+    first[:-1] -= 2.0
+    first[1:] -= 2.0
+    banded = np.zeros((3, T))  # upper form of I + s D2^T D2 (scipy.linalg.solveh_banded)
+    banded[2] = 1.0 + smoothness * diagonal
+    banded[1, 1:] = smoothness * first
+    banded[0, 2:] = smoothness * second
+    flat = values.reshape(T, -1)
+    return solveh_banded(banded, flat).reshape(values.shape)
+
+
+def present_spans(present: np.ndarray) -> list[slice]:
+    """The runs of True in ``present`` ``(T,)``, as slices."""
+    edges = np.diff(np.concatenate([[0], present.astype(np.int8), [0]]))
+    return [slice(int(a), int(b)) for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0])]
+
+
+def rigid_paths(
+    joints: np.ndarray,
+    shape: RigidShape,
+    centres: np.ndarray,
+    seen: np.ndarray,
+    fps: float,
+    floor: tuple[float, float, float, float] | None = None,
+) -> np.ndarray:
+    """Motions ``(K, T, 17, 3)`` of one person (NaN where absent) made rigid, each with its ``shape`` (lengths
+    ``(K, 16)``, bodies ``(K, B, 3, 3)``; :func:`lifting.rigid_shape.clip_shape`). See the module.
+
+    ``centres`` ``(C, 3)``: the views' centres; ``seen`` ``(T, 17, C)``: which view sees which joint;
+    ``fps``: the motions' frame rate; ``floor`` ``(nx, ny, nz, d)`` or None.
+    """
+    joints = np.asarray(joints, np.float64)
+    K, T = joints.shape[:2]
+    every = RigidShape(np.repeat(shape.lengths, T, axis=0), np.repeat(shape.bodies, T, axis=0))
+    views = np.broadcast_to(seen, (K, *seen.shape)).reshape(K * T, *seen.shape[1:])
+    placed = rigid_motion(joints.reshape(K * T, 17, 3), every, centres, views).reshape(joints.shape)
+    present = np.isfinite(placed).all(axis=(0, 2, 3))
+    if not present.any() or np.median(seen[present].sum(axis=-1)) >= 2:  # several views: no jitter to take out
+        return _above_floor(placed, joints, floor)
+    smoothness = SMOOTHNESS * (fps / 30.0) ** 4  # the same cut-off in Hz at any frame rate
+    lengths, bodies = shape.lengths[:, None], shape.bodies[:, None]  # (K, 1, ...): over frames
+    for span in present_spans(present):
+        here = placed[:, span]  # (K, t, 17, 3)
+        turns = kabsch(bodies, body_offsets(here), np.ones(3))  # (K, t, B, 3, 3), exact: the bodies are rigid
+        turns = kabsch(np.eye(3), np.swapaxes(_smooth_frames(turns, smoothness), -1, -2), np.ones(3))
+        directions = _smooth_frames(bone_vectors(here) / lengths[..., None], smoothness)
+        directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
+        smooth = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
+        placed[:, span] = smooth
+    return _above_floor(placed, joints, floor)
+
+
+def _above_floor(placed: np.ndarray, before: np.ndarray, floor: tuple[float, float, float, float] | None) -> np.ndarray:
+    """Frames of ``placed`` ``(..., 17, 3)`` whose lowest joint is under the floor and under where it was in
+    ``before``, raised along the floor's normal to there (to the floor if it was above it)."""
+    if floor is None:
+        return placed
+    normal, offset = np.asarray(floor[:3]), float(floor[3])
+    lowest = (placed @ normal).min(axis=-1) + offset
+    allowed = np.minimum((before @ normal).min(axis=-1) + offset, 0.0)
+    return placed + np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
+
+
+def _smooth_frames(values: np.ndarray, smoothness: float) -> np.ndarray:
+    """:func:`smooth_over_time` along axis 1 of ``values`` ``(K, T, ...)``."""
+    return np.moveaxis(smooth_over_time(np.moveaxis(values, 1, 0), smoothness), 0, 1)
+
+
+def rigid_person(
+    hypotheses,
+    median,
+    keypoints: np.ndarray,
+    cameras: Sequence[Camera],
+    person: int,
+    fps: float,
+    floor: tuple[float, float, float, float] | None = None,
+) -> dict[str, float]:
+    """Make person ``person``'s hypotheses ``(P, N, T, 17, 3)`` and median ``(P, T, 17, 3)`` rigid, in place.
+
+    Arrays may be memory maps: ``HYPOTHESES_AT_ONCE`` hypotheses, or ``MEDIAN_CHUNK`` frames of all, are in
+    memory at a time. ``keypoints`` ``(C, T, P, 17, 3)`` say which view sees which joint (confidence > 0). The median is
+    recomputed from the rigid hypotheses, then made rigid with its own shape. Returns, for the median
+    motion, the largest change of a bone's length against its clip length as the sampler gave it
+    (``stretch_m``) and the median and largest displacement of a joint by this module (``moved_m``,
+    ``moved_max_m``).
+    """
+    N, T = hypotheses.shape[1:3]
+    centres = np.stack([cam.center for cam in cameras])
+    seen = np.moveaxis(keypoints[:, :, person, :, 2] > 0, 0, -1)  # (T, 17, C)
+    before = np.array(median[person], np.float64)  # (T, 17, 3)
+    stretch = np.abs(bone_lengths(before) - clip_shape(before).lengths)
+    for start in range(0, N, HYPOTHESES_AT_ONCE):
+        n = slice(start, min(start + HYPOTHESES_AT_ONCE, N))
+        motions = np.asarray(hypotheses[person, n], np.float64)
+        hypotheses[person, n] = rigid_paths(motions, clip_shape(motions), centres, seen, fps, floor)
+    for start in range(0, T, MEDIAN_CHUNK):
+        t = slice(start, min(start + MEDIAN_CHUNK, T))
+        median[person, t] = np.median(np.asarray(hypotheses[person, :, t], np.float64), axis=0)
+    middle = np.asarray(median[person], np.float64)[None]
+    median[person] = rigid_paths(middle, clip_shape(middle), centres, seen, fps, floor)[0]
+    moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
+    moved = moved[np.isfinite(moved)]
+    return {
+        "stretch_m": round(float(np.nanmax(stretch, initial=0.0)), 4),
+        "moved_m": round(float(np.median(moved)) if moved.size else 0.0, 4),
+        "moved_max_m": round(float(moved.max(initial=0.0)), 4),
+    }
