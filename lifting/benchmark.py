@@ -21,8 +21,7 @@ from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.camera import Camera, project
 from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig
 from platypose.lifting.representation import features_to_joints
-from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, sample
-from platypose.lifting.schedule import sampling_steps
+from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, network_steps, sample
 
 BENCH_IMAGE_SIZE = (1080, 1920)  # (height, width) of the synthetic view
 BENCH_DISTANCE_M = 4.0  # person in front of the camera
@@ -133,7 +132,7 @@ def time_sampler(
     """
     cameras, keypoints = walking_view(prior, frames)
     obs, rays = cameras_and_rays(cameras, keypoints[..., :2], keypoints[..., 2], device=prior.device)
-    calls = len(sampling_steps(config.steps, config.skip, prior.config.diffusion_steps))
+    calls = len(network_steps(prior, config))
     sample(prior, obs, rays, config, frames)
     runs, networks = [], []
     with timed_forward(prior.model, prior.device) as durations:
