@@ -23,7 +23,7 @@ from platypose.lifting.motion import Motion
 from platypose.lifting.prior import MotionPrior, PriorBundle, save_prior
 from platypose.lifting.representation import joints_to_features
 from platypose.lifting.schedule import DiffusionSchedule
-from platypose.lifting.training import TrainConfig, TrainingDiverged, WindowSampler, prepare_clips
+from platypose.lifting.training import TrainConfig, TrainingDiverged, WindowSampler, cosine_rate, prepare_clips
 
 END = -1  # "no next step": the pair ends the sampling
 
@@ -179,10 +179,6 @@ def distil_prior(
         bundle.manifest["distilled"]["iterations"] = done
         save_prior(out_path, bundle, extra=extra if done < config.iterations else None)
 
-    def lr_at(it: int) -> float:
-        warmup = min(1.0, (it + 1) / 100)
-        return config.learning_rate * warmup * 0.5 * (1 + np.cos(np.pi * min(it / config.iterations, 1.0)))
-
     began = time.time()
     running = None
     if log and start == 0:
@@ -197,7 +193,7 @@ def distil_prior(
         if not torch.isfinite(loss):
             raise TrainingDiverged(f"distillation diverged at iteration {it + 1}: the loss is {loss.item()}")
         for group in optimiser.param_groups:
-            group["lr"] = float(lr_at(it))
+            group["lr"] = cosine_rate(config.learning_rate, it, config.iterations, warmup=100)
         optimiser.zero_grad(set_to_none=True)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(student.parameters(), 1.0)

@@ -153,7 +153,7 @@ def report_lines(report: dict) -> list[str]:
             if s["runtime"] != "float32"
             else []
         ),
-        _row(f"utilisation (network / {s['runtime']} matmul)", f"{100 * s['utilisation']:.1f} %"),
+        _row(f"utilisation (vs {s['runtime']} matmul)", f"{100 * s['utilisation']:.1f} %"),
     ]
     e = report["end_to_end"]
     if e is not None:
