@@ -21,8 +21,7 @@ from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.camera import Camera, project
 from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig
 from platypose.lifting.representation import features_to_joints
-from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, sample
-from platypose.lifting.schedule import sampling_steps
+from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, network_steps, sample
 
 BENCH_IMAGE_SIZE = (1080, 1920)  # (height, width) of the synthetic view
 BENCH_DISTANCE_M = 4.0  # person in front of the camera
@@ -74,20 +73,59 @@ def synchronize(device: torch.device) -> None:
         torch.cuda.synchronize(device)
 
 
-def matmul_probe(size: int, device: torch.device = torch.device("cpu")) -> Callable[[], float]:
-    """A function timing one float32 ``torch.mm`` of two ``size`` x ``size`` matrices on ``device``; returns GFLOP/s."""
+def matmul_probe(
+    size: int, device: torch.device = torch.device("cpu"), runtime: str = "float32"
+) -> Callable[[], float]:
+    """A function timing one product of two ``size`` x ``size`` matrices; returns GFLOP/s.
+
+    ``runtime`` is the network's: ``float32`` and ``bfloat16`` time ``torch.mm`` in that dtype on
+    ``device``, ``onnx`` an ONNX Runtime MatMul (float32, torch's thread count), so the reference
+    runs the kernels the network runs.
+    """
     generator = torch.Generator().manual_seed(0)
-    a = torch.randn(size, size, generator=generator).to(device)
-    b = torch.randn(size, size, generator=generator).to(device)
+    a = torch.randn(size, size, generator=generator)
+    b = torch.randn(size, size, generator=generator)
+    if runtime == "onnx":
+        multiply = onnx_matmul(a.numpy(), b.numpy())
+    else:
+        dtype = torch.bfloat16 if runtime == "bfloat16" else torch.float32
+        a, b = a.to(device=device, dtype=dtype), b.to(device=device, dtype=dtype)
+
+        def multiply() -> None:
+            torch.mm(a, b)
 
     def probe() -> float:
         synchronize(device)
         started = time.perf_counter()
-        torch.mm(a, b)
+        multiply()
         synchronize(device)
         return 2.0 * size**3 / (time.perf_counter() - started) / 1e9
 
     return probe
+
+
+def onnx_matmul(a: np.ndarray, b: np.ndarray) -> Callable[[], None]:
+    """A function running ``a @ b`` (float32) in an ONNX Runtime session with torch's thread count."""
+    import onnx
+    import onnxruntime
+    from onnx import TensorProto, helper
+
+    inputs = [helper.make_tensor_value_info(n, TensorProto.FLOAT, list(x.shape)) for n, x in (("a", a), ("b", b))]
+    output = helper.make_tensor_value_info("c", TensorProto.FLOAT, [a.shape[0], b.shape[1]])
+    graph = helper.make_graph([helper.make_node("MatMul", ["a", "b"], ["c"])], "matmul", inputs, [output])
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    options = onnxruntime.SessionOptions()
+    options.intra_op_num_threads = torch.get_num_threads()
+    options.inter_op_num_threads = 1
+    session = onnxruntime.InferenceSession(
+        onnx.shape_inference.infer_shapes(model).SerializeToString(), options, providers=["CPUExecutionProvider"]
+    )
+    feed = {"a": np.ascontiguousarray(a, dtype=np.float32), "b": np.ascontiguousarray(b, dtype=np.float32)}
+
+    def multiply() -> None:
+        session.run(None, feed)
+
+    return multiply
 
 
 def walking_view(prior: PriorBundle, frames: int) -> tuple[list[Camera], np.ndarray]:
@@ -133,7 +171,7 @@ def time_sampler(
     """
     cameras, keypoints = walking_view(prior, frames)
     obs, rays = cameras_and_rays(cameras, keypoints[..., :2], keypoints[..., 2], device=prior.device)
-    calls = len(sampling_steps(config.steps, config.skip, prior.config.diffusion_steps))
+    calls = len(network_steps(prior, config))
     sample(prior, obs, rays, config, frames)
     runs, networks = [], []
     with timed_forward(prior.model, prior.device) as durations:

@@ -156,6 +156,12 @@ class PriorBundle:
         """Frame rate the prior runs at."""
         return self.model.config.fps
 
+    @property
+    def fixed_steps(self) -> np.ndarray | None:
+        """The diffusion steps a distilled prior was trained to be called at, noisiest first (None: any steps)."""
+        steps = self.manifest.get("sampling_steps")
+        return None if steps is None else np.asarray(steps, dtype=np.int64)
+
 
 def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None) -> str:
     """Write a checkpoint atomically; returns its sha256. ``extra`` holds e.g. optimiser state for resuming."""

@@ -37,6 +37,7 @@ __all__ = [  # with the placement's names the sampler's callers and tests use
     "SamplerConfig",
     "cameras_and_rays",
     "limit_depth",
+    "network_steps",
     "sample",
     "typical_size",
 ]
@@ -61,6 +62,19 @@ def antithetic_normal(count: int, generator: torch.Generator) -> torch.Tensor:
     return torch.cat([half, -half])[:count]
 
 
+def network_steps(prior: PriorBundle, config: SamplerConfig) -> np.ndarray:
+    """The diffusion steps the sampler calls the network at, noisiest first.
+
+    A distilled prior is called at the steps it was trained for (``--steps``/``--skip`` do not
+    apply), re-noised by DDIM; any other prior at ``config``'s respaced steps.
+    """
+    if prior.fixed_steps is None:
+        return sampling_steps(config.steps, config.skip, prior.config.diffusion_steps)
+    if config.solver != "ddim":
+        raise ValueError(f"a distilled prior is sampled with the ddim solver, not {config.solver}")
+    return prior.fixed_steps
+
+
 def sample(
     prior: PriorBundle,
     obs: Observations,
@@ -81,7 +95,7 @@ def sample(
     dtype = obs.keypoints.dtype
     device = obs.keypoints.device
     schedule = DiffusionSchedule(prior.config.diffusion_steps)
-    steps = sampling_steps(config.steps, config.skip, prior.config.diffusion_steps)
+    steps = network_steps(prior, config)
     generator = torch.Generator(device="cpu").manual_seed(config.seed)
     shape = (obs.keypoints.shape[1] * config.samples, frames, prior.config.features)
     noise = torch.randn(shape, generator=generator, dtype=torch.float32).to(device=device, dtype=dtype)

@@ -85,6 +85,16 @@ class DiffusionSchedule:
         fresh = sigma * noise if noise is not None and eta > 0 else 0.0
         return abar_prev.sqrt() * x0_hat + carried + fresh
 
+    def ddim_prediction(self, x_t: torch.Tensor, x_prev: torch.Tensor, t: torch.Tensor | int, t_prev) -> torch.Tensor:
+        """The prediction that DDIM (eta = 0) re-noises from ``x_t`` at ``t`` to exactly ``x_prev`` at ``t_prev``.
+
+        The inverse of :meth:`ddim_step` in its prediction; ``t`` and ``t_prev`` are scalars or one
+        step per batch row (``t_prev < t``). A distilled student learns this for two teacher steps.
+        """
+        abar_t, abar_prev = self._abar(t, x_t), self._abar(t_prev, x_t)
+        carried = ((1 - abar_prev) / (1 - abar_t)).sqrt()
+        return (x_prev - carried * x_t) / (abar_prev.sqrt() - carried * abar_t.sqrt())
+
     def _log_snr_half(self, t: int, like: torch.Tensor) -> torch.Tensor:
         """``lambda_t = log(alpha_t / sigma_t)`` (half the log signal-to-noise ratio) at step ``t``."""
         abar = self._abar(t, like)

@@ -175,6 +175,15 @@ def manifest_of(train: list[Clip], validation: list[Clip], config: TrainConfig, 
     }
 
 
+def cosine_rate(peak: float, iteration: int, iterations: int, warmup: int) -> float:
+    """Learning rate at ``iteration``: linear warm-up over ``warmup`` steps, then cosine decay to 0 at ``iterations``.
+
+    A plain float (a numpy scalar would make the checkpoint's optimiser state unloadable with weights_only).
+    """
+    ramp = min(1.0, (iteration + 1) / warmup)
+    return float(peak * ramp * 0.5 * (1 + np.cos(np.pi * min(iteration / iterations, 1.0))))
+
+
 def train_prior(
     motions: Sequence[Motion],
     out_path: str,
@@ -223,10 +232,6 @@ def train_prior(
     val_t = torch.randint(0, prior_config.diffusion_steps, (len(val_batch),), generator=val_gen)
     val_noise = torch.randn(val_batch.shape, generator=val_gen)
 
-    def lr_at(it: int) -> float:
-        warmup = min(1.0, (it + 1) / 500)
-        return config.learning_rate * warmup * 0.5 * (1 + np.cos(np.pi * min(it / config.iterations, 1.0)))
-
     def checkpoint(it: int) -> None:
         if not all(bool(torch.isfinite(p).all()) for p in model.parameters()):
             raise TrainingDiverged(f"training diverged before iteration {it}: the weights hold NaN or infinite values")
@@ -258,7 +263,7 @@ def train_prior(
                 f"(lower the learning rate, or check the motion data); the last checkpoint written stays"
             )
         for group in optimiser.param_groups:
-            group["lr"] = float(lr_at(it))  # a numpy scalar would make the checkpoint unloadable (weights_only)
+            group["lr"] = cosine_rate(config.learning_rate, it, config.iterations, warmup=500)
         optimiser.zero_grad(set_to_none=True)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)

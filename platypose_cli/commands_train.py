@@ -32,12 +32,21 @@ def train(
     threads: int = typer.Option(0, help="Torch threads (0: torch's default)."),
     seed: int = typer.Option(0, help="Random seed."),
     log_file: Path = typer.Option(None, help="Also append JSON lines of losses here."),
+    distil_from: Path = typer.Option(
+        None,
+        "--distil-from",
+        help="Distil this prior into a student of --calls network calls (half its own), trained on its training "
+        "clips among DATA; the architecture options do not apply.",
+    ),
+    calls: int = typer.Option(4, help="With --distil-from: the student's network calls (half the teacher's)."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress output."),
 ) -> None:
-    """Train a motion prior (x0-predicting transformer) on real 3D motion."""
+    """Train a motion prior (x0-predicting transformer) on real 3D motion, or distil one into fewer calls."""
     from platypose.lifting.atomic import check_writable
+    from platypose.lifting.distillation import DistilConfig, distil_prior
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.sampler import SamplerConfig, network_steps
     from platypose.lifting.training import TrainConfig, TrainingDiverged, train_prior
 
     try:
@@ -52,6 +61,15 @@ def train(
             checkpoint_every=checkpoint_every,
             seed=seed,
         )
+        distil = DistilConfig(
+            calls=calls,
+            iterations=iterations,
+            batch_size=batch_size,
+            learning_rate=learning_rate,
+            checkpoint_every=checkpoint_every,
+            validate_every=min(250, checkpoint_every),
+            seed=seed,
+        )
     except ValueError as err:
         raise InputError(f"train: {err}") from None
     if threads < 0:
@@ -59,6 +77,7 @@ def train(
     check_writable(out)
     if log_file is not None:
         check_writable(log_file)
+    teacher = load_prior(distil_from)[0] if distil_from is not None else None
     motions = load_motion_paths(data)
     if not motions:
         raise InputError(f"{', '.join(map(str, data))}: no motion files found")
@@ -67,6 +86,9 @@ def train(
         bundle, resume_state = load_prior(out)
         if not resume_state:
             raise InputError(f"{out}: checkpoint holds no training state (finished or not resumable)")
+        distilled_from = bundle.manifest.get("distilled", {}).get("teacher_sha256")
+        if teacher is not None and distilled_from != teacher.checksum:
+            raise InputError(f"{out}: checkpoint was not distilled from {distil_from}; cannot resume it")
         prior_config = bundle.config
         if not quiet:
             typer.echo(f"resuming {out} at iteration {resume_state['iteration']} of {iterations}", err=True)
@@ -90,7 +112,14 @@ def train(
 
     began = time.time()
     try:
-        train_prior(motions, str(out), prior_config, config, resume=resume_state, log=log, threads=threads or None)
+        if teacher is None:
+            train_prior(motions, str(out), prior_config, config, resume=resume_state, log=log, threads=threads or None)
+        else:
+            steps = network_steps(teacher, SamplerConfig())
+            try:
+                distil_prior(motions, teacher, steps, str(out), distil, resume_state, log, threads or None)
+            except ValueError as err:
+                raise InputError(f"{distil_from}: {err}") from None
     except TrainingDiverged as err:
         raise InputError(f"{out}: {err}") from None
     if not quiet:
@@ -113,6 +142,13 @@ def prior_info(prior: Path = typer.Argument(None, help="Checkpoint (default: the
         f"parameters: {params:,}; trained {manifest.get('iterations', '?')} iterations on "
         f"{manifest.get('train_seconds', 0) / 60:.1f} min of motion"
     )
+    distilled = manifest.get("distilled")
+    if distilled:
+        typer.echo(
+            f"distilled from {distilled['teacher_sha256'][:16]} ({len(distilled['teacher_steps'])} calls) in "
+            f"{distilled['iterations']} iterations: {len(bundle.fixed_steps)} calls at steps "
+            + ", ".join(map(str, bundle.fixed_steps))
+        )
     typer.echo("licences: " + ", ".join(manifest.get("licences", [])))
     for clip in manifest.get("clips", []):
         typer.echo(f"  {clip['split']:10s} {clip['frames']:6d} frames  {clip['licence']:20s} {clip['name']}")

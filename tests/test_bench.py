@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from platypose.cli.bench_clip import loop_video
-from platypose.lifting.benchmark import network_flops, timed_forward, walking_view
+from platypose.lifting.benchmark import matmul_probe, network_flops, onnx_matmul, timed_forward, walking_view
 from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
 
 TINY = PriorConfig(layers=2, width=64, heads=4, ff_width=128, max_frames=16, dropout=0.0)
@@ -62,6 +62,24 @@ def test_timed_forward_records_each_call_and_restores_the_method() -> None:
     assert len(durations) == 3 and min(durations) > 0
     assert all(torch.equal(out, expected) for out in outputs)
     assert "forward" not in vars(model)
+
+
+def test_matmul_references_run_each_runtimes_kernel() -> None:
+    """The ONNX Runtime product is the matrix product; every runtime's probe gives a positive rate."""
+    gen = np.random.default_rng(0)
+    a, b = gen.standard_normal((5, 7)).astype(np.float32), gen.standard_normal((7, 3)).astype(np.float32)
+    captured = []
+    import onnxruntime
+
+    run = onnxruntime.InferenceSession.run
+    try:
+        onnxruntime.InferenceSession.run = lambda self, *args: captured.append(run(self, *args)[0])
+        onnx_matmul(a, b)()
+    finally:
+        onnxruntime.InferenceSession.run = run
+    np.testing.assert_allclose(captured[0], a @ b, rtol=1e-5)
+    for runtime in ("float32", "bfloat16", "onnx"):
+        assert matmul_probe(64, runtime=runtime)() > 0, runtime
 
 
 def test_walking_view_is_a_person_inside_the_image(tiny_prior) -> None:
@@ -142,6 +160,7 @@ def test_bench_cli_reports_consistent_positive_figures(run_cli, tiny_prior_path,
         "network_gflop_per_step",
         "network_gflops",
         "matmul_gflops",
+        "runtime_matmul_gflops",
         "utilisation",
     ):
         assert s[key] > 0, key
@@ -149,7 +168,9 @@ def test_bench_cli_reports_consistent_positive_figures(run_cli, tiny_prior_path,
     assert s["hypothesis_frames_per_s"] == pytest.approx(4 * 8 / s["run_s"])
     assert s["step_s"] == pytest.approx(s["run_s"] / 2)
     assert s["network_step_s"] + s["guidance_step_s"] == pytest.approx(s["step_s"])
-    assert s["utilisation"] == pytest.approx(s["network_gflops"] / s["matmul_gflops"])
+    assert s["utilisation"] == pytest.approx(s["network_gflops"] / s["runtime_matmul_gflops"])  # like with like
+    if s["runtime"] == "float32":
+        assert s["runtime_matmul_gflops"] == s["matmul_gflops"]
     assert s["hypothesis_frames_per_matmul_gflop"] == pytest.approx(s["hypothesis_frames_per_s"] / s["matmul_gflops"])
     assert report["machine"]["threads"] == 1 and report["peak_rss_mb"] > 0
     assert report["prior"]["layers"] == 2 and report["prior"]["width"] == 64
