@@ -66,22 +66,26 @@ def standing_heights(lower: np.ndarray, fps: float) -> np.ndarray:
     return np.where(np.isfinite(lower), heights, np.nan)
 
 
+def stance_ankles(hypotheses: np.ndarray, floor: Floor | None, fps: float = 30.0) -> np.ndarray:
+    """Which ankles stand, ``(N, T, 2)`` (right, left) for joints ``(N, T, 17, 3)`` at ``fps``: a hypothesis's lower
+    ankle while within ``STANCE_BAND`` of its standing height at that time (:func:`standing_heights`)."""
+    height = (floor or UP).height(hypotheses[..., list(ANKLES), :])  # (N, T, 2)
+    lower = np.fmin(height[..., 0], height[..., 1])  # (N, T)
+    standing = standing_heights(lower, fps)[..., None]  # (N, T, 1)
+    return (height == lower[..., None]) & (height < standing + STANCE_BAND)
+
+
 def stance_slides(hypotheses: np.ndarray, floor: Floor | None, fps: float = 30.0) -> np.ndarray:
     """Moves along the floor (m) of stance ankles between consecutive frames, pooled over hypotheses ``(N, T, 17, 3)``
     at ``fps`` frames per second.
 
-    A hypothesis's stance ankle is its lower ankle while within ``STANCE_BAND`` of its standing height at that time
-    (:func:`standing_heights`); a move counts when the same ankle stands in both frames.
+    A move counts when the same ankle stands (:func:`stance_ankles`) in both frames.
     """
-    plane = floor or UP
-    normal = np.asarray(plane.normal)
+    normal = np.asarray((floor or UP).normal)
     ankles = hypotheses[..., list(ANKLES), :]  # (N, T, 2, 3)
-    height = plane.height(ankles)  # (N, T, 2)
-    if height.shape[1] < 2:
+    if ankles.shape[1] < 2:
         return np.zeros(0)
-    lower = np.fmin(height[..., 0], height[..., 1])  # (N, T)
-    standing = standing_heights(lower, fps)[..., None]  # (N, T, 1)
-    stance = (height == lower[..., None]) & (height < standing + STANCE_BAND)
+    stance = stance_ankles(hypotheses, floor, fps)
     step = np.diff(ankles, axis=1)
     along = np.linalg.norm(step - (step @ normal)[..., None] * normal, axis=-1)  # (N, T-1, 2)
     both = stance[:, 1:] & stance[:, :-1] & np.isfinite(along)

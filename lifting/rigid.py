@@ -25,7 +25,12 @@ change of length needs a large change of depth: frame-to-frame jitter. So for a 
 view (in most frames) each bone's direction and each body's rotation is then smoothed over time
 (``s`` sum of squared accelerations against the squared change, ``SMOOTHNESS`` at 30 fps: a change
 at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the clip's shape:
-rigid and smooth. Several views need no smoothing (it cost them accuracy). Last, a frame whose
+rigid and smooth. Rebuilt so from the pelvis, a foot that stood still in the sampler's motion would slide
+(the sampler holds stance ankles, :mod:`lifting.grounding`): so each ankle that stands there (stance as
+:func:`lifting.plausibility.stance_ankles` finds it) goes back to where the sampler planted it (a run of
+standing frames at its mean, where the run stays within ``HOLD_SPREAD`` of it), the knee onto the circle
+that thigh and shin allow (:func:`two_bone_limb`). Several views need no smoothing (it cost them
+accuracy). Last, a frame whose
 lowest joint the above took under the floor (and under where the sampler had it) is raised along
 the floor's normal to where the sampler had it.
 
@@ -42,6 +47,8 @@ import numpy as np
 from scipy.linalg import solveh_banded
 
 from platypose.lifting.camera import Camera
+from platypose.lifting.floor import Floor
+from platypose.lifting.plausibility import stance_ankles
 from platypose.lifting.rigid_shape import (
     BODY_JOINTS,
     RigidShape,
@@ -60,6 +67,8 @@ BODY_DAMPING = 1e-3  # of the Gauss-Newton system's mean diagonal
 SMOOTHNESS = 1.0  # at 30 fps: halves a bone's or body's turn at 5 Hz (scaled with the frame rate to stay there)
 MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
 HYPOTHESES_AT_ONCE = 10  # hypotheses made rigid together (their whole clip in memory)
+HOLD_SPREAD = 0.1  # metres: a standing ankle run of the sampler's that stays this near its mean is held at it
+LEGS = ((1, 2, 3), (4, 5, 6))  # (hip, knee, ankle) of the right and left leg: the order of floor.ANKLES
 ROW_CHUNK = 4096  # hypothesis-frames placed at once (each view adds 17 3x3 matrices per row)
 
 
@@ -225,7 +234,62 @@ def rigid_paths(
         directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
         smooth = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
         placed[:, span] = smooth
+    plane = None if floor is None else Floor(tuple(floor[:3]), float(floor[3]), "lift")
+    placed = hold_stance_legs(placed, joints, stance_ankles(joints, plane, fps), shape.lengths)
     return _above_floor(placed, joints, floor)
+
+
+def two_bone_limb(
+    root: np.ndarray, target: np.ndarray, pole: np.ndarray, upper: np.ndarray, lower: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Middle and end joints ``(M, 3)`` of limbs from ``root`` ``(M, 3)`` with bones ``upper`` and ``lower``
+    ``(M,)``: the end at ``target`` (on the line to it, as near as the limb reaches), the middle on the circle
+    both bones allow, on the side of ``pole`` (where the middle joint was)."""
+    reach = target - root
+    distance = np.linalg.norm(reach, axis=-1, keepdims=True)
+    axis = reach / np.maximum(distance, 1e-12)
+    distance = np.clip(distance, np.abs(upper - lower)[:, None] + 1e-6, (upper + lower)[:, None] - 1e-6)
+    along = (upper[:, None] ** 2 - lower[:, None] ** 2 + distance**2) / (2 * distance)
+    radius = np.sqrt(np.maximum(upper[:, None] ** 2 - along**2, 0.0))
+    side = pole - root
+    side -= np.sum(side * axis, axis=-1, keepdims=True) * axis
+    side /= np.maximum(np.linalg.norm(side, axis=-1, keepdims=True), 1e-12)
+    return root + along * axis + radius * side, root + distance * axis
+
+
+def stance_targets(ankles: np.ndarray, stance: np.ndarray) -> np.ndarray:
+    """Where ankles ``(K, T, 3)`` should be while they stand (``stance`` ``(K, T)``): each run of standing frames at
+    its mean, where the run stays within ``HOLD_SPREAD`` of it (a foot planted); elsewhere where they are."""
+    K, T = stance.shape
+    starts = stance & ~np.concatenate([np.zeros((K, 1), bool), stance[:, :-1]], axis=1)
+    run = np.cumsum(starts.ravel()).reshape(K, T) - 1  # runs numbered in row order (a run never crosses rows)
+    ids = run[stance]
+    counts = np.bincount(ids, minlength=int(starts.sum()))[:, None]
+    means = np.zeros((len(counts), 3))
+    np.add.at(means, ids, ankles[stance])
+    means /= np.maximum(counts, 1)
+    spread = np.zeros(len(counts))
+    np.maximum.at(spread, ids, np.linalg.norm(ankles[stance] - means[ids], axis=-1))
+    targets = ankles.copy()
+    targets[stance] = np.where((spread[ids] <= HOLD_SPREAD)[:, None], means[ids], ankles[stance])
+    return targets
+
+
+def hold_stance_legs(placed: np.ndarray, sampled: np.ndarray, stance: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Rigid motions ``placed`` ``(K, T, 17, 3)`` whose standing ankles (``stance`` ``(K, T, 2)``, in the sampler's
+    motions ``sampled``) go to where the sampler had them planted (:func:`stance_targets`), as near as the leg
+    (``lengths`` ``(K, 16)``) reaches from the placed hip; the knee goes onto its circle on the side where it was
+    placed. Feet that stood in the sampler's motion stand still; the bones keep their lengths."""
+    out = placed.copy()
+    for side, (hip, knee, ankle) in enumerate(LEGS):
+        standing = stance[..., side] & np.isfinite(sampled[:, :, ankle]).all(axis=-1)
+        k, t = np.nonzero(standing)
+        if len(k):
+            target = stance_targets(np.nan_to_num(sampled[:, :, ankle]), standing)[k, t]
+            thigh, shin = lengths[k, knee - 1], lengths[k, ankle - 1]  # bone b has child b + 1
+            middle, end = two_bone_limb(placed[k, t, hip], target, placed[k, t, knee], thigh, shin)
+            out[k, t, knee], out[k, t, ankle] = middle, end
+    return out
 
 
 def _above_floor(placed: np.ndarray, before: np.ndarray, floor: tuple[float, float, float, float] | None) -> np.ndarray:

@@ -16,7 +16,8 @@ from platypose.lifting.camera import project
 from platypose.lifting.camera_rigs import ring_cameras
 from platypose.lifting.floor import CALIBRATED_FLOOR
 from platypose.lifting.lift import WindowSettings
-from platypose.lifting.rigid import place_on_sphere, rigid_motion, rigid_paths, smooth_over_time
+from platypose.lifting.plausibility import stance_slides
+from platypose.lifting.rigid import place_on_sphere, rigid_motion, rigid_paths, smooth_over_time, two_bone_limb
 from platypose.lifting.rigid_shape import RigidShape, body_frames, body_offsets, clip_shape
 from platypose.lifting.root import presence
 from platypose.lifting.rotations import rotvec_matrices
@@ -146,6 +147,42 @@ def test_rigid_paths_are_rigid_smooth_and_above_the_floor(real_clips):
     rows = RigidShape(np.broadcast_to(lengths, (len(truth), 16)), np.broadcast_to(bodies, (len(truth), 2, 3, 3)))
     np.testing.assert_allclose(four, rigid_motion(noisy, rows, centres, np.ones((len(truth), 17, 4), bool)))
     assert np.linalg.norm(four[on] - truth[on], axis=-1).mean() < np.linalg.norm(noisy[on] - truth[on], axis=-1).mean()
+
+
+def test_two_bone_limb_reaches_its_target_with_exact_bones():
+    """Reachable targets are met exactly, out-of-reach ones on the line at full stretch; both bones keep their
+    lengths and the middle joint bends towards the pole."""
+    rng = np.random.default_rng(1)
+    M = 500
+    root, pole = rng.normal(size=(M, 3)), rng.normal(size=(M, 3))
+    upper, lower = rng.uniform(0.3, 0.5, M), rng.uniform(0.3, 0.5, M)
+    direction = rng.normal(size=(M, 3))
+    direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    reach = rng.uniform(0.5, 1.5, M) * (upper + lower)
+    middle, end = two_bone_limb(root, root + reach[:, None] * direction, pole, upper, lower)
+    np.testing.assert_allclose(np.linalg.norm(middle - root, axis=-1), upper, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(end - middle, axis=-1), lower, atol=1e-9)
+    expected = np.minimum(reach, upper + lower - 1e-6)[:, None] * direction
+    ok = reach > np.abs(upper - lower) + 1e-6
+    np.testing.assert_allclose((end - root)[ok], expected[ok], atol=1e-9)
+    side = (pole - root) - np.sum((pole - root) * direction, -1, keepdims=True) * direction
+    bent = reach < upper + lower - 1e-3
+    assert (np.sum((middle - root) * side, axis=-1)[bent] > 0).all()
+
+
+def test_one_view_rigid_feet_stand_still(real_clips):
+    """A real walk with 1 cm of noise on every joint, made rigid for one view: the feet that stand in it stand still
+    (their slide along the floor far below the noisy motion's), the bones keep one length."""
+    truth = _walk(real_clips)
+    noisy = truth + np.random.default_rng(5).normal(0.0, 0.01, truth.shape)
+    shape = clip_shape(noisy[None])
+    centres = np.stack([c.center for c in ring_cameras(4)])[:1]
+    seen = np.ones((len(truth), 17, 1), bool)
+    rigid = rigid_paths(noisy[None], shape, centres, seen, 30.0, CALIBRATED_FLOOR.plane)
+    np.testing.assert_allclose(bone_lengths(rigid[0]), np.broadcast_to(shape.lengths[0], (len(truth), 16)), atol=1e-9)
+    before, after = stance_slides(noisy[None], CALIBRATED_FLOOR), stance_slides(rigid, CALIBRATED_FLOOR)
+    assert after.size > 0.3 * before.size
+    assert np.median(after) < 0.25 * np.median(before), (np.median(after), np.median(before))
 
 
 def test_a_real_lift_is_rigid_and_keeps_its_image(tiny_prior, athlete):
