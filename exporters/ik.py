@@ -227,6 +227,7 @@ def _ancestors(j: int) -> list[int]:
 
 
 _MOVERS = [p for p in range(NUM_JOINTS) if CHILDREN[p]]  # rotations that move some joint
+_SINGLE = [p for p in _MOVERS if len(CHILDREN[p]) == 1]  # ... through one bone, whose own twist moves nothing
 
 
 def refine_rotations(
@@ -235,13 +236,15 @@ def refine_rotations(
     """Global rotations (T, 17, 3, 3) and root positions (T, 3) improved by damped Gauss-Newton on the forward-kinematics error.
 
     Parameters are the root translation and a small rotation of each joint with children, applied
-    on the left (in the world frame); the rotation about each single-child bone's own axis leaves
-    every joint in place and so stays as given. ``damping`` is relative to the squared bone scale. 8
+    on the left (in the world frame). The rotation about a single-child bone's own axis leaves every
+    joint in place, so nothing pins it and the iterations let it drift (100-140 degree twists between
+    frames): each such joint is finally turned from its given rotation by the smallest rotation onto its
+    refined bone direction, keeping the given twist. ``damping`` is relative to the squared bone scale. 8
     iterations match a rigid lift to within millimetres where 4 left the thorax decimetres off (its first fit
     also aims at the spine, which a rigid lift's trunk bends against; docs/results.md).
     Finally the neck is turned so that the neck-to-head bone points exactly as in ``positions``.
     """
-    rot = rot.copy()
+    given, rot = rot, rot.copy()
     T = len(rot)
     root = positions[:, 0].copy()
     scale2 = float(np.mean(np.sum(offsets**2, axis=-1)))
@@ -263,6 +266,9 @@ def refine_rotations(
         for p, c in cols.items():
             delta = Rotation.from_rotvec(step[:, c : c + 3]).as_matrix()
             rot[:, p] = delta @ rot[:, p]
+    for j in _SINGLE:  # the twist about a single-child bone moves no joint: keep the first fit's, not a drifted one
+        child = offsets[CHILDREN[j][0]]
+        rot[:, j] = rotation_between(_unit(_apply(given[:, j], child)), _unit(_apply(rot[:, j], child))) @ given[:, j]
     # the head's direction is the data's own (a 5 cm bone whose angle matters more than its end)
     bone = _unit(_apply(rot[:, _NECK], offsets[_HEAD]))
     rot[:, _NECK] = rotation_between(bone, _unit(positions[:, _HEAD] - positions[:, _NECK])) @ rot[:, _NECK]
