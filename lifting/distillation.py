@@ -23,7 +23,14 @@ from platypose.lifting.motion import Motion
 from platypose.lifting.prior import MotionPrior, PriorBundle, save_prior
 from platypose.lifting.representation import joints_to_features
 from platypose.lifting.schedule import DiffusionSchedule
-from platypose.lifting.training import TrainConfig, TrainingDiverged, WindowSampler, cosine_rate, prepare_clips
+from platypose.lifting.training import (
+    TrainConfig,
+    TrainingDiverged,
+    WindowSampler,
+    cosine_rate,
+    prepare_clips,
+    take_step,
+)
 
 END = -1  # "no next step": the pair ends the sampling
 
@@ -192,12 +199,7 @@ def distil_prior(
         loss = ((student(x_t, steps[:, 0]) - target) ** 2).mean()
         if not torch.isfinite(loss):
             raise TrainingDiverged(f"distillation diverged at iteration {it + 1}: the loss is {loss.item()}")
-        for group in optimiser.param_groups:
-            group["lr"] = cosine_rate(config.learning_rate, it, config.iterations, warmup=100)
-        optimiser.zero_grad(set_to_none=True)
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(student.parameters(), 1.0)
-        optimiser.step()
+        take_step(student, optimiser, loss, cosine_rate(config.learning_rate, it, config.iterations, warmup=100))
         running = loss.item() if running is None else 0.98 * running + 0.02 * loss.item()
         done = it + 1
         if log and (done % config.validate_every == 0 or done == config.iterations):

@@ -175,6 +175,16 @@ def manifest_of(train: list[Clip], validation: list[Clip], config: TrainConfig, 
     }
 
 
+def take_step(model: torch.nn.Module, optimiser: torch.optim.Optimizer, loss: torch.Tensor, rate: float) -> None:
+    """One optimiser step on ``loss`` at learning rate ``rate``, the gradients clipped to norm 1."""
+    for group in optimiser.param_groups:
+        group["lr"] = rate
+    optimiser.zero_grad(set_to_none=True)
+    loss.backward()
+    torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+    optimiser.step()
+
+
 def cosine_rate(peak: float, iteration: int, iterations: int, warmup: int) -> float:
     """Learning rate at ``iteration``: linear warm-up over ``warmup`` steps, then cosine decay to 0 at ``iterations``.
 
@@ -262,12 +272,7 @@ def train_prior(
                 f"training diverged at iteration {it + 1}: the loss is {loss.item()} "
                 f"(lower the learning rate, or check the motion data); the last checkpoint written stays"
             )
-        for group in optimiser.param_groups:
-            group["lr"] = cosine_rate(config.learning_rate, it, config.iterations, warmup=500)
-        optimiser.zero_grad(set_to_none=True)
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
-        optimiser.step()
+        take_step(model, optimiser, loss, cosine_rate(config.learning_rate, it, config.iterations, warmup=500))
         running = loss.item() if running is None else 0.98 * running + 0.02 * loss.item()
         done = it + 1
         if done % config.validate_every == 0 or done == config.iterations:
