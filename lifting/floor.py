@@ -8,11 +8,14 @@ Without a calibration (the default camera: level, at the origin) the floor is es
 lift: the stance ankles (the lower ankle of slow frames) of every person's median motion lie on
 one plane ``ANKLE_HEIGHT`` above the floor. One view places each ankle on its ray at a depth known
 only up to the size prior's scale, which jitters along the ray; a plane fitted to the points
-directly would tilt along the rays. So the pitch is the one under which each person's stance
-ankles' drops below the camera agree best in logarithm (a depth scale is a constant there; ankles
-above the camera do not count; a weak prior prefers a level camera where the drops cannot tell, as
-when everyone stays at about one distance), and the floor is the lowest drop that a fifth of them
-share (a person on a roof stands higher). Roll is taken as level, and the scale is the size
+directly would tilt along the rays. So the pitch is the one under which the stance ankles' drops
+below the camera agree best in logarithm (a depth scale is a constant there), all persons' ankles
+pooled: the size prior gives everyone adult size, so people on one floor drop alike. Each ankle's
+disagreement is capped at ``STANDS_ELSEWHERE`` (a person on a roof, a step, or an ankle above the
+camera costs that much whatever the pitch, so no pitch is chosen for bringing them onto the floor);
+the floor is the lowest level that a fifth of the ankles share (a person on a roof stands higher),
+and a weak prior prefers a level camera where the drops cannot tell, as when everyone stays at
+about one distance or walks along one image row. Roll is taken as level, and the scale is the size
 prior's (an adult of typical size).
 """
 
@@ -29,7 +32,10 @@ from platypose.lifting.errors import InputError
 ANKLE_HEIGHT = 0.1  # metres: an ankle keypoint above the floor, foot flat (bundled mocap 0.07-0.11, shoes add more)
 ANKLES = (3, 6)  # right and left ankle (lifting.skeleton order)
 STANCE_SPEED = 1.5  # m/s: the lower ankle, slower than this, is taken as standing (one view's depth jitter included)
-LEVEL_PRIOR = 1e-4  # weight of a pitch of 10 degrees against the log drops' variance (one view: often flat)
+LEVEL_PRIOR = 1e-3  # weight of a pitch of 10 degrees against the capped log drops' variance (one view: often flat)
+STANDS_ELSEWHERE = np.log(1.3)  # a stance ankle dropping 30 % more or less than the floor level stands elsewhere
+SHARED = 0.2  # share of the stance ankles that the floor's level must hold
+MIN_DROP = 0.05  # metres: a stance ankle must be this far below the camera to count
 FLOOR_SPECS = "auto, none, z=H (a height) or nx,ny,nz,d (a plane n.x + d = 0, n up)"
 
 
@@ -125,27 +131,29 @@ def estimate_floor(
 
     None when fewer than 10 stance ankles are found below the camera.
     """
-    persons = stance_points(joints, fps, seen)
+    points = np.concatenate([np.zeros((0, 3)), *stance_points(joints, fps, seen)])
     center = camera.center
     up = np.array([0.0, 0.0, 1.0])
     toward = np.cross(camera.R[0], up)  # pitch turns the world's up about the camera's x axis
     best = None
     for pitch in np.deg2rad(np.arange(-pitch_range_deg, pitch_range_deg + 0.125, 0.25)):
         normal = np.cos(pitch) * up + np.sin(pitch) * toward
-        drops = [(center - person) @ normal for person in persons]  # stance ankles below the camera
-        below = [d[d > 0.05] for d in drops]
-        count = sum(len(d) for d in below)
-        if count < 10:
+        drops = (center - points) @ normal  # stance ankles below the camera
+        below = drops > MIN_DROP
+        if below.sum() < 10:
             continue
         # one view gets depth (and so each drop) only up to a scale that jitters along the rays: compare logs
-        spread = sum(((np.log(d) - np.log(d).mean()) ** 2).sum() for d in below if len(d)) / count
-        score = spread + LEVEL_PRIOR * (pitch / np.deg2rad(10.0)) ** 2  # most cameras are near level
+        logs = np.log(drops[below])
+        level = _lowest_shared_height(-logs, SHARED, band=STANDS_ELSEWHERE / 2)
+        off = np.full(len(points), STANDS_ELSEWHERE)
+        off[below] = np.minimum(np.abs(logs + level), STANDS_ELSEWHERE)
+        score = np.mean(off**2) + LEVEL_PRIOR * (pitch / np.deg2rad(10.0)) ** 2  # most cameras are near level
         if best is None or score < best[0]:
-            best = (score, pitch, normal, np.concatenate(below))
+            best = (score, pitch, normal, drops[below])
     if best is None:
         return None
     _, pitch, normal, drops = best
-    level = _lowest_shared_height(-drops, share=0.2)  # stance ankles' height relative to the camera
+    level = _lowest_shared_height(-drops, SHARED)  # stance ankles' height relative to the camera
     offset = -(center @ normal) - (level - ANKLE_HEIGHT)  # so that stance ankles stand ANKLE_HEIGHT above it
     floor = Floor(tuple(float(v) for v in normal), float(offset), "estimated")
     camera_height = float(floor.height(center))
@@ -165,21 +173,14 @@ def _lowest_shared_height(heights: np.ndarray, share: float, band: float = 0.05)
     return float(np.median(ordered))
 
 
-def floor_after_lift(
-    choice: Floor | str | None, median: np.ndarray, cameras: list[Camera], fps: float, keypoints: np.ndarray
+def floor_under(
+    median: np.ndarray, camera: Camera, fps: float, keypoints: np.ndarray
 ) -> tuple[Floor | None, dict | None]:
-    """The floor a lift made with ``choice`` (:func:`floor_for_lift`) stands on, and its ``meta`` entry: the floor
-    itself, none, or (``ESTIMATE``, one camera) the floor estimated under the median motions ``(P, T, 17, 3)``
-    where the camera saw both ankles (``keypoints`` ``(C, T, P, 17, 3)``), with the camera's height and pitch
-    above it; None when too few stance ankles are found."""
-    if choice is None:
-        return None, None
-    if isinstance(choice, Floor):
-        return choice, choice.as_dict()
-    if len(cameras) != 1:
-        return None, None
-    seen = (np.nan_to_num(keypoints[0][..., list(ANKLES), 2]) > 0).all(axis=-1).T  # (P, T)
-    found = estimate_floor(np.asarray(median, dtype=np.float64), cameras[0], fps, seen)
+    """The floor estimated under the median motions ``(P, T, 17, 3)`` lifted with one default ``camera``, where
+    it saw both ankles (``keypoints`` ``(T, P, 17, 3)``), and its ``meta`` entry (the floor with the camera's
+    height and pitch above it); None, None when too few stance ankles are found."""
+    seen = (np.nan_to_num(keypoints[..., list(ANKLES), 2]) > 0).all(axis=-1).T  # (P, T)
+    found = estimate_floor(np.asarray(median, dtype=np.float64), camera, fps, seen)
     if found is None:
         return None, None
     floor, info = found

@@ -26,7 +26,7 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
-from platypose.lifting.floor import ESTIMATE, Floor, floor_after_lift
+from platypose.lifting.floor import ESTIMATE, Floor, floor_under
 from platypose.lifting.lift import WindowSettings
 from platypose.lifting.plausibility import plausibility, plausibility_lines
 from platypose.lifting.prior import PriorBundle
@@ -59,6 +59,10 @@ class JobLog:
         from platypose.lifting.atomic import write_text_atomic
 
         write_text_atomic(path, "\n".join(self.lines) + "\n")
+
+
+FLOOR_PASS_SAMPLES = 10  # hypotheses of the quick lift a one-camera floor is estimated under
+FLOOR_PASS_PERSONS = 4  # persons (present longest) whose standing ankles it is estimated from
 
 
 def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
@@ -140,15 +144,20 @@ def lift_take(
 
     ``arrays(shape, name)`` makes the result's long arrays (default: in memory; the CLI's are files).
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
-    sampler; ``ESTIMATE`` finds the floor under the lift afterwards (one camera; reported, not used to ground
-    it); None: no floor. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view),
-    ``floor``, ``plausibility`` (per person, :mod:`platypose.lifting.plausibility`; each flag is also a
+    sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
+    and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor. The
+    result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per person, :mod:`platypose.lifting.plausibility`; each flag is also a
     warning) and ``rigid_bones`` (per person, :func:`platypose.lifting.rigid.rigid_person`: every
     hypothesis and the median get one length per bone over the clip); the caller adds its own.
     """
     log = log if log is not None else JobLog()
+    fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
+    floor_meta = None
+    if floor == ESTIMATE:
+        floor, floor_meta = quick_floor(prior, keypoints, times, cameras, roots, sampler, windows, fps, log)
     if isinstance(floor, Floor):
         sampler = replace(sampler, floor=floor.plane)
+        floor_meta = floor_meta or floor.as_dict()
         log(f"floor ({floor.source}): {' '.join(f'{v:g}' for v in floor.plane)} (n . x + d = 0), grounding on")
     started = time.perf_counter()
     absent = ~presence(keypoints, times)  # (P, T)
@@ -160,7 +169,6 @@ def lift_take(
         prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress
     )
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
-    fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
     rigid = {}
     for p, track in enumerate(track_ids):
         began = time.perf_counter()
@@ -171,16 +179,7 @@ def lift_take(
             f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
         )
     report = report_reprojection(median, keypoints, cameras, log)
-    standing, floor_meta = floor_after_lift(floor, median, list(cameras), fps, keypoints)
-    if floor == ESTIMATE:
-        log(
-            "floor: too few standing ankles to estimate it"
-            if standing is None
-            else f"floor estimated under the lift: camera {floor_meta['camera_height_m']:.2f} m above it, "
-            f"pitched {floor_meta['camera_pitch_deg']:.1f} degrees down ({floor_meta['stance_points']} standing "
-            "ankles; reported, not used to ground this lift: --floor z=H or a calibration does)"
-        )
-    persons = plausibility(hypotheses, keypoints, standing, fps)
+    persons = plausibility(hypotheses, keypoints, floor if isinstance(floor, Floor) else None, fps)
     for track, person in zip(track_ids, persons):
         person["track_id"] = int(track)
     for line in plausibility_lines(persons, track_ids):
@@ -203,6 +202,57 @@ def lift_take(
         energy=energy,
         meta=meta,
     )
+
+
+def quick_floor(
+    prior: PriorBundle,
+    keypoints: np.ndarray,
+    times: np.ndarray,
+    cameras: Sequence[Camera],
+    roots: Sequence[np.ndarray | None],
+    sampler: SamplerConfig,
+    windows: WindowSettings,
+    fps: float,
+    log: JobLog,
+) -> tuple[Floor | None, dict | None]:
+    """The floor under a one-camera take (keypoints (1, T, P, 17, 3)) and its ``meta`` entry, estimated
+    (:func:`platypose.lifting.floor.floor_under`) under the median motions of a quick lift without a floor:
+    ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest; None, None (logged)
+    when too few standing ankles are found."""
+    if len(cameras) != 1:
+        return None, None
+    began = time.perf_counter()
+    absent = ~presence(keypoints, times)  # (P, T)
+    persons = np.argsort(absent.sum(axis=1), kind="stable")[:FLOOR_PASS_PERSONS]
+    quick = replace(sampler, samples=min(sampler.samples, FLOOR_PASS_SAMPLES), floor=None)
+    P, T = len(persons), len(times)
+    median = np.empty((P, T, 17, 3), np.float32)
+    scratch = np.empty((P, quick.samples, T, 17, 3), np.float32), np.empty((P, quick.samples, T), np.float32)
+    kept = keypoints[:, :, persons]
+    lift_persons(
+        prior,
+        kept,
+        times,
+        cameras,
+        [roots[p] for p in persons],
+        absent[persons],
+        quick,
+        windows,
+        scratch[0],
+        median,
+        scratch[1],
+    )
+    floor, meta = floor_under(median, cameras[0], fps, kept[0])
+    seconds = time.perf_counter() - began
+    if floor is None:
+        log(f"floor: too few standing ankles to estimate it under a quick lift ({seconds:.1f} s); lifting without one")
+    else:
+        log(
+            f"floor estimated under a quick lift of {quick.samples} hypotheses ({seconds:.1f} s): camera "
+            f"{meta['camera_height_m']:.2f} m above it, pitched {meta['camera_pitch_deg']:.1f} degrees down "
+            f"({meta['stance_points']} standing ankles); --floor z=H or a calibration sets it instead"
+        )
+    return floor, meta
 
 
 def report_reprojection(median, keypoints: np.ndarray, cameras: Sequence[Camera], log: JobLog) -> dict[str, float]:

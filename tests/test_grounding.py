@@ -14,14 +14,15 @@ from platypose.detectors.openpose import read_openpose_folder
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.errors import InputError
-from platypose.lifting.floor import CALIBRATED_FLOOR, estimate_floor, parse_floor
+from platypose.lifting.floor import CALIBRATED_FLOOR, ESTIMATE, estimate_floor, parse_floor
 from platypose.lifting.grounding import Grounding, image_still_ankles
-from platypose.lifting.lift import lift_tracks
+from platypose.lifting.lift import WindowSettings, lift_tracks
 from platypose.lifting.plausibility import lowest_ankle, plausibility, plausibility_lines, stance_slides
 from platypose.lifting.sampler import SamplerConfig, cameras_and_rays
 from platypose.lifting.triangulation import triangulate
 
 TAKE = "video/pose2sim-balancing"
+SPORTS2D = "video/sports2d-demo"
 NAMES = ("cam01", "cam02", "cam03", "cam04")
 
 
@@ -36,6 +37,18 @@ def athlete(data_dir: Path, cameras):
     views = [read_openpose_folder(data_dir / TAKE / "openpose-body25b" / f"{n}_json") for n in NAMES]
     matched = match_across_views(views, cameras)
     return np.stack([m.keypoints[:, :1] for m in matched]), matched[0].frame_times
+
+
+@pytest.fixture(scope="module")
+def sports2d(data_dir: Path):
+    """The Sports2D demo's bundled MoveNet detections, tracked: keypoints ``(1, T, P, 17, 3)`` and frame times."""
+    from platypose.detectors.cache import read_detections
+    from platypose.detectors.keypoints import to_our_joints
+    from platypose.detectors.tracking import track_detections
+
+    _, detections, indices = read_detections(data_dir / SPORTS2D / "movenet-detections.npz")
+    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
+    return tracks.keypoints[None], tracks.frame_times
 
 
 @pytest.fixture(scope="module")
@@ -173,19 +186,13 @@ def test_support_is_measured_below_the_floor_where_two_views_place_the_feet(ship
 
 
 @pytest.mark.slow
-def test_sports2d_roof_person_keeps_the_roof_and_stands_still_on_it(shipped_prior, data_dir: Path):
+def test_sports2d_roof_person_keeps_the_roof_and_stands_still_on_it(shipped_prior, data_dir: Path, sports2d):
     """The Sports2D demo with its calibration, one view: the man walks on a roof about 2 m up, then jumps down; the
     woman walks on the floor. His support is the roof for the first 4 s, then the floor; hers is the floor. No more
     than 1 % of either's hypothesis-frames has its lowest ankle under -3 cm, and stance feet slide under 2 cm per
     frame (median): on the roof, small and 10 m away, his ankles are held where the image says they stand."""
-    from platypose.detectors.cache import read_detections
-    from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking import track_detections
-
-    camera = load_calibration(data_dir / "video/sports2d-demo/Calib_demo.toml").cameras[0]
-    _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
-    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
-    keypoints, times = tracks.keypoints[None], tracks.frame_times  # (1, T, P, 17, 3)
+    camera = load_calibration(data_dir / SPORTS2D / "Calib_demo.toml").cameras[0]
+    keypoints, times = sports2d
     hypotheses = _lift(shipped_prior, [camera], keypoints, times, CALIBRATED_FLOOR, samples=20)
     reports = plausibility(hypotheses, keypoints, CALIBRATED_FLOOR, 30.0)
     man, woman = sorted(reports, key=lambda r: -r["support"][0]["height_m"])
@@ -211,6 +218,42 @@ def test_floor_is_estimated_from_a_real_one_view_lift(shipped_prior, cameras, at
     assert floor.source == "estimated" and info["stance_points"] >= 50
     assert abs(info["camera_height_m"] - true_height) < 0.8, (info, true_height)
     assert abs(info["camera_pitch_deg"] - true_pitch) < 10.0, (info, true_pitch)
+
+
+@pytest.mark.slow
+def test_sports2d_without_calibration_estimates_the_floor_and_stands_on_it(shipped_prior, data_dir: Path, sports2d):
+    """The Sports2D demo without its calibration (the level default camera): the floor estimated under a quick
+    lift puts the camera within 0.5 m and 5 degrees of ``Calib_demo.toml`` (1.71 m, level), though the man stands
+    on a roof for 4 s (no pitch may bring him down to the woman's floor); the lift is grounded on that floor: the
+    man keeps his roof, the woman her floor, under 1 % of hypothesis-frames below it, feet not sliding."""
+    from platypose.pipeline import lift_take
+
+    keypoints, times = sports2d
+    calibrated = load_calibration(data_dir / SPORTS2D / "Calib_demo.toml").cameras[0]
+    camera = default_camera("demo", *calibrated.size)
+    config = SamplerConfig(samples=20)
+    track_ids = np.arange(keypoints.shape[2])
+    result = lift_take(
+        shipped_prior,
+        keypoints,
+        times,
+        track_ids,
+        [camera],
+        [None] * len(track_ids),
+        config,
+        WindowSettings(),
+        floor=ESTIMATE,
+    )
+    floor = result.meta["floor"]
+    true_height = float(CALIBRATED_FLOOR.height(calibrated.center))
+    true_pitch = float(np.degrees(np.arcsin(calibrated.R[2] @ [0.0, 0.0, -1.0])))
+    assert floor["source"] == "estimated", floor
+    assert abs(floor["camera_height_m"] - true_height) < 0.5 and abs(floor["camera_pitch_deg"] - true_pitch) < 5, floor
+    man, woman = sorted(result.meta["plausibility"], key=lambda r: -r["support"][0]["height_m"])
+    assert 1.6 < man["support"][0]["height_m"] < 2.5 and man["support"][0]["last_frame"] > 100, man
+    assert all(abs(level["height_m"]) < 0.15 for level in woman["support"]), woman
+    for report in (man, woman):
+        assert report["under_floor_share"] < 0.01 and report["stance_slide_median_m"] < 0.02, report
 
 
 @pytest.mark.slow
