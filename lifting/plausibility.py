@@ -6,7 +6,9 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
 - ``under floor``: more than ``UNDER_SHARE`` of hypothesis-frames have their lowest ankle more than
   ``UNDER_FLOOR`` below the floor;
 - ``sliding``: stance ankles (each hypothesis's lower ankle within ``STANCE_BAND`` of its own standing
-  height at that time, in two consecutive frames) move along the floor by more than ``SLIDE`` per frame (median);
+  height at that time, for at least ``MIN_STANCE`` on end, in two consecutive frames) move along the floor by
+  more than ``SLIDE`` per frame (median). A foot that is low for less than ``MIN_STANCE`` is taking off, landing
+  or swinging past, as in hops, jumping jacks and running, not standing;
 - ``spread``: the hypotheses' pelvises lie more than ``SPREAD`` from their median (90 % of them, median
   over frames);
 - ``one view``: the person is seen by fewer than two cameras in most frames they are present.
@@ -31,6 +33,7 @@ UNDER_SHARE = 0.01  # share of hypothesis-frames
 SLIDE = 0.02  # metres per frame
 SPREAD = 1.0  # metres
 STANCE_BAND = 0.05  # metres above a hypothesis's standing height
+MIN_STANCE = 0.1  # seconds: an ankle in the band for less time is passing through it (running contact: 0.2-0.3 s)
 SUPPORT_WINDOW = 1.0  # seconds either side of a frame over which its standing height is taken
 STANDING_QUANTILE = 10  # percentile of the lower ankle's height there: its standing height (a jump's flight is higher)
 SUPPORT_STEP = 0.15  # metres: the support changes level where it moves this far from the level's running mean
@@ -66,13 +69,32 @@ def standing_heights(lower: np.ndarray, fps: float) -> np.ndarray:
     return np.where(np.isfinite(lower), heights, np.nan)
 
 
-def stance_ankles(hypotheses: np.ndarray, floor: Floor | None, fps: float = 30.0) -> np.ndarray:
+def stance_ankles(
+    hypotheses: np.ndarray, floor: Floor | None, fps: float = 30.0, min_stance: float = MIN_STANCE
+) -> np.ndarray:
     """Which ankles stand, ``(N, T, 2)`` (right, left) for joints ``(N, T, 17, 3)`` at ``fps``: a hypothesis's lower
-    ankle while within ``STANCE_BAND`` of its standing height at that time (:func:`standing_heights`)."""
+    ankle while within ``STANCE_BAND`` of its standing height at that time (:func:`standing_heights`), for at least
+    ``min_stance`` seconds on end (0: any frame)."""
     height = (floor or UP).height(hypotheses[..., list(ANKLES), :])  # (N, T, 2)
     lower = np.fmin(height[..., 0], height[..., 1])  # (N, T)
     standing = standing_heights(lower, fps)[..., None]  # (N, T, 1)
-    return (height == lower[..., None]) & (height < standing + STANCE_BAND)
+    low = (height == lower[..., None]) & (height < standing + STANCE_BAND)
+    return lasting(low, max(1, round(min_stance * fps)))
+
+
+def lasting(flags: np.ndarray, frames: int) -> np.ndarray:
+    """``flags`` ``(N, T, K)`` kept only within runs (along T) of at least ``frames`` true frames on end."""
+    T = flags.shape[1]
+    if frames <= 1:
+        return flags
+    if T < frames:
+        return np.zeros_like(flags)
+    count = np.cumsum(np.pad(flags, ((0, 0), (1, 0), (0, 0))).astype(np.int64), axis=1)  # (N, T + 1, K)
+    full = (count[:, frames:] - count[:, :-frames]) == frames  # (N, T - frames + 1, K): runs starting there
+    starts = np.cumsum(np.pad(full, ((0, 0), (1, 0), (0, 0))).astype(np.int64), axis=1)
+    t = np.arange(T)
+    first, last = np.clip(t - frames + 1, 0, T - frames + 1), np.clip(t + 1, 0, T - frames + 1)
+    return (starts[:, last] - starts[:, first]) > 0  # a full run starts within frames - 1 before t, or at t
 
 
 def stance_slides(hypotheses: np.ndarray, floor: Floor | None, fps: float = 30.0) -> np.ndarray:

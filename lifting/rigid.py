@@ -27,7 +27,7 @@ view (in most frames) each bone's direction and each body's rotation is then smo
 at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the clip's shape:
 rigid and smooth. Rebuilt so from the pelvis, a foot that stood still in the sampler's motion would slide
 (the sampler holds stance ankles, :mod:`lifting.grounding`): so each ankle that stands there (stance as
-:func:`lifting.plausibility.stance_ankles` finds it) goes back to where the sampler planted it (a run of
+:func:`lifting.plausibility.stance_ankles` finds it, however briefly) goes back to where the sampler planted it (a run of
 standing frames at its mean, where the run stays within ``HOLD_SPREAD`` of it), the knee onto the circle
 that thigh and shin allow (:func:`two_bone_limb`). Several views need no smoothing (it cost them
 accuracy). Last, a frame whose
@@ -235,7 +235,7 @@ def rigid_paths(
         smooth = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
         placed[:, span] = smooth
     plane = None if floor is None else Floor(tuple(floor[:3]), float(floor[3]), "lift")
-    placed = hold_stance_legs(placed, joints, stance_ankles(joints, plane, fps), shape.lengths)
+    placed = hold_stance_legs(placed, joints, stance_ankles(joints, plane, fps, min_stance=0.0), shape.lengths)
     return _above_floor(placed, joints, floor)
 
 

@@ -17,7 +17,14 @@ from platypose.lifting.errors import InputError
 from platypose.lifting.floor import CALIBRATED_FLOOR, ESTIMATE, estimate_floor, parse_floor
 from platypose.lifting.grounding import Grounding, image_still_ankles
 from platypose.lifting.lift import WindowSettings, lift_tracks
-from platypose.lifting.plausibility import lowest_ankle, plausibility, plausibility_lines, stance_slides
+from platypose.lifting.plausibility import (
+    lasting,
+    lowest_ankle,
+    plausibility,
+    plausibility_lines,
+    stance_ankles,
+    stance_slides,
+)
 from platypose.lifting.sampler import SamplerConfig, cameras_and_rays
 from platypose.lifting.triangulation import triangulate
 
@@ -62,6 +69,22 @@ def shipped_prior():
 def _lift(prior, cameras, keypoints, times, floor, samples=10):
     config = SamplerConfig(samples=samples, floor=None if floor is None else floor.plane)
     return lift_tracks(prior, cameras, keypoints, times, config).hypotheses  # (P, N, T, 17, 3)
+
+
+def test_stance_lasts_at_least_a_tenth_of_a_second(real_clips):
+    """A low ankle counts as standing only in runs of 0.1 s or more: on real mocap (DeepMimic walk and run, feet
+    truly planted) that keeps every stance frame of 3 or more; a one- or two-frame dip of a swinging foot goes."""
+    flags = np.array([1, 1, 0, 1, 1, 1, 0, 1, 0, 1, 1, 1, 1], bool)[None, :, None]
+    assert lasting(flags, 3)[0, :, 0].tolist() == [0, 0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1, 1]
+    assert not lasting(flags[:, :2], 3).any() and (lasting(flags, 1) == flags).all()
+    from platypose.lifting.timebase import resample
+
+    for name in ("walk", "run"):
+        clip = next(m for m in real_clips if m.name.endswith(name))
+        joints = np.concatenate([resample(clip.joints, clip.fps, 30.0)] * 3)[None]  # looped: three cycles
+        stance = stance_ankles(joints, None, 30.0)
+        assert stance.sum() >= 0.2 * stance.size, name  # one foot or the other stands 40 % of the time or more
+        assert np.median(stance_slides(joints, None, 30.0)) < 0.005, name
 
 
 def test_floor_specifications():
