@@ -2,18 +2,25 @@
 
 from __future__ import annotations
 
-import numpy as np
-from scipy.spatial.transform import Rotation
+from pathlib import Path
 
-from platypose.exporters.bvh import fit_skeleton, to_bvh_axes
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from test_export_bvh import _largest_bone_turn
+
+from platypose.exporters import frames
+from platypose.exporters.bvh import fit_skeleton, motion_channels, to_bvh_axes, write_bvh
 from platypose.exporters.ik import (
     CHILDREN,
     EULER_ORDERS,
+    LIMBS,
     continuous_euler,
     euler_to_matrix,
     fit_rotations,
     kabsch,
     local_euler,
+    local_rotations,
     refine_rotations,
     rotation_between,
     two_vector_frame,
@@ -91,7 +98,7 @@ def test_refinement_keeps_the_first_fits_twist_of_single_child_bones(real_clips)
     joints = walk.joints[:90] + np.random.default_rng(2).normal(0.0, 0.01, walk.joints[:90].shape)
     positions = to_bvh_axes(joints)
     offsets = fit_skeleton(joints, np.ones(len(joints), bool))
-    first = fit_rotations(positions, offsets)
+    first, _ = fit_rotations(positions, offsets)
     refined, _ = refine_rotations(first, positions, offsets)
     for j in range(len(PARENTS)):
         if len(CHILDREN[j]) != 1 or j == JOINT_NAMES.index("neck"):  # the neck is aimed at the head last
@@ -101,3 +108,54 @@ def test_refinement_keeps_the_first_fits_twist_of_single_child_bones(real_clips)
             first[:, j] @ child / np.linalg.norm(child), refined[:, j] @ child / np.linalg.norm(child)
         )
         np.testing.assert_allclose(refined[:, j], swing @ first[:, j], atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def cam01_median():
+    """The median motion of the Pose2Sim balancing take lifted from cam01 alone (100 frames, 60 fps, rigid)."""
+    return np.load(Path(__file__).parent / "data" / "lifts" / "pose2sim_cam01_median.npy").astype(np.float64)
+
+
+def _joint_steps(rot: np.ndarray) -> np.ndarray:
+    """Angles (T - 1, 17) in degrees by which each joint's local rotation changes between consecutive frames."""
+    local = local_rotations(rot)
+    rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
+    return np.degrees(np.arccos(np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)))
+
+
+def test_one_view_elbow_swing_turns_the_arm_without_a_pop(cam01_median):
+    """cam01 alone: the right forearm's plane swings about 120 degrees around the upper arm in frames 80-86 while the
+    elbow is bent 90-128 degrees. The hinge axis follows it (it used to fall back to its default as they parted: the
+    elbow turned 100 degrees in one frame, then bent sideways and backwards): no arm joint turns in a frame much more
+    than the motion's own bones do, and the bent elbow bends forwards about its axis."""
+    joints = cam01_median
+    offsets = fit_skeleton(joints, np.ones(len(joints), bool))
+    _, rot, _ = motion_channels(joints, offsets)
+    arms = [JOINT_NAMES.index(n) for n in ("left_shoulder", "left_elbow", "right_shoulder", "right_elbow")]
+    assert _joint_steps(rot)[:, arms].max() < 1.2 * _largest_bone_turn(joints)
+    shoulder, elbow, wrist = (JOINT_NAMES.index(n) for n in ("right_shoulder", "right_elbow", "right_wrist"))
+    positions = to_bvh_axes(joints)
+    upper, lower = positions[:, elbow] - positions[:, shoulder], positions[:, wrist] - positions[:, elbow]
+    normal = np.cross(upper, lower)
+    bend = np.degrees(np.arctan2(np.linalg.norm(normal, axis=-1), np.sum(upper * lower, -1)))
+    axis = (rot[:, shoulder] @ two_vector_frame(offsets[elbow], np.array(LIMBS[shoulder][2], float)))[:, :, 1]
+    cos = np.sum(axis * normal, -1) / np.linalg.norm(normal, axis=-1)
+    bent = bend > 60
+    assert bent.sum() > 50 and (cos[bent] > 0).all() and np.median(cos[bent]) > np.cos(np.radians(10))
+
+
+def test_hinge_axes_continue_across_chunks(cam01_median, tmp_path, monkeypatch):
+    """Written in chunks whose border falls inside the swing, the BVH is the same file: each chunk's hinge axes
+    continue from the last frame of the chunk before (starting again from the default axes they would differ)."""
+    joints = cam01_median
+    write_bvh(joints, 60.0, tmp_path / "whole.bvh")
+    monkeypatch.setattr(frames, "CHUNK_FRAMES", 42)  # borders at frames 42 and 84
+    write_bvh(joints, 60.0, tmp_path / "chunked.bvh")
+    assert (tmp_path / "chunked.bvh").read_bytes() == (tmp_path / "whole.bvh").read_bytes()
+    positions = to_bvh_axes(joints)
+    offsets = fit_skeleton(joints, np.ones(len(joints), bool))
+    whole, _ = fit_rotations(positions, offsets)
+    _, state = fit_rotations(positions[:84], offsets)
+    np.testing.assert_array_equal(fit_rotations(positions[84:], offsets, state)[0], whole[84:])
+    fresh, _ = fit_rotations(positions[84:], offsets)
+    assert np.abs(fresh - whole[84:]).max() > 0.1
