@@ -27,8 +27,8 @@ from platypose.exporters.ik import (
     continuous_euler,
     euler_to_matrix,
     fit_rotations,
+    joint_steps,
     local_euler,
-    local_rotations,
     placed_offsets,
     refine_rotations,
     rest_offsets,
@@ -192,14 +192,6 @@ def _head_bone(joints: np.ndarray) -> np.ndarray:
     return joints[:, _HEAD] - joints[:, _NECK]
 
 
-def _largest_step(rot: np.ndarray) -> float:
-    """Largest change of any joint's local rotation between consecutive frames of rot (T, 17, 3, 3), degrees."""
-    local = local_rotations(rot)
-    rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
-    cos = np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)
-    return float(np.degrees(np.arccos(cos)).max(initial=0.0))
-
-
 def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit:
     """Fit and write world joints (T, 17, 3) metres at ``fps`` to ``path`` atomically; return the fit error.
 
@@ -227,7 +219,9 @@ def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit
             error = np.linalg.norm(back[on] - filled[on], axis=-1)
             total, count, largest = total + error.sum(), count + error.size, max(largest, error.max(initial=0.0))
             head = max(head, _angle_deg(_head_bone(back), _head_bone(filled))[on].max(initial=0.0))
-            step = max(step, _largest_step(rot if last_rot is None else np.concatenate([last_rot, rot])))
+            step = max(
+                step, float(joint_steps(rot if last_rot is None else np.concatenate([last_rot, rot])).max(initial=0.0))
+            )
             stretch = max(stretch, float(np.abs(bone_lengths(filled[on]) - rigid).max(initial=0.0)))
             last_rot = rot[-1:]
     return BvhFit(

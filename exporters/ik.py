@@ -17,10 +17,11 @@ put each joint:
   the limb's hinge axis, so knees and elbows bend about one axis. The axis is
   carried from frame to frame with the upper bone and turns about it towards
   the normal of the hip-knee-ankle or shoulder-elbow-wrist plane where the limb
-  is bent (signed as the carried axis, so a plane swinging around the upper
-  bone is followed through any angle) and towards the parent's axis swung onto
-  the bone where it is straight (its plane is noise), by at most
-  :data:`_MAX_TURN` per frame: no roll can pop, whatever the plane does;
+  is bent (signed as flexion where it bends past 60 degrees, else as the
+  carried axis, so a plane swinging around the upper bone is followed through
+  any angle) and towards the parent's axis swung onto the bone where it is
+  straight (its plane is noise), by at most :data:`_MAX_TURN` per frame: no
+  roll can pop, whatever the plane does;
 - wrists, ankles and head (no child to define them) keep their parent's rotation.
 
 Then :func:`refine_rotations` solves all bone directions of each frame at
@@ -83,10 +84,14 @@ EULER_ORDERS: tuple[str, ...] = ("YXZ", _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG
 
 # A limb's plane is defined between these sines of its bend (15-37 degrees). Its normal takes the
 # carried axis's sign where they are within 73 degrees of parallel or opposite (cosine 0.3), else the
-# default's. A hinge axis turns about its bone by at most 15 degrees per frame (10 to 30 give about
-# the same pops on the bundled one-view lifts, docs/results.md; less lags the plane longer).
+# default's. A hinge axis turns about its bone by at most 15 degrees per frame (on the bundled one-view
+# lifts 10 and 15 leave the fewest joint steps over 45 degrees, 20 and 30 up to 6 more; less lags the
+# plane longer; docs/results.md).
 _BEND_SIN = (0.25, 0.6)
 _SIGN_FROM_CARRIED, _MAX_TURN = 0.3, np.radians(15.0)
+# A limb bent past 60 degrees (cosine 0.5) is flexed whatever its axis did before: no knee or elbow
+# hyperextends that far, so its normal takes the sign of flexion.
+_FOLD_COS = 0.5
 # Weights of the vectors fitted to a rigid body: left, right and midline child, and the parent.
 _BODY_WEIGHTS = np.array([1.0, 1.0, 0.5, 1.0])
 
@@ -154,22 +159,29 @@ def _default_axes(
 
 
 def _carried_hinges(
-    upper: np.ndarray, normal: np.ndarray, bent: np.ndarray, default: np.ndarray, before: np.ndarray | None
+    upper: np.ndarray,
+    normal: np.ndarray,
+    bent: np.ndarray,
+    folded: np.ndarray,
+    default: np.ndarray,
+    before: np.ndarray | None,
 ) -> np.ndarray:
     """Hinge axes (T, 3) of a limb, continuous in time, all in its parent's frame.
 
     ``upper`` (T, 3) are the unit upper-bone directions, ``normal`` (T, 3) the unit normals of the
-    limb's plane, ``bent`` (T,) how far that plane is defined (0 straight, 1 clearly bent),
-    ``default`` (T, 3) the unit axes of a limb with no plane, perpendicular to ``upper``;
-    ``before`` (2, 3) the upper bone and axis of the frame before the first (the previous chunk's
-    last), or None to start from the default.
+    limb's plane (upper cross lower bone), ``bent`` (T,) how far that plane is defined (0 straight,
+    1 clearly bent), ``folded`` (T,) bool where the limb bends past 60 degrees, ``default`` (T, 3)
+    the unit axes of a limb with no plane, perpendicular to ``upper``; ``before`` (2, 3) the upper
+    bone and axis of the frame before the first (the previous chunk's last), or None to start from
+    the default.
 
     Each frame's axis starts from the frame before's, carried by the smallest rotation of the upper
     bone, and turns about the bone towards its target by at most :data:`_MAX_TURN`. The target is
     the plane's normal where the limb is bent and the default where it is straight (blended by
-    ``bent``); the normal is signed as the carried axis when they are clearly parallel or opposite
-    (a plane swinging about the upper arm is followed through any angle), else as the default (a
-    bend that starts again after a straight stretch bends the way the default says).
+    ``bent``). The normal's sign: flexion's where the limb is folded (no joint hyperextends that
+    far); else the carried axis's when they are clearly parallel or opposite (a plane swinging
+    about the upper arm is followed through any angle, a bend that noise flips backwards keeps its
+    roll), else the default's (a bend that starts again after a straight stretch).
     """
     prev_u, axis = (upper[0], default[0]) if before is None else before
     swings = rotation_between(np.concatenate([prev_u[None], upper[:-1]]), upper)
@@ -178,8 +190,14 @@ def _carried_hinges(
     # frame by frame on plain floats: numpy's overhead on single vectors would cost five times more
     a = axis.tolist()
     out = []
-    for swing, u, n, bn, sd, default_forward in zip(
-        swings.tolist(), upper.tolist(), normal.tolist(), bent_normal.tolist(), straight_default.tolist(), default_sign
+    for swing, u, n, bn, sd, default_forward, fold in zip(
+        swings.tolist(),
+        upper.tolist(),
+        normal.tolist(),
+        bent_normal.tolist(),
+        straight_default.tolist(),
+        default_sign,
+        folded,
     ):
         carried = [_dot(row, a) for row in swing]
         along = _dot(carried, u)
@@ -188,7 +206,10 @@ def _carried_hinges(
         carried = [c / norm for c in carried]
         side = _cross(u, carried)  # a quarter turn on from the carried axis about the bone
         agree = _dot(n, carried)
-        forward = agree >= 0 if abs(agree) >= _SIGN_FROM_CARRIED else default_forward
+        if fold:  # bent further than any knee or elbow hyperextends: it flexes
+            forward = True
+        else:
+            forward = agree >= 0 if abs(agree) >= _SIGN_FROM_CARRIED else default_forward
         target = [d + (b if forward else -b) for d, b in zip(sd, bn)]
         turn = min(max(math.atan2(_dot(target, side), _dot(target, carried)), -_MAX_TURN), _MAX_TURN)
         a = [math.cos(turn) * c + math.sin(turn) * si for c, si in zip(carried, side)]
@@ -248,8 +269,8 @@ def fit_rotations(
         elif j in LIMBS:
             lower, end, axis = LIMBS[j]
             rest_axis = np.asarray(axis, dtype=np.float64)
-            d1 = _unit(positions[:, lower] - positions[:, j])
-            normal = np.cross(d1, _unit(positions[:, end] - positions[:, lower]))
+            d1, d2 = _unit(positions[:, lower] - positions[:, j]), _unit(positions[:, end] - positions[:, lower])
+            normal = np.cross(d1, d2)
             sine = np.linalg.norm(normal, axis=-1)
             default = _default_axes(rot[:, p], _unit(offsets[lower]), rest_axis, d1, projected=j in _LEGS)
             back = np.swapaxes(rot[:, p], -1, -2)  # world -> the parent's frame
@@ -258,6 +279,7 @@ def fit_rotations(
                 upper,
                 _apply(back, normal / np.maximum(sine[:, None], 1e-12)),
                 _ramp(sine, *_BEND_SIN),
+                np.sum(d1 * d2, axis=-1) < _FOLD_COS,
                 _apply(back, default),
                 None if before is None else before[k],
             )
@@ -348,6 +370,13 @@ def local_rotations(global_rot: np.ndarray) -> np.ndarray:
         [np.broadcast_to(np.eye(3), global_rot[:, :1].shape), global_rot[:, list(PARENTS[1:])]], axis=1
     )
     return np.swapaxes(parent_rot, -1, -2) @ global_rot
+
+
+def joint_steps(global_rot: np.ndarray) -> np.ndarray:
+    """Angles (T - 1, 17) in degrees by which each joint's local rotation changes between consecutive frames."""
+    local = local_rotations(global_rot)
+    rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
+    return np.degrees(np.arccos(np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)))
 
 
 def local_euler(global_rot: np.ndarray) -> np.ndarray:
