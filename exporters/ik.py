@@ -372,6 +372,25 @@ def local_rotations(global_rot: np.ndarray) -> np.ndarray:
     return np.swapaxes(parent_rot, -1, -2) @ global_rot
 
 
+def hinge_alignment(rot: np.ndarray, positions: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How each limb of :data:`LIMBS` bends about its hinge: bend angles (T, 4) degrees of ``positions`` (T, 17, 3)
+    and cosines (T, 4) between the hinge axis of global rotations ``rot`` (T, 17, 3, 3) on rest ``offsets`` and the
+    normal of the limb's plane (upper cross lower bone; NaN where the limb is straight).
+
+    1 where the limb flexes about its axis, negative where it bends backwards, near 0 where it bends sideways.
+    """
+    bend, cos = [], []
+    for upper, (lower, end, rest_axis) in LIMBS.items():
+        axis = (rot[:, upper] @ two_vector_frame(offsets[lower], np.asarray(rest_axis, np.float64)))[..., 1]
+        d1, d2 = positions[:, lower] - positions[:, upper], positions[:, end] - positions[:, lower]
+        normal = np.cross(d1, d2)
+        sine = np.linalg.norm(normal, axis=-1)
+        bend.append(np.degrees(np.arctan2(sine, np.sum(d1 * d2, axis=-1))))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cos.append(np.sum(axis * normal, axis=-1) / sine)
+    return np.stack(bend, axis=1), np.stack(cos, axis=1)
+
+
 def joint_steps(global_rot: np.ndarray) -> np.ndarray:
     """Angles (T - 1, 17) in degrees by which each joint's local rotation changes between consecutive frames."""
     local = local_rotations(global_rot)

@@ -18,6 +18,7 @@ from platypose.exporters.ik import (
     continuous_euler,
     euler_to_matrix,
     fit_rotations,
+    hinge_alignment,
     joint_steps,
     kabsch,
     local_euler,
@@ -126,15 +127,10 @@ def test_one_view_elbow_swing_turns_the_arm_without_a_pop(cam01_median):
     _, rot, _ = motion_channels(joints, offsets)
     arms = [JOINT_NAMES.index(n) for n in ("left_shoulder", "left_elbow", "right_shoulder", "right_elbow")]
     assert joint_steps(rot)[:, arms].max() < 1.2 * _largest_bone_turn(joints)
-    shoulder, elbow, wrist = (JOINT_NAMES.index(n) for n in ("right_shoulder", "right_elbow", "right_wrist"))
-    positions = to_bvh_axes(joints)
-    upper, lower = positions[:, elbow] - positions[:, shoulder], positions[:, wrist] - positions[:, elbow]
-    normal = np.cross(upper, lower)
-    bend = np.degrees(np.arctan2(np.linalg.norm(normal, axis=-1), np.sum(upper * lower, -1)))
-    axis = (rot[:, shoulder] @ two_vector_frame(offsets[elbow], np.array(LIMBS[shoulder][2], float)))[:, :, 1]
-    cos = np.sum(axis * normal, -1) / np.linalg.norm(normal, axis=-1)
-    bent = bend > 60
-    assert bent.sum() > 50 and (cos[bent] > 0).all() and np.median(cos[bent]) > np.cos(np.radians(10))
+    bend, cos = hinge_alignment(rot, to_bvh_axes(joints), offsets)
+    right_arm = list(LIMBS).index(JOINT_NAMES.index("right_shoulder"))
+    cos = cos[bend[:, right_arm] > 60, right_arm]
+    assert cos.size > 50 and (cos > 0).all() and np.median(cos) > np.cos(np.radians(10))
 
 
 def test_hinge_axes_continue_across_chunks(cam01_median, tmp_path, monkeypatch):

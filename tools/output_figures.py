@@ -24,9 +24,8 @@ import numpy as np
 from platypose.exporters.angles import ANGLE_NAMES, angle_series
 from platypose.exporters.bvh import fit_skeleton, motion_channels, to_bvh_axes
 from platypose.exporters.export import export
-from platypose.exporters.ik import LIMBS, joint_steps
+from platypose.exporters.ik import hinge_alignment, joint_steps
 from platypose.exporters.npz import read_npz
-from platypose.lifting.rotations import two_vector_frame
 from platypose.lifting.skeleton import BONES, JOINT_NAMES
 
 POP_DEG, BENT_DEG, OFF_DEG = 45.0, 30.0, 30.0
@@ -53,19 +52,9 @@ def pops(joints: np.ndarray) -> str:
     rot = motion_channels(present, offsets)[1]
     steps = joint_steps(rot)
     t, j = np.unravel_index(steps[:, ARMS].argmax(), steps[:, ARMS].shape)
-    positions, bent, backwards, off = to_bvh_axes(present), 0, 0, 0
-    for upper, (lower, end, rest_axis) in LIMBS.items():
-        axis = (rot[:, upper] @ two_vector_frame(offsets[lower], np.array(rest_axis, float)))[:, :, 1]
-        d1, d2 = positions[:, lower] - positions[:, upper], positions[:, end] - positions[:, lower]
-        normal = np.cross(d1, d2)
-        sine = np.linalg.norm(normal, axis=-1)
-        on = np.degrees(np.arctan2(sine, np.sum(d1 * d2, -1))) > BENT_DEG
-        cos = np.sum(axis * normal, -1)[on] / sine[on]
-        bent, backwards, off = (
-            bent + on.sum(),
-            backwards + (cos < 0).sum(),
-            off + (np.abs(cos) < np.cos(np.radians(OFF_DEG))).sum(),
-        )
+    bend, cos = hinge_alignment(rot, to_bvh_axes(present), offsets)
+    cos = cos[bend > BENT_DEG]
+    bent, backwards, off = cos.size, int((cos < 0).sum()), int((np.abs(cos) < np.cos(np.radians(OFF_DEG))).sum())
     return (
         f"joint steps over {POP_DEG:.0f} deg: {int((steps > POP_DEG).sum())} (arms {int((steps[:, ARMS] > POP_DEG).sum())}, "
         f"legs {int((steps[:, LEGS] > POP_DEG).sum())}), largest arm step {steps[t, ARMS[j]]:.1f} deg "
