@@ -176,7 +176,8 @@ def _carried_hinges(
     the default.
 
     Each frame's axis starts from the frame before's, carried by the smallest rotation of the upper
-    bone, and turns about the bone towards its target by at most :data:`_MAX_TURN`. The target is
+    bone, and turns about the bone towards its target by at most :data:`_MAX_TURN` (the very first
+    frame, with nothing before it, takes its target). The target is
     the plane's normal where the limb is bent and the default where it is straight (blended by
     ``bent``). The normal's sign: flexion's where the limb is folded (no joint hyperextends that
     far); else the carried axis's when they are clearly parallel or opposite (a plane swinging
@@ -190,6 +191,7 @@ def _carried_hinges(
     # frame by frame on plain floats: numpy's overhead on single vectors would cost five times more
     a = axis.tolist()
     out = []
+    limit = _MAX_TURN if before is not None else math.pi  # the first frame of all takes its target at once
     for swing, u, n, bn, sd, default_forward, fold in zip(
         swings.tolist(),
         upper.tolist(),
@@ -211,9 +213,10 @@ def _carried_hinges(
         else:
             forward = agree >= 0 if abs(agree) >= _SIGN_FROM_CARRIED else default_forward
         target = [d + (b if forward else -b) for d, b in zip(sd, bn)]
-        turn = min(max(math.atan2(_dot(target, side), _dot(target, carried)), -_MAX_TURN), _MAX_TURN)
+        turn = min(max(math.atan2(_dot(target, side), _dot(target, carried)), -limit), limit)
         a = [math.cos(turn) * c + math.sin(turn) * si for c, si in zip(carried, side)]
         out.append(a)
+        limit = _MAX_TURN
     return np.array(out).reshape(default.shape)
 
 
