@@ -27,8 +27,8 @@ from platypose.exporters.ik import (
     continuous_euler,
     euler_to_matrix,
     fit_rotations,
+    joint_steps,
     local_euler,
-    local_rotations,
     placed_offsets,
     refine_rotations,
     rest_offsets,
@@ -149,20 +149,30 @@ def fit_skeleton(joints: np.ndarray | Lead, present: np.ndarray) -> np.ndarray:
     return np.round(rest_offsets(np.concatenate(lengths), np.concatenate(directions)), DECIMALS)
 
 
-def motion_channels(
-    joints: np.ndarray, offsets: np.ndarray, previous: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Channel values (T, 54) rounded as written, and the fitted global rotations (T, 17, 3, 3).
+@dataclass(frozen=True)
+class Carry:
+    """What the next chunk of frames continues from: the last frame's channel values (54,) and the
+    limbs' hinge state (4, 2, 3) after it (:func:`exporters.ik.fit_rotations`)."""
 
-    ``joints`` are world joints (T, 17, 3) metres; ``previous`` (54,) the channel values of the frame
-    before (the last of the chunk before), which the Euler angles continue from.
+    values: np.ndarray
+    hinges: np.ndarray
+
+
+def motion_channels(
+    joints: np.ndarray, offsets: np.ndarray, before: Carry | None = None
+) -> tuple[np.ndarray, np.ndarray, Carry]:
+    """Channel values (T, 54) rounded as written, the fitted global rotations (T, 17, 3, 3) and what the
+    next chunk continues from.
+
+    ``joints`` are world joints (T, 17, 3) metres; ``before`` what the chunk before left (its last
+    frame's channel values, which the Euler angles continue from, and its limbs' hinge axes).
     """
     positions = to_bvh_axes(joints)
-    rot, root = refine_rotations(fit_rotations(positions, offsets), positions, offsets)
-    before = None if previous is None else previous[3:].reshape(NUM_JOINTS, 3)
-    euler = continuous_euler(local_euler(rot), before)
-    values = np.concatenate([root, euler.reshape(len(joints), -1)], axis=1)
-    return np.round(values, DECIMALS), rot
+    first, hinges = fit_rotations(positions, offsets, None if before is None else before.hinges)
+    rot, root = refine_rotations(first, positions, offsets)
+    euler = continuous_euler(local_euler(rot), None if before is None else before.values[3:].reshape(NUM_JOINTS, 3))
+    values = np.round(np.concatenate([root, euler.reshape(len(joints), -1)], axis=1), DECIMALS)
+    return values, rot, Carry(values[-1], hinges)
 
 
 def channels_to_positions(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -182,14 +192,6 @@ def _head_bone(joints: np.ndarray) -> np.ndarray:
     return joints[:, _HEAD] - joints[:, _NECK]
 
 
-def _largest_step(rot: np.ndarray) -> float:
-    """Largest change of any joint's local rotation between consecutive frames of rot (T, 17, 3, 3), degrees."""
-    local = local_rotations(rot)
-    rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
-    cos = np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)
-    return float(np.degrees(np.arccos(cos)).max(initial=0.0))
-
-
 def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit:
     """Fit and write world joints (T, 17, 3) metres at ``fps`` to ``path`` atomically; return the fit error.
 
@@ -205,21 +207,23 @@ def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit
     rigid = np.array([np.linalg.norm(offsets[child]) for child, _ in BONES]) / CM_PER_M
     header = _hierarchy(offsets) + ["MOTION", f"Frames: {T}", f"Frame Time: {1.0 / fps:.12g}"]
     total, count, largest, head, step, stretch = 0.0, 0, 0.0, 0.0, 0.0, 0.0
-    previous, last_rot = None, None
+    carry, last_rot = None, None
     with atomic_open(path, "w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(header) + "\n")
         for t in frame_chunks(T):
             filled = np.asarray(joints[pick[t]], dtype=np.float64)
-            values, rot = motion_channels(filled, offsets, previous)
+            values, rot, carry = motion_channels(filled, offsets, carry)
             np.savetxt(f, values, fmt=f"%.{DECIMALS}f", delimiter=" ")
             on = present[t]
             back = channels_to_positions(values, offsets)
             error = np.linalg.norm(back[on] - filled[on], axis=-1)
             total, count, largest = total + error.sum(), count + error.size, max(largest, error.max(initial=0.0))
             head = max(head, _angle_deg(_head_bone(back), _head_bone(filled))[on].max(initial=0.0))
-            step = max(step, _largest_step(rot if last_rot is None else np.concatenate([last_rot, rot])))
+            step = max(
+                step, float(joint_steps(rot if last_rot is None else np.concatenate([last_rot, rot])).max(initial=0.0))
+            )
             stretch = max(stretch, float(np.abs(bone_lengths(filled[on]) - rigid).max(initial=0.0)))
-            previous, last_rot = values[-1], rot[-1:]
+            last_rot = rot[-1:]
     return BvhFit(
         mean_m=float(total / count), max_m=float(largest), head_deg=float(head), step_deg=step, stretch_m=stretch
     )

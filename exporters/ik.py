@@ -14,10 +14,14 @@ put each joint:
 - spine and neck: aimed at their child, rolled with the lateral axis (hips and
   shoulders for the spine, the thorax for the neck);
 - thighs, shins, upper arms and forearms: aimed at their child, rolled about
-  the limb's hinge axis (the normal of the hip-knee-ankle or
-  shoulder-elbow-wrist plane), so knees and elbows bend about one axis and a
-  bent limb cannot flip its roll; a nearly straight limb, whose plane is not
-  defined, blends smoothly into the parent's axis swung onto the bone;
+  the limb's hinge axis, so knees and elbows bend about one axis. The axis is
+  carried from frame to frame with the upper bone and turns about it towards
+  the normal of the hip-knee-ankle or shoulder-elbow-wrist plane where the limb
+  is bent (signed as flexion where it bends past 60 degrees, else as the
+  carried axis, so a plane swinging around the upper bone is followed through
+  any angle) and towards the parent's axis swung onto the bone where it is
+  straight (its plane is noise), by at most :data:`_MAX_TURN` per frame: no
+  roll can pop, whatever the plane does;
 - wrists, ankles and head (no child to define them) keep their parent's rotation.
 
 Then :func:`refine_rotations` solves all bone directions of each frame at
@@ -34,7 +38,9 @@ kinematics is the importers' (:func:`platypose.lifting.motion_io.kinematics.forw
 
 from __future__ import annotations
 
+import math
 import warnings
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -68,6 +74,7 @@ LIMBS: dict[int, tuple[int, int, tuple[int, int, int]]] = {
 }
 _LOWER = {lower: (upper, end, axis) for upper, (lower, end, axis) in LIMBS.items()}
 _LEGS = (_J("right_hip"), _J("left_hip"))
+_LIMB_ORDER = tuple(LIMBS)
 
 # Intrinsic Euler order of each joint's local rotation (the BVH channel order). The middle axis is
 # the one where gimbal lock sits at 90 degrees: the bone's own axis (twist) for limbs and trunk,
@@ -75,9 +82,16 @@ _LEGS = (_J("right_hip"), _J("left_hip"))
 _LEG, _ARM = "ZYX", "ZXY"
 EULER_ORDERS: tuple[str, ...] = ("YXZ", _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG) + (_ARM,) * 6
 
-# Limbs blend from the parent's swung axis to the plane normal between these sines of the bend
-# (15-37 degrees) and these cosines between the normal and the swung axis (73-45 degrees).
-_BEND_SIN, _AXIS_AGREE = (0.25, 0.6), (0.3, 0.7)
+# A limb's plane is defined between these sines of its bend (15-37 degrees). Its normal takes the
+# carried axis's sign where they are within 73 degrees of parallel or opposite (cosine 0.3), else the
+# default's. A hinge axis turns about its bone by at most 15 degrees per frame (on the bundled one-view
+# lifts 10 and 15 leave the fewest joint steps over 45 degrees, 20 and 30 up to 6 more; less lags the
+# plane longer; docs/results.md).
+_BEND_SIN = (0.25, 0.6)
+_SIGN_FROM_CARRIED, _MAX_TURN = 0.3, np.radians(15.0)
+# A limb bent past 60 degrees (cosine 0.5) is flexed whatever its axis did before: no knee or elbow
+# hyperextends that far, so its normal takes the sign of flexion.
+_FOLD_COS = 0.5
 # Weights of the vectors fitted to a rigid body: left, right and midline child, and the parent.
 _BODY_WEIGHTS = np.array([1.0, 1.0, 0.5, 1.0])
 
@@ -129,43 +143,110 @@ def _ramp(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return w * w * (3 - 2 * w)
 
 
-def _hinge_axes(
-    parent_rot: np.ndarray, rest_dir: np.ndarray, rest_axis: np.ndarray, upper, lower, projected: bool
+def _default_axes(
+    parent_rot: np.ndarray, rest_dir: np.ndarray, rest_axis: np.ndarray, d1: np.ndarray, projected: bool
 ) -> np.ndarray:
-    """Unit hinge axes (T, 3) of a limb, perpendicular to its upper bone.
+    """A limb's default hinge axes (T, 3), unit and perpendicular to its upper bone's directions ``d1`` (T, 3).
 
-    The default is the parent's rest axis, either made perpendicular to the upper bone
-    (``projected``: legs, whose knee axis stays near the pelvis's left-right axis however far the
-    hip flexes) or carried by the smallest rotation onto it (arms, which swing in every direction).
-    The plane's normal takes over, continuously, where the limb is clearly bent about an axis
-    near the default one (a straight limb's plane, or a sideways bend, is noise); its sign is
-    that of the default, so a hyperextended joint keeps its axis.
+    The parent's rest axis, either made perpendicular to the upper bone (``projected``: legs, whose
+    knee axis stays near the pelvis's left-right axis however far the hip flexes) or carried by the
+    smallest rotation onto it (arms, which swing in every direction).
     """
-    d1, d2 = _unit(upper), _unit(lower)
-    normal = np.cross(d1, d2)
-    sine = np.linalg.norm(normal, axis=-1, keepdims=True)
     carried = _apply(parent_rot, rest_axis)
     if projected:
-        default = _unit(carried - np.sum(carried * d1, axis=-1, keepdims=True) * d1)
-    else:
-        default = _apply(rotation_between(_unit(_apply(parent_rot, rest_dir)), d1), carried)
-    normal = normal / np.maximum(sine, 1e-12)
-    agree = np.sum(normal * default, axis=-1, keepdims=True)
-    w = _ramp(sine, *_BEND_SIN) * _ramp(np.abs(agree), *_AXIS_AGREE)
-    axis = w * np.sign(agree) * normal + (1 - w) * default
-    return _unit(axis - np.sum(axis * d1, axis=-1, keepdims=True) * d1)
+        return _unit(carried - np.sum(carried * d1, axis=-1, keepdims=True) * d1)
+    return _apply(rotation_between(_unit(_apply(parent_rot, rest_dir)), d1), carried)
 
 
-def fit_rotations(positions: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Global joint rotations (T, 17, 3, 3) for BVH-axes positions (T, 17, 3) and rest ``offsets`` (17, 3).
+def _carried_hinges(
+    upper: np.ndarray,
+    normal: np.ndarray,
+    bent: np.ndarray,
+    folded: np.ndarray,
+    default: np.ndarray,
+    before: np.ndarray | None,
+) -> np.ndarray:
+    """Hinge axes (T, 3) of a limb, continuous in time, all in its parent's frame.
+
+    ``upper`` (T, 3) are the unit upper-bone directions, ``normal`` (T, 3) the unit normals of the
+    limb's plane (upper cross lower bone), ``bent`` (T,) how far that plane is defined (0 straight,
+    1 clearly bent), ``folded`` (T,) bool where the limb bends past 60 degrees, ``default`` (T, 3)
+    the unit axes of a limb with no plane, perpendicular to ``upper``; ``before`` (2, 3) the upper
+    bone and axis of the frame before the first (the previous chunk's last), or None to start from
+    the default.
+
+    Each frame's axis starts from the frame before's, carried by the smallest rotation of the upper
+    bone, and turns about the bone towards its target by at most :data:`_MAX_TURN` (the very first
+    frame, with nothing before it, takes its target). The target is
+    the plane's normal where the limb is bent and the default where it is straight (blended by
+    ``bent``). The normal's sign: flexion's where the limb is folded (no joint hyperextends that
+    far); else the carried axis's when they are clearly parallel or opposite (a plane swinging
+    about the upper arm is followed through any angle, a bend that noise flips backwards keeps its
+    roll), else the default's (a bend that starts again after a straight stretch).
+    """
+    prev_u, axis = (upper[0], default[0]) if before is None else before
+    swings = rotation_between(np.concatenate([prev_u[None], upper[:-1]]), upper)
+    bent_normal, straight_default = bent[:, None] * normal, (1.0 - bent[:, None]) * default
+    default_sign = np.sum(normal * default, axis=-1) >= 0
+    # frame by frame on plain floats: numpy's overhead on single vectors would cost five times more
+    a = axis.tolist()
+    out = []
+    limit = _MAX_TURN if before is not None else math.pi  # the first frame of all takes its target at once
+    for swing, u, n, bn, sd, default_forward, fold in zip(
+        swings.tolist(),
+        upper.tolist(),
+        normal.tolist(),
+        bent_normal.tolist(),
+        straight_default.tolist(),
+        default_sign,
+        folded,
+    ):
+        carried = [_dot(row, a) for row in swing]
+        along = _dot(carried, u)
+        carried = [c - along * ui for c, ui in zip(carried, u)]
+        norm = max(math.sqrt(_dot(carried, carried)), 1e-12)
+        carried = [c / norm for c in carried]
+        side = _cross(u, carried)  # a quarter turn on from the carried axis about the bone
+        agree = _dot(n, carried)
+        if fold:  # bent further than any knee or elbow hyperextends: it flexes
+            forward = True
+        else:
+            forward = agree >= 0 if abs(agree) >= _SIGN_FROM_CARRIED else default_forward
+        target = [d + (b if forward else -b) for d, b in zip(sd, bn)]
+        turn = min(max(math.atan2(_dot(target, side), _dot(target, carried)), -limit), limit)
+        a = [math.cos(turn) * c + math.sin(turn) * si for c, si in zip(carried, side)]
+        out.append(a)
+        limit = _MAX_TURN
+    return np.array(out).reshape(default.shape)
+
+
+def _dot(a: Sequence[float], b: Sequence[float]) -> float:
+    """Dot product of two 3-vectors given as sequences of floats."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: Sequence[float], b: Sequence[float]) -> list[float]:
+    """Cross product of two 3-vectors given as sequences of floats."""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def fit_rotations(
+    positions: np.ndarray, offsets: np.ndarray, before: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Global joint rotations (T, 17, 3, 3) for BVH-axes positions (T, 17, 3) and rest ``offsets`` (17, 3),
+    and the limbs' hinge state (4, 2, 3) after the last frame.
 
     Each joint is rotated from where the fitted chain has put it (not from its observed
-    position), so a bone-length mismatch is not passed on to the joints below.
+    position), so a bone-length mismatch is not passed on to the joints below. The hinge state
+    is, per limb of :data:`LIMBS` in order, the upper bone's direction and the hinge axis in the
+    parent's frame; ``before`` is the state after the frame before the first (the previous
+    chunk's), which the limbs' axes continue from.
     """
     T = positions.shape[0]
     rot = np.zeros((T, NUM_JOINTS, 3, 3))
     fitted = np.zeros((T, NUM_JOINTS, 3))
     hinge: dict[int, np.ndarray] = {}
+    state = np.zeros((len(LIMBS), 2, 3))
     x_axis = np.array([1.0, 0.0, 0.0])
     for j in range(NUM_JOINTS):
         p = PARENTS[j]
@@ -191,14 +272,22 @@ def fit_rotations(positions: np.ndarray, offsets: np.ndarray) -> np.ndarray:
         elif j in LIMBS:
             lower, end, axis = LIMBS[j]
             rest_axis = np.asarray(axis, dtype=np.float64)
-            hinge[j] = _hinge_axes(
-                rot[:, p],
-                _unit(offsets[lower]),
-                rest_axis,
-                positions[:, lower] - positions[:, j],
-                positions[:, end] - positions[:, lower],
-                projected=j in _LEGS,
+            d1, d2 = _unit(positions[:, lower] - positions[:, j]), _unit(positions[:, end] - positions[:, lower])
+            normal = np.cross(d1, d2)
+            sine = np.linalg.norm(normal, axis=-1)
+            default = _default_axes(rot[:, p], _unit(offsets[lower]), rest_axis, d1, projected=j in _LEGS)
+            back = np.swapaxes(rot[:, p], -1, -2)  # world -> the parent's frame
+            k, upper = _LIMB_ORDER.index(j), _apply(back, d1)
+            local = _carried_hinges(
+                upper,
+                _apply(back, normal / np.maximum(sine[:, None], 1e-12)),
+                _ramp(sine, *_BEND_SIN),
+                np.sum(d1 * d2, axis=-1) < _FOLD_COS,
+                _apply(back, default),
+                None if before is None else before[k],
             )
+            state[k] = upper[-1], local[-1]
+            hinge[j] = _apply(rot[:, p], local)
             rest = two_vector_frame(offsets[lower], rest_axis)
             rot[:, j] = two_vector_frame(positions[:, lower] - fitted[:, j], hinge[j]) @ rest.T
         elif j in _LOWER:
@@ -207,7 +296,7 @@ def fit_rotations(positions: np.ndarray, offsets: np.ndarray) -> np.ndarray:
             rot[:, j] = two_vector_frame(positions[:, end] - fitted[:, j], hinge[upper]) @ rest.T
         else:  # leaves: wrists, ankles, head
             rot[:, j] = rot[:, p]
-    return rot
+    return rot, state
 
 
 def placed_offsets(offsets: np.ndarray, root: np.ndarray) -> np.ndarray:
@@ -284,6 +373,32 @@ def local_rotations(global_rot: np.ndarray) -> np.ndarray:
         [np.broadcast_to(np.eye(3), global_rot[:, :1].shape), global_rot[:, list(PARENTS[1:])]], axis=1
     )
     return np.swapaxes(parent_rot, -1, -2) @ global_rot
+
+
+def hinge_alignment(rot: np.ndarray, positions: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How each limb of :data:`LIMBS` bends about its hinge: bend angles (T, 4) degrees of ``positions`` (T, 17, 3)
+    and cosines (T, 4) between the hinge axis of global rotations ``rot`` (T, 17, 3, 3) on rest ``offsets`` and the
+    normal of the limb's plane (upper cross lower bone; NaN where the limb is straight).
+
+    1 where the limb flexes about its axis, negative where it bends backwards, near 0 where it bends sideways.
+    """
+    bend, cos = [], []
+    for upper, (lower, end, rest_axis) in LIMBS.items():
+        axis = (rot[:, upper] @ two_vector_frame(offsets[lower], np.asarray(rest_axis, np.float64)))[..., 1]
+        d1, d2 = positions[:, lower] - positions[:, upper], positions[:, end] - positions[:, lower]
+        normal = np.cross(d1, d2)
+        sine = np.linalg.norm(normal, axis=-1)
+        bend.append(np.degrees(np.arctan2(sine, np.sum(d1 * d2, axis=-1))))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cos.append(np.sum(axis * normal, axis=-1) / sine)
+    return np.stack(bend, axis=1), np.stack(cos, axis=1)
+
+
+def joint_steps(global_rot: np.ndarray) -> np.ndarray:
+    """Angles (T - 1, 17) in degrees by which each joint's local rotation changes between consecutive frames."""
+    local = local_rotations(global_rot)
+    rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
+    return np.degrees(np.arccos(np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)))
 
 
 def local_euler(global_rot: np.ndarray) -> np.ndarray:

@@ -2,16 +2,24 @@
 
 from __future__ import annotations
 
-import numpy as np
-from scipy.spatial.transform import Rotation
+from pathlib import Path
 
-from platypose.exporters.bvh import fit_skeleton, to_bvh_axes
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from test_export_bvh import _largest_bone_turn
+
+from platypose.exporters import frames
+from platypose.exporters.bvh import fit_skeleton, motion_channels, to_bvh_axes, write_bvh
 from platypose.exporters.ik import (
     CHILDREN,
     EULER_ORDERS,
+    LIMBS,
     continuous_euler,
     euler_to_matrix,
     fit_rotations,
+    hinge_alignment,
+    joint_steps,
     kabsch,
     local_euler,
     refine_rotations,
@@ -91,7 +99,7 @@ def test_refinement_keeps_the_first_fits_twist_of_single_child_bones(real_clips)
     joints = walk.joints[:90] + np.random.default_rng(2).normal(0.0, 0.01, walk.joints[:90].shape)
     positions = to_bvh_axes(joints)
     offsets = fit_skeleton(joints, np.ones(len(joints), bool))
-    first = fit_rotations(positions, offsets)
+    first, _ = fit_rotations(positions, offsets)
     refined, _ = refine_rotations(first, positions, offsets)
     for j in range(len(PARENTS)):
         if len(CHILDREN[j]) != 1 or j == JOINT_NAMES.index("neck"):  # the neck is aimed at the head last
@@ -101,3 +109,42 @@ def test_refinement_keeps_the_first_fits_twist_of_single_child_bones(real_clips)
             first[:, j] @ child / np.linalg.norm(child), refined[:, j] @ child / np.linalg.norm(child)
         )
         np.testing.assert_allclose(refined[:, j], swing @ first[:, j], atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def cam01_median():
+    """The median motion of the Pose2Sim balancing take lifted from cam01 alone (100 frames, 60 fps, rigid)."""
+    return np.load(Path(__file__).parent / "data" / "lifts" / "pose2sim_cam01_median.npy").astype(np.float64)
+
+
+def test_one_view_elbow_swing_turns_the_arm_without_a_pop(cam01_median):
+    """cam01 alone: the right forearm's plane swings about 120 degrees around the upper arm in frames 80-86 while the
+    elbow is bent 90-128 degrees. The hinge axis follows it (it used to fall back to its default as they parted: the
+    elbow turned 100 degrees in one frame, then bent sideways and backwards): no arm joint turns in a frame much more
+    than the motion's own bones do, and the bent elbow bends forwards about its axis."""
+    joints = cam01_median
+    offsets = fit_skeleton(joints, np.ones(len(joints), bool))
+    _, rot, _ = motion_channels(joints, offsets)
+    arms = [JOINT_NAMES.index(n) for n in ("left_shoulder", "left_elbow", "right_shoulder", "right_elbow")]
+    assert joint_steps(rot)[:, arms].max() < 1.2 * _largest_bone_turn(joints)
+    bend, cos = hinge_alignment(rot, to_bvh_axes(joints), offsets)
+    right_arm = list(LIMBS).index(JOINT_NAMES.index("right_shoulder"))
+    cos = cos[bend[:, right_arm] > 60, right_arm]
+    assert cos.size > 50 and (cos > 0).all() and np.median(cos) > np.cos(np.radians(10))
+
+
+def test_hinge_axes_continue_across_chunks(cam01_median, tmp_path, monkeypatch):
+    """Written in chunks whose border falls inside the swing, the BVH is the same file: each chunk's hinge axes
+    continue from the last frame of the chunk before (starting again from the default axes they would differ)."""
+    joints = cam01_median
+    write_bvh(joints, 60.0, tmp_path / "whole.bvh")
+    monkeypatch.setattr(frames, "CHUNK_FRAMES", 42)  # borders at frames 42 and 84
+    write_bvh(joints, 60.0, tmp_path / "chunked.bvh")
+    assert (tmp_path / "chunked.bvh").read_bytes() == (tmp_path / "whole.bvh").read_bytes()
+    positions = to_bvh_axes(joints)
+    offsets = fit_skeleton(joints, np.ones(len(joints), bool))
+    whole, _ = fit_rotations(positions, offsets)
+    _, state = fit_rotations(positions[:84], offsets)
+    np.testing.assert_array_equal(fit_rotations(positions[84:], offsets, state)[0], whole[84:])
+    fresh, _ = fit_rotations(positions[84:], offsets)
+    assert np.abs(fresh - whole[84:]).max() > 0.1

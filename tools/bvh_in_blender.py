@@ -8,7 +8,8 @@ wheel pins its own numpy), e.g.::
 Prints Blender's version, the scene's frame rate and range after the import (with the documented
 settings: Scale 0.01, Forward -Z, Up Y, Update Scene FPS), and the distance of every joint of the
 armature to the npz median of that person index (mean, max), and in how many frames the head is
-below the neck, and the largest angle between the head bone and the npz neck-to-head line.
+below the neck, and the largest angle between the head bone and the npz neck-to-head line; and the
+largest frame-to-frame turn of any pose bone's own rotation (``matrix_basis``) as Blender plays it.
 """
 
 import sys
@@ -34,11 +35,12 @@ print("blender", bpy.app.version_string, "fps", fps, "frames", scene.frame_start
 with np.load(npz, allow_pickle=False) as f:
     med = f["median"][person].astype(np.float64)
     names = [str(n) for n in f["joint_names"]]
-err, head_angles = [], []
+err, head_angles, basis = [], [], []
 head_below = npz_below = 0
 neck, head = names.index("neck"), names.index("head")
 for t in range(scene.frame_start, min(scene.frame_end + 1, scene.frame_start + len(med))):
     scene.frame_set(t)
+    basis.append([np.array(b.matrix_basis.to_3x3()) for b in arm.pose.bones])
     pos = np.array([list(arm.matrix_world @ arm.pose.bones[n].head) for n in names])
     bone = arm.pose.bones["head"]
     head_dir = np.array(list(arm.matrix_world @ bone.tail)) - pos[head]  # the head bone, towards its end site
@@ -54,4 +56,12 @@ err = np.array(err)
 print(
     f"joints vs npz: mean {1000 * err.mean():.1f} mm, max {1000 * err.max():.1f} mm; head below neck in {head_below} "
     f"frames (npz: {npz_below}); head bone vs the npz neck-to-head line: max {max(head_angles):.2f} deg"
+)
+basis = np.array(basis)
+rel = np.swapaxes(basis[:-1], -1, -2) @ basis[1:]
+steps = np.degrees(np.arccos(np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1, 1)))
+t, b = np.unravel_index(steps.argmax(), steps.shape)
+print(
+    f"pose bones: largest frame-to-frame turn {steps[t, b]:.1f} deg ({arm.pose.bones[b].name}, Blender frames "
+    f"{t + scene.frame_start}-{t + 1 + scene.frame_start}), turns over 45 deg: {int((steps > 45).sum())}"
 )
