@@ -73,9 +73,9 @@ def lift(
     :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
     ``persons``: all, largest or N; ``root``: auto, triangulate or solve;
     ``root_trajectory``: a known pelvis path file. ``floor``: auto (the calibration's z = 0; without one,
-    estimated after the lift and reported), z=H, nx,ny,nz,d or none, as ``--floor``. ``sync``: how the views
-    are put on one clock, as ``--sync``: none (the calibration's time offsets), auto (each view's offset
-    estimated from its keypoints, logged with its confidence), an offsets JSON file, or a mapping
+    one camera: estimated under a quick lift, then grounded on), z=H, nx,ny,nz,d or none, as ``--floor``.
+    ``sync``: how the views are put on one clock, as ``--sync``: none (the calibration's time offsets), auto
+    (each view's offset estimated from its keypoints, logged with its confidence), an offsets JSON file, or a mapping
     ``{"cam01": 0.0, "cam02": 0.12}`` of seconds added to each view's frame times. ``stride``: detect
     every N-th frame; ``threads``: the detector's threads. ``fps`` and ``image_size`` (height, width): for
     keypoints without a video beside them (as ``--fps``, ``--image-size``). ``say`` receives the log's lines.

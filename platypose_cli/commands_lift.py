@@ -161,7 +161,7 @@ def lift(
     floor: str = typer.Option(
         "auto",
         "--floor",
-        help="auto (the calibration's z = 0; without one: estimated after the lift and reported), z=H, "
+        help="auto (the calibration's z = 0; without one, one camera: estimated under a quick lift), z=H, "
         "nx,ny,nz,d (the plane n.x + d = 0), or none. Grounds every hypothesis (docs/lift.md).",
     ),
     prior: PriorSettings = None,
