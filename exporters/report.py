@@ -2,8 +2,9 @@
 
 One row per person: leg angles and arm/trunk angles over time (the median
 motion's line and the hypotheses' 5-95 % band), the pelvis path seen from
-above with every camera, and both ankle heights above the lowest ankle of the
-clip. Drawn with matplotlib's Agg backend (no display needed).
+above with every camera, and both ankle heights above the lift's floor (``meta["floor"]``: the calibration's,
+given or estimated), or above the lowest ankle of the clip where the lift had none. Drawn with matplotlib's Agg
+backend (no display needed).
 """
 
 from __future__ import annotations
@@ -33,6 +34,17 @@ def _track(result: LiftResult, p: int, joint: str) -> np.ndarray:
     """One joint's median path (T, 3) of person ``p``, NaN where absent."""
     j = JOINT_INDEX[joint]
     return np.concatenate([np.asarray(result.median[p, t, j], np.float64) for t in frame_chunks(result.num_frames)])
+
+
+def ankle_heights(ankles: np.ndarray, floor: dict | None) -> tuple[np.ndarray, str]:
+    """Heights (m) of ankle paths ``(..., 3)`` above ``floor`` (a ``meta["floor"]`` entry: ``normal``, ``offset_m``,
+    ``source``), or above their own lowest point without one, and the axis label that says which."""
+    ankles = np.asarray(ankles, np.float64)
+    if floor:
+        return ankles @ np.asarray(floor["normal"], np.float64) + float(floor["offset_m"]), (
+            f"cm above the floor ({floor['source']})"
+        )
+    return ankles[..., 2] - np.nanmin(ankles[..., 2]), "cm above the lowest ankle"
 
 
 def _plot_angles(ax, times: np.ndarray, series: np.ndarray, names: tuple[str, ...]) -> None:
@@ -87,12 +99,12 @@ def write_report(result: LiftResult, series: dict[int, np.ndarray], name: str, p
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="best")
         ax = axes[row, 3]
-        right, left = _track(result, p, "right_ankle")[:, 2], _track(result, p, "left_ankle")[:, 2]
-        floor = np.nanmin(np.concatenate([right, left]))
-        ax.plot(times, 100 * (right - floor), color="tab:red", label="right ankle")
-        ax.plot(times, 100 * (left - floor), color="tab:blue", label="left ankle")
+        ankles = np.stack([_track(result, p, "right_ankle"), _track(result, p, "left_ankle")])  # (2, T, 3)
+        (right, left), label = ankle_heights(ankles, (result.meta or {}).get("floor"))
+        ax.plot(times, 100 * right, color="tab:red", label="right ankle")
+        ax.plot(times, 100 * left, color="tab:blue", label="left ankle")
         ax.set_xlabel("time (s)")
-        ax.set_ylabel("cm above the lowest ankle")
+        ax.set_ylabel(label)
         ax.set_title(f"person {track}: ankle heights", fontsize=10)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="upper right")

@@ -10,7 +10,7 @@ import pytest
 from export_helpers import two_person_result
 
 from platypose.exporters.angles import ANGLE_NAMES, angle_series, joint_angles, write_angles_csv
-from platypose.exporters.report import write_report
+from platypose.exporters.report import ankle_heights, write_report
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 
@@ -111,6 +111,19 @@ def test_csv_reads_back(result, tmp_path):
     np.testing.assert_allclose(got, want, atol=5e-4)
     assert float(row["time_s"]) == result.frame_times[12]
     assert not any(r["person"] == "7" and int(r["frame"]) < 5 for r in rows)  # absent frames left out
+
+
+def test_report_ankle_heights_stand_on_the_lifts_floor():
+    """With a floor the report's ankle heights are above it (a roof stays 2 m up); without one, above the lowest."""
+    ankles = np.array([[[0.0, 5.0, 2.1], [0.1, 5.0, 2.3]], [[1.0, 4.0, 0.1], [1.0, 4.2, np.nan]]])
+    level = {"normal": [0.0, 0.0, 1.0], "offset_m": 0.0, "source": "calibration"}
+    heights, label = ankle_heights(ankles, level)
+    assert np.allclose(heights[0], [2.1, 2.3]) and label == "cm above the floor (calibration)"
+    tilted = {"normal": [0.0, -np.sin(0.1), np.cos(0.1)], "offset_m": 1.5, "source": "estimated"}
+    heights, label = ankle_heights(ankles, tilted)
+    assert heights[1, 0] == pytest.approx(-4.0 * np.sin(0.1) + 0.1 * np.cos(0.1) + 1.5) and "estimated" in label
+    heights, label = ankle_heights(ankles, None)
+    assert np.allclose(heights[0], [2.0, 2.2]) and np.nanmin(heights) == 0.0 and label == "cm above the lowest ankle"
 
 
 def test_report_picture(result, tmp_path):
