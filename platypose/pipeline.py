@@ -146,21 +146,22 @@ def lift_take(
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
     sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
     and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor. The
-    result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per person, :mod:`platypose.lifting.plausibility`; each flag is also a
-    warning) and ``rigid_bones`` (per person, :func:`platypose.lifting.rigid.rigid_person`: every
-    hypothesis and the median get one length per bone over the clip); the caller adds its own.
+    result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
+    person, :mod:`platypose.lifting.plausibility`; each flag is also a warning) and ``rigid_bones`` (per person,
+    :func:`platypose.lifting.rigid.rigid_person`: every hypothesis and the median get one length per bone over
+    the clip); the caller adds its own.
     """
     log = log if log is not None else JobLog()
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
+    absent = ~presence(keypoints, times)  # (P, T)
     floor_meta = None
     if floor == ESTIMATE:
-        floor, floor_meta = quick_floor(prior, keypoints, times, cameras, roots, sampler, windows, fps, log)
+        floor, floor_meta = quick_floor(prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log)
     if isinstance(floor, Floor):
         sampler = replace(sampler, floor=floor.plane)
         floor_meta = floor_meta or floor.as_dict()
         log(f"floor ({floor.source}): {' '.join(f'{v:g}' for v in floor.plane)} (n . x + d = 0), grounding on")
     started = time.perf_counter()
-    absent = ~presence(keypoints, times)  # (P, T)
     (P, T), N = absent.shape, sampler.samples
     hypotheses = arrays((P, N, T, 17, 3), "hypotheses")
     median = arrays((P, T, 17, 3), "median")
@@ -179,7 +180,7 @@ def lift_take(
             f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
         )
     report = report_reprojection(median, keypoints, cameras, log)
-    persons = plausibility(hypotheses, keypoints, floor if isinstance(floor, Floor) else None, fps)
+    persons = plausibility(hypotheses, keypoints, floor, fps)
     for track, person in zip(track_ids, persons):
         person["track_id"] = int(track)
     for line in plausibility_lines(persons, track_ids):
@@ -208,6 +209,7 @@ def quick_floor(
     prior: PriorBundle,
     keypoints: np.ndarray,
     times: np.ndarray,
+    absent: np.ndarray,
     cameras: Sequence[Camera],
     roots: Sequence[np.ndarray | None],
     sampler: SamplerConfig,
@@ -215,19 +217,18 @@ def quick_floor(
     fps: float,
     log: JobLog,
 ) -> tuple[Floor | None, dict | None]:
-    """The floor under a one-camera take (keypoints (1, T, P, 17, 3)) and its ``meta`` entry, estimated
-    (:func:`platypose.lifting.floor.floor_under`) under the median motions of a quick lift without a floor:
-    ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest; None, None (logged)
-    when too few standing ankles are found."""
+    """The floor under a one-camera take (keypoints (1, T, P, 17, 3), persons ``absent`` (P, T)) and its ``meta``
+    entry, estimated (:func:`platypose.lifting.floor.floor_under`) under the median motions of a quick lift
+    without a floor: ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest;
+    None, None (logged) when too few standing ankles are found."""
     if len(cameras) != 1:
         return None, None
     began = time.perf_counter()
-    absent = ~presence(keypoints, times)  # (P, T)
     persons = np.argsort(absent.sum(axis=1), kind="stable")[:FLOOR_PASS_PERSONS]
     quick = replace(sampler, samples=min(sampler.samples, FLOOR_PASS_SAMPLES), floor=None)
     P, T = len(persons), len(times)
+    hypotheses, energy = np.empty((P, quick.samples, T, 17, 3), np.float32), np.empty((P, quick.samples, T), np.float32)
     median = np.empty((P, T, 17, 3), np.float32)
-    scratch = np.empty((P, quick.samples, T, 17, 3), np.float32), np.empty((P, quick.samples, T), np.float32)
     kept = keypoints[:, :, persons]
     lift_persons(
         prior,
@@ -238,9 +239,9 @@ def quick_floor(
         absent[persons],
         quick,
         windows,
-        scratch[0],
+        hypotheses,
         median,
-        scratch[1],
+        energy,
     )
     floor, meta = floor_under(median, cameras[0], fps, kept[0])
     seconds = time.perf_counter() - began
