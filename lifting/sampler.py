@@ -98,7 +98,8 @@ def sample(
     steps = network_steps(prior, config)
     generator = torch.Generator(device="cpu").manual_seed(config.seed)
     shape = (obs.keypoints.shape[1] * config.samples, frames, prior.config.features)
-    noise = torch.randn(shape, generator=generator, dtype=torch.float32).to(device=device, dtype=dtype)
+    noise = config.temperature * torch.randn(shape, generator=generator, dtype=torch.float32)
+    noise = noise.to(device=device, dtype=dtype)
     sizes = (
         torch.exp(config.size_spread * torch.randn(config.samples, generator=generator))
         if config.size_spread > 0

@@ -43,9 +43,11 @@ class SamplerConfig:
     holding stance ankles on it, ``slide_weight`` against stance ankles sliding along it; and a window seen by
     one camera is placed where its stance ankles' rays meet it, where that keeps an adult's size; each
     hypothesis's stance ankles stand ``ANKLE_HEIGHT`` plus ``support_spread`` times a standard normal draw above it.
-    ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis
-    took a step gaining less than ``guidance_tol`` of its energy at the start of this
-    diffusion step's guidance, or its step has shrunk to nothing (0: always k).
+    ``temperature`` scales the initial noise the hypotheses start from (1: the prior as trained, the paper's;
+    below 1 they start nearer its middle and spread less; what that trades is measured in docs/prior.md,
+    "Temperature"). ``guidance_iters`` (k) is a maximum: guidance stops early once every hypothesis took a step
+    gaining less than ``guidance_tol`` of its energy at the start of this diffusion step's guidance, or its step
+    has shrunk to nothing (0: always k).
     """
 
     samples: int = 50
@@ -76,6 +78,7 @@ class SamplerConfig:
     slide_weight: float = 1.0
     support_spread: float = 0.03
     solver: str = "ddim"
+    temperature: float = 1.0
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -110,6 +113,7 @@ class SamplerConfig:
             (0 <= self.support_spread <= 0.2, f"support spread must be in [0, 0.2] m, got {self.support_spread}"),
             (self.solver in SOLVERS, f"unknown solver {self.solver!r}; choose {', '.join(SOLVERS)}"),
             (self.solver == "ddim" or self.eta == 0, "the dpm2m solver is deterministic: eta must be 0"),
+            (0 < self.temperature <= 2, f"temperature must be in (0, 2], got {self.temperature}"),
         ]
         for ok, message in checks:
             if not ok:

@@ -46,6 +46,7 @@ SAMPLER_FLAGS = (
     Flag("energy_scale", float, ("--energy-scale", "--lambda"), "Initial guidance step (lambda)."),
     Flag("eta", float, ("--eta",), "DDIM eta: 0 deterministic re-noising, 1 fresh noise."),
     Flag("solver", str, ("--solver",), "Re-noising between network calls: ddim or dpm2m (DPM-Solver++(2M))."),
+    Flag("temperature", float, ("--temperature",), "Scale of the initial noise (1: the prior as trained)."),
     Flag("robust", str, ("--robust",), "Reprojection loss: l2 or geman-mcclure."),
     Flag("size_prior", bool, ("--size-prior/--no-size-prior",), "Place each prediction as a person of adult size."),
     Flag("size_spread", float, ("--size-spread",), "Log-normal spread of the hypotheses' sizes (0: all typical)."),

@@ -43,6 +43,26 @@ def test_dpm2m_solver_in_four_network_calls_collapses_four_views_onto_the_truth(
     assert metrics.min_mpjpe(result.joints[0], heldout_window) < 0.005
 
 
+def test_a_lower_temperature_narrows_one_views_hypotheses(tiny_prior, heldout_window):
+    """The initial noise is scaled by the temperature (the network's first input, exactly); below 1, pelvis-relative
+    hypotheses spread less around their median, and every hypothesis still fits the image."""
+
+    def lift(temperature: float) -> tuple[torch.Tensor, float, np.ndarray]:
+        inputs = []
+        hook = tiny_prior.model.register_forward_hook(lambda module, args, out: inputs.append(args[0].clone()))
+        result, _ = _lift(tiny_prior, heldout_window, views=1, samples=40, temperature=temperature)
+        hook.remove()
+        relative = metrics.root_relative(result.joints[0])
+        spread = float(np.linalg.norm(relative - np.median(relative, axis=0), axis=-1).mean())
+        return inputs[0], spread, _rms_px(result, 1)
+
+    first_wide, wide, _ = lift(1.0)
+    first_narrow, narrow, rms = lift(0.5)
+    assert torch.allclose(first_narrow, 0.5 * first_wide)
+    assert narrow < 0.95 * wide, (narrow, wide)
+    assert rms.max() < 1.0
+
+
 def test_guidance_reaches_the_noise_level_of_the_2d_input(tiny_prior, heldout_window):
     for views in (4, 1):  # the fit itself, before the noise spread
         result, _ = _lift(tiny_prior, heldout_window, views=views, noise_px=2.0, samples=20, noise_spread=False)
@@ -136,6 +156,8 @@ def test_structural_energies_lower_bone_length_variation(tiny_prior, heldout_win
         dict(depth_smoothness=-1.0),
         dict(solver="heun"),
         dict(solver="dpm2m", eta=0.5),
+        dict(temperature=0.0),
+        dict(temperature=2.5),
     ],
 )
 def test_bad_sampler_settings_are_refused(bad):
