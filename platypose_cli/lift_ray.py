@@ -13,7 +13,8 @@ processes for tasks of the same kind). A worker that dies or a node that is
 lost is retried ``max_retries`` times by Ray, then the input is recorded as
 failed (with ``failed.json``, so ``--resume`` leaves it alone unless
 ``--retry-failed``). Ctrl-C cancels the tasks, waits briefly for running ones
-to clean their staging folders, records whatever finished, and re-raises.
+to clean their staging folders (ending the workers of those that do not, and removing what they left), records
+whatever finished, and re-raises.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from platypose.cli.lift_run import MANIFEST, RunSettings, remove_stale_staging
 from platypose.lifting.errors import InputError
 
 INSTALL_HINT = "--executor ray needs Ray on the driver and every worker: pip install 'platypose[ray]'"
-CANCEL_GRACE_S = 10.0  # after Ctrl-C: how long running tasks get to remove their staging folders
+CANCEL_GRACE_S = 10.0  # after Ctrl-C: how long running tasks get to remove their staging folders, then to end
 POLL_S = 0.25  # how often the driver wakes: the bar's running / failed counts, and how soon Ctrl-C is seen
 
 
@@ -205,12 +206,18 @@ class RayExecutor:
             except BaseException:
                 for ref in pending:
                     ray.cancel(ref)
-                done, _ = ray.wait(pending, num_returns=len(pending), timeout=CANCEL_GRACE_S)
-                for ref in done:
+                done, late = ray.wait(pending, num_returns=len(pending), timeout=CANCEL_GRACE_S)
+                if late:  # still running after the grace: their workers are ended
+                    for ref in late:
+                        ray.cancel(ref, force=True)
+                    ray.wait(late, num_returns=len(late), timeout=CANCEL_GRACE_S)
+                for ref in pending:
                     try:
-                        ray.get(ref)
-                    except ray.exceptions.RayError:
-                        continue  # cancelled: nothing of it was kept
+                        ray.get(ref, timeout=0)
+                    except ray.exceptions.RayError:  # GetTimeoutError too
+                        # cancelled or ended: nothing of it is kept, not even a staging folder its worker left
+                        remove_stale_staging(settings.out, jobs[refs[ref]].name, owners_gone=True)
+                        continue
                     finish(ref, 0)
                 raise
 

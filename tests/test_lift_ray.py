@@ -19,6 +19,7 @@ import pytest
 import ray
 from test_export_rrd import read_entities
 
+from platypose.cli import lift_ray
 from platypose.cli.commands_lift import lift_settings
 from platypose.cli.detection import DetectOptions
 from platypose.cli.lift_batch import SUMMARY_LOCK, run_batch
@@ -237,9 +238,13 @@ def ctrl_c_raises():
     signal.signal(signal.SIGINT, previous)
 
 
+@pytest.mark.parametrize("grace", [10.0, 0.0], ids=["tasks-clean-up", "workers-ended"])
 def test_ctrl_c_cancels_tasks_and_keeps_what_finished(
-    cluster, batch_folder, prior_file, local_run, tmp_path, ctrl_c_raises
+    cluster, batch_folder, prior_file, local_run, tmp_path, ctrl_c_raises, monkeypatch, grace
 ):
+    """Ctrl-C: the running lift is cancelled, nothing of it is left (its task removes its staging folder, or, past
+    the grace period, its worker is ended and the driver removes it); what finished is recorded."""
+    monkeypatch.setattr(lift_ray, "CANCEL_GRACE_S", grace)
     local, _ = local_run
     jobs = discover_jobs([batch_folder])
     settings = ray_settings(prior_file, tmp_path)
