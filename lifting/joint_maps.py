@@ -427,12 +427,13 @@ _C3D_ARM = {
 _PIG_PELVIS = _blend((0.5, _C3D_HIP["left"][-1]), (0.5, _C3D_HIP["right"][-1]))
 _PIG_THORAX = _mid("LSHO", "RSHO")
 _PIG_HEAD = {"LFHD": 0.25, "RFHD": 0.25, "LBHD": 0.25, "RBHD": 0.25}
+_C3D_PELVIS = (_mid("LHJC", "RHJC"), _mid("LFEP", "RFEP"), _PIG_PELVIS)
 C3D_MARKER_RECIPES: dict[str, tuple[dict[str, float], ...]] = {
-    "pelvis": (_mid("LHJC", "RHJC"), _mid("LFEP", "RFEP"), _PIG_PELVIS),
+    "pelvis": _C3D_PELVIS,
     **{f"{side}_hip": _C3D_HIP[side] for side in ("right", "left")},
     **{f"{side}_knee": _C3D_KNEE[side] for side in ("right", "left")},
     **{f"{side}_ankle": _C3D_ANKLE[side] for side in ("right", "left")},
-    "spine": (_blend((0.5, _PIG_PELVIS), (0.5, _PIG_THORAX)),),
+    "spine": tuple(_blend((0.5, pelvis), (0.5, _PIG_THORAX)) for pelvis in _C3D_PELVIS),
     "thorax": (_PIG_THORAX,),
     "neck": (_blend((1.0 - SKULL_BASE_FRACTION, _PIG_HEAD), (SKULL_BASE_FRACTION, _PIG_THORAX)),),
     "head": (_PIG_HEAD,),
