@@ -1,4 +1,7 @@
-"""C3D importer on a real Plug-in Gait full-body marker trial (no model outputs): all 17 joints, sane lengths, on its floor.
+"""C3D importer on real Plug-in Gait full-body trials: all 17 joints, sane lengths, on their floor.
+
+The tennis serve has bare markers only; the overground walk has the model's
+lower-body joint centres (LFEP, LFEO, LTIO) and bare upper-body markers.
 
 The hip, knee and ankle recipes of bare Plug-in Gait markers are fitted to the
 Plug-in Gait joint centres of the gaitalytics treadmill trial; the test checks
@@ -9,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from motion_sanity import assert_plausible
+from motion_sanity import assert_plausible, facing_agrees_with_travel
 
 from platypose.lifting.joint_maps import C3D_MARKER_RECIPES
 from platypose.lifting.motion_io import load_motion
@@ -60,3 +63,16 @@ def test_recipes_weights_sum_to_one():
     for joint in JOINT_NAMES:
         for weights in C3D_MARKER_RECIPES[joint]:
             assert sum(weights.values()) == pytest.approx(1.0)
+
+
+def test_overground_walk_mixes_model_centres_and_markers(data_dir):
+    (walk,) = load_motion(data_dir / "motion/gaitalytics-fullbody/gaitalytics_walk_fullbody.c3d")
+    assert (walk.num_frames, walk.fps) == (337, 100.0)
+    assert walk.extra["missing_joints"] == []
+    sources = walk.extra["joint_sources"]
+    assert (sources["left_hip"], sources["spine"], sources["right_elbow"]) == ("LFEP", "LFEP+RFEP+LSHO+RSHO", "RELB")
+    assert walk.licence.startswith("MIT")
+    assert_plausible(walk, rigid_tol_m=0.03, min_head_rise_m=0.55)
+    assert facing_agrees_with_travel(walk) > 0.8
+    ankles = walk.joints[:, [JOINT_INDEX["left_ankle"], JOINT_INDEX["right_ankle"]], 2]
+    assert 0.03 < ankles.min() < 0.1
