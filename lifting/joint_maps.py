@@ -362,26 +362,80 @@ H36M32_TO_OURS: tuple[int, ...] = (0, 1, 2, 3, 6, 7, 8, 12, 13, 14, 15, 17, 18, 
 # of named points, most direct first: joint centres exported by the lab's model
 # (RHJC/RKJC/RAJC), then Vicon Plug-in Gait segment points (femur proximal end
 # RFEP = hip centre, femur origin RFEO = knee centre, tibia origin RTIO = ankle
-# centre), then midpoints of lateral/medial epicondyle and malleolus markers.
-# The first alternative whose points a trial has is used; joints with none stay
-# NaN and are reported as missing (no upper body in lower-body trials).
+# centre), then midpoints of lateral/medial epicondyle and malleolus markers,
+# then the bare Plug-in Gait full-body markers (below). The first alternative
+# whose points a trial has is used; joints with none stay NaN and are reported
+# as missing (no upper body in lower-body trials).
 def _sides(template: tuple[dict[str, float], ...]) -> dict[str, tuple[dict[str, float], ...]]:
-    def side(s: str, full: str) -> tuple[dict[str, float], ...]:
-        return tuple({k.format(s=s, side=full): w for k, w in alt.items()} for alt in template)
+    """Right and left versions of a template: ``{s}`` is R/L, ``{o}`` the other side's letter, ``{side}`` Right/Left."""
 
-    return {"right": side("R", "Right"), "left": side("L", "Left")}
+    def side(s: str, o: str, full: str) -> tuple[dict[str, float], ...]:
+        return tuple({k.format(s=s, o=o, side=full): w for k, w in alt.items()} for alt in template)
+
+    return {"right": side("R", "L", "Right"), "left": side("L", "R", "Left")}
 
 
-_C3D_HIP = _sides(({"{s}HJC": 1.0}, {"{s}FEP": 1.0}))
+def _blend(*parts: tuple[float, Mapping[str, float]]) -> dict[str, float]:
+    """Weighted sum of recipes, ``sum(a * recipe)``: e.g. the midpoint of two joints each made of markers."""
+    out: dict[str, float] = {}
+    for a, recipe in parts:
+        for name, w in recipe.items():
+            out[name] = out.get(name, 0.0) + a * w
+    return out
+
+
+# Plug-in Gait full-body markers alone (no model outputs, no medial markers):
+# hip, knee and ankle centres as affine combinations of the skin markers, the
+# weights fitted by least squares (both sides pooled) to the Plug-in Gait
+# centres RFEP/RFEO/RTIO of the gaitalytics treadmill trial in
+# data/motion/gait-c3d, where they are off by a median 19 / 11 / 11 mm (the
+# bare lateral markers ASI / KNE / ANK: 116 / 59 / 45 mm).
+PIG_HIP = {"{s}ASI": 0.822, "{o}ASI": -0.348, "{s}PSI": -0.646, "{o}PSI": 0.981, "{s}KNE": 0.191}
+PIG_KNEE = {"{s}KNE": 1.097, "{s}ANK": -0.061, "{s}ASI": -0.304, "{o}ASI": 0.268}
+PIG_ANKLE = {"{s}ANK": -0.051, "{s}TOE": 0.310, "{s}HEE": 0.668, "{s}KNE": 0.073}
+# The upper body has no fitted reference: shoulder = the acromion marker SHO
+# (4-6 cm above the joint centre), elbow = the lateral epicondyle marker ELB
+# (about 3 cm lateral of it), wrist = midpoint of the two wrist-bar markers,
+# head centre = mean of the four head markers, skull base SKULL_BASE_FRACTION
+# of the way from the head centre to the thorax (as for DeepMimic).
+PIG_SHOULDER = {"{s}SHO": 1.0}
+PIG_ELBOW = {"{s}ELB": 1.0}
+PIG_WRIST = _mid("{s}WRA", "{s}WRB")
+
+_C3D_HIP = _sides(({"{s}HJC": 1.0}, {"{s}FEP": 1.0}, PIG_HIP))
 _C3D_KNEE = _sides(
-    ({"{s}KJC": 1.0}, {"{s}FEO": 1.0}, _mid("{s}LEK", "{s}MEK"), _mid("{side}_KneeExt", "{side}_KneeInt"))
+    (
+        {"{s}KJC": 1.0},
+        {"{s}FEO": 1.0},
+        _mid("{s}LEK", "{s}MEK"),
+        _mid("{side}_KneeExt", "{side}_KneeInt"),
+        PIG_KNEE,
+    )
 )
 _C3D_ANKLE = _sides(
-    ({"{s}AJC": 1.0}, {"{s}TIO": 1.0}, _mid("{s}LM", "{s}MM"), _mid("{side}_AnkleExt", "{side}_AnkleInt"))
+    (
+        {"{s}AJC": 1.0},
+        {"{s}TIO": 1.0},
+        _mid("{s}LM", "{s}MM"),
+        _mid("{side}_AnkleExt", "{side}_AnkleInt"),
+        PIG_ANKLE,
+    )
 )
+_C3D_ARM = {
+    part: _sides((recipe,)) for part, recipe in (("shoulder", PIG_SHOULDER), ("elbow", PIG_ELBOW), ("wrist", PIG_WRIST))
+}
+_PIG_PELVIS = _blend((0.5, _C3D_HIP["left"][-1]), (0.5, _C3D_HIP["right"][-1]))
+_PIG_THORAX = _mid("LSHO", "RSHO")
+_PIG_HEAD = {"LFHD": 0.25, "RFHD": 0.25, "LBHD": 0.25, "RBHD": 0.25}
+_C3D_PELVIS = (_mid("LHJC", "RHJC"), _mid("LFEP", "RFEP"), _PIG_PELVIS)
 C3D_MARKER_RECIPES: dict[str, tuple[dict[str, float], ...]] = {
-    "pelvis": (_mid("LHJC", "RHJC"), _mid("LFEP", "RFEP")),
+    "pelvis": _C3D_PELVIS,
     **{f"{side}_hip": _C3D_HIP[side] for side in ("right", "left")},
     **{f"{side}_knee": _C3D_KNEE[side] for side in ("right", "left")},
     **{f"{side}_ankle": _C3D_ANKLE[side] for side in ("right", "left")},
+    "spine": tuple(_blend((0.5, pelvis), (0.5, _PIG_THORAX)) for pelvis in _C3D_PELVIS),
+    "thorax": (_PIG_THORAX,),
+    "neck": (_blend((1.0 - SKULL_BASE_FRACTION, _PIG_HEAD), (SKULL_BASE_FRACTION, _PIG_THORAX)),),
+    "head": (_PIG_HEAD,),
+    **{f"{side}_{part}": _C3D_ARM[part][side] for part in ("shoulder", "elbow", "wrist") for side in ("left", "right")},
 }

@@ -77,3 +77,14 @@ def test_broken_and_missing_files(tmp_path, folder):
     with pytest.raises(InputError, match="walk.asf.*no :root"):
         load_motion(amc)
     assert read_amc(folder / "test.amc")["lradius"].shape[1] == 1
+
+
+def test_second_cmu_subject_kick_is_plausible_on_its_floor(data_dir):
+    """CMU subject 11 trial 01 (fairmotion's test data): another subject's ASF, a run-up and a soccer kick."""
+    (kick,) = load_motion(data_dir / "motion/cmu-11-01/11_01.amc")
+    assert (kick.num_frames, kick.fps) == (597, 120.0)
+    assert "CMU" in kick.licence and kick.licence.startswith("BSD")
+    assert_plausible(kick, rigid_tol_m=1e-6, min_head_rise_m=0.5)
+    assert facing_agrees_with_travel(kick) > 0.8
+    ankles = kick.joints[:, [JOINT_INDEX["left_ankle"], JOINT_INDEX["right_ankle"]], 2]
+    assert 0.05 < ankles.min() < 0.12
