@@ -402,6 +402,7 @@ PIG_SHOULDER = {"{s}SHO": 1.0}
 PIG_ELBOW = {"{s}ELB": 1.0}
 PIG_WRIST = _mid("{s}WRA", "{s}WRB")
 
+_PIG_HIPS = _sides((PIG_HIP,))
 _C3D_HIP = _sides(({"{s}HJC": 1.0}, {"{s}FEP": 1.0}, PIG_HIP))
 _C3D_KNEE = _sides(
     (
@@ -424,7 +425,7 @@ _C3D_ANKLE = _sides(
 _C3D_ARM = {
     part: _sides((recipe,)) for part, recipe in (("shoulder", PIG_SHOULDER), ("elbow", PIG_ELBOW), ("wrist", PIG_WRIST))
 }
-_PIG_PELVIS = _blend((0.5, _C3D_HIP["left"][-1]), (0.5, _C3D_HIP["right"][-1]))
+_PIG_PELVIS = _blend((0.5, _PIG_HIPS["left"][0]), (0.5, _PIG_HIPS["right"][0]))
 _PIG_THORAX = _mid("LSHO", "RSHO")
 _PIG_HEAD = {"LFHD": 0.25, "RFHD": 0.25, "LBHD": 0.25, "RBHD": 0.25}
 _C3D_PELVIS = (_mid("LHJC", "RHJC"), _mid("LFEP", "RFEP"), _PIG_PELVIS)
