@@ -17,11 +17,22 @@ import numpy as np
 from platypose.lifting import metrics
 from platypose.lifting.camera import Camera, project
 from platypose.lifting.prior import PriorBundle
-from platypose.lifting.rigid import rigid_paths
-from platypose.lifting.rigid_shape import clip_shape
+from platypose.lifting.representative import median_motion
+from platypose.lifting.rigid import person_shape, rigid_paths
 from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, sample
 
-METRIC_NAMES = ("minMPJPE", "minMPSPE", "PA-MPJPE", "PA-MPSPE", "MPJVE", "root", "ECE", "ECE worst")
+METRIC_NAMES = (
+    "minMPJPE",
+    "minMPSPE",
+    "PA-MPJPE",
+    "PA-MPSPE",
+    "MPJVE",
+    "root",
+    "answer",
+    "PA-answer",
+    "ECE",
+    "ECE worst",
+)
 
 
 @dataclass(frozen=True)
@@ -100,12 +111,20 @@ def score(hypotheses: np.ndarray, truth: np.ndarray) -> dict:
     }
 
 
-def score_windows(hypotheses: np.ndarray, truth: np.ndarray, clip_of_window: np.ndarray) -> dict:
+def score_windows(hypotheses: np.ndarray, truth: np.ndarray, clip_of_window: np.ndarray, answers: np.ndarray) -> dict:
     """Metrics of windows ``(B, N, F, 17, 3)`` against ``(B, F, 17, 3)``: position metrics averaged over windows,
-    ECE from calibration frequencies pooled over all windows (as the paper computes it), and "ECE worst", the
-    largest ECE of one clip's windows pooled: opposite errors of two clips (one overconfident, one not
-    confident enough) cancel in the first, not in the second."""
-    per_window = [score(h, t) for h, t in zip(hypotheses, truth)]
+    the single answers' ``(B, F, 17, 3)`` errors ("answer", "PA-answer"), ECE from calibration frequencies
+    pooled over all windows (as the paper computes it), and "ECE worst", the largest ECE of one clip's windows
+    pooled: opposite errors of two clips (one overconfident, one not confident enough) cancel in the first, not
+    in the second."""
+    per_window = [
+        {
+            **score(h, t),
+            "answer": 1000 * metrics.answer_mpjpe(a, t),
+            "PA-answer": 1000 * metrics.answer_pa_mpjpe(a, t),
+        }
+        for h, t, a in zip(hypotheses, truth, answers)
+    ]
     values = {k: float(np.mean([s[k] for s in per_window])) for k in per_window[0]}
     frequencies = np.stack([metrics.calibration_frequencies(h, t) for h, t in zip(hypotheses, truth)])
     values["ECE"] = metrics.ece_from_frequencies(frequencies.mean(axis=0))
@@ -152,13 +171,27 @@ def rigid_windows(
     hypotheses: np.ndarray, cameras: Sequence[Camera], fps: float, floor: tuple[float, float, float, float] | None
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.rigid.rigid_paths`, each
-    hypothesis on its own shape over its window), every view seeing every joint."""
+    hypothesis on its own shape over its window, :func:`lifting.rigid.person_shape`), every view seeing every
+    joint."""
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
     out = np.empty_like(hypotheses)
     for b, window in enumerate(np.asarray(hypotheses, np.float64)):
-        out[b] = rigid_paths(window, clip_shape(window), centres, seen, fps, floor)
+        out[b] = rigid_paths(window, person_shape(window, len(cameras)), centres, seen, fps, floor)
     return out
+
+
+def single_answers(
+    hypotheses: np.ndarray,
+    cameras: Sequence[Camera],
+    fps: float,
+    floor: tuple[float, float, float, float] | None,
+    rigid: bool,
+) -> np.ndarray:
+    """The motion a lift would export for each window ``(B, F, 17, 3)`` (:func:`lifting.representative.median_motion`
+    of its hypotheses ``(B, N, F, 17, 3)``, made rigid on its own shape as the lift's is)."""
+    answers = np.stack([median_motion(np.asarray(h, np.float64)) for h in hypotheses])
+    return rigid_windows(answers[:, None], cameras, fps, floor)[:, 0] if rigid else answers
 
 
 def evaluate(
@@ -194,7 +227,8 @@ def evaluate(
                 hyps = lift_windows(
                     prior, cameras, truth, replace(config, samples=samples), noise_px, per_frame, rigid=rigid
                 )
-                values = score_windows(hyps, truth, clip_of_window)
+                answers = single_answers(hyps, cameras, prior.fps, config.floor, rigid and not per_frame)
+                values = score_windows(hyps, truth, clip_of_window, answers)
                 row = EvalRow(method, len(cameras), frames, samples, len(windows), values, time.time() - began)
                 rows.append(row)
                 if progress:

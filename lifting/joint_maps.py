@@ -323,13 +323,32 @@ DEEPMIMIC_RECIPE: Recipe = mocap_recipe(
     {"head_centre": 1.0},
 )
 
-# BVH: known naming conventions as (limbs, skull-base joint, head-centre joint or
-# None), tried in order; the first whose names all exist in a file is used (a
-# user name map, our 12 limb names plus "neck" -> the skull-base joint and
-# optionally "head" -> a head-centre joint, overrides). Without a head-centre
-# joint the head centre uses the skull-base joint's End Site when the file has
-# one (head_between), else head_beyond with the joint's parent as the neck base.
-BVH_NAMING: dict[str, tuple[dict[str, str], str, str | None]] = {
+
+# BVH: known naming conventions as (limbs, skull-base joint, head centre), tried
+# in order; the first whose names all exist in a file is used (a user name map,
+# our 12 limb names plus "neck" -> the skull-base joint and optionally "head" ->
+# a head-centre joint, overrides). The head centre is a joint's name or weights
+# over joints (rigs whose head joint is the skull base and whose only points
+# further up are the eyes: the centre is halfway from the skull base to the
+# eyes' midpoint). Without one the head centre uses the skull-base joint's End
+# Site when the file has one (head_between), else head_beyond with the joint's
+# parent as the neck base.
+def _between_eyes(skull_base: str, left_eye: str, right_eye: str) -> dict[str, float]:
+    """Head centre halfway from the skull base to the midpoint of the eyes."""
+    return {skull_base: 0.5, left_eye: 0.25, right_eye: 0.25}
+
+
+def _rig_limbs(hip: str, knee: str, ankle: str, shoulder: str, elbow: str, wrist: str) -> dict[str, str]:
+    """Our 12 limb joints from a rig's per-side templates (``{S}`` is the side's letter, R or L; ``{s}`` r or l)."""
+    names = {"hip": hip, "knee": knee, "ankle": ankle, "shoulder": shoulder, "elbow": elbow, "wrist": wrist}
+    return {
+        f"{side}_{joint}": template.format(S=side[0].upper(), s=side[0])
+        for side in ("right", "left")
+        for joint, template in names.items()
+    }
+
+
+BVH_NAMING: dict[str, tuple[dict[str, str], str, str | Mapping[str, float] | None]] = {
     "platypose": ({j: j for j in LIMB_JOINTS}, "neck", "head"),  # our own exporter's BVH
     "motionbuilder": (MOTIONBUILDER_LIMBS, "Head", None),
     "mocapbank": (
@@ -349,6 +368,33 @@ BVH_NAMING: dict[str, tuple[dict[str, str], str, str | None]] = {
         },
         "Head",
         None,
+    ),
+    # Poser / DAZ rigs (CMU mocap as retargeted for Poser: hip abdomen chest neck head ...)
+    "poser": (
+        _rig_limbs("{s}Thigh", "{s}Shin", "{s}Foot", "{s}Shldr", "{s}ForeArm", "{s}Hand"),
+        "head",
+        _between_eyes("head", "leftEye", "rightEye"),
+    ),
+    # Reallusion Character Creator (iClone) rigs
+    "character_creator": (
+        _rig_limbs(
+            "CC_Base_{S}_Thigh",
+            "CC_Base_{S}_Calf",
+            "CC_Base_{S}_Foot",
+            "CC_Base_{S}_Upperarm",
+            "CC_Base_{S}_Forearm",
+            "CC_Base_{S}_Hand",
+        ),
+        "CC_Base_Head",
+        _between_eyes("CC_Base_Head", "CC_Base_L_Eye", "CC_Base_R_Eye"),
+    ),
+    # Blender Rigify-style metarig exports (ReActIdle): no hand joint, the wrist is the forearm's End Site
+    # ("_end", as the BVH reader names End Sites); "neck" sits at shoulder height and "face" at the skull
+    # base, its End Site a centimetre away, so the head centre is extrapolated past "face" (head_beyond).
+    "rigify": (
+        _rig_limbs("thigh.{S}", "shin.{S}", "foot.{S}", "upper_arm.{S}", "forearm.{S}", "forearm.{S}_end"),
+        "face",
+        head_beyond("face", "neck"),
     ),
 }
 

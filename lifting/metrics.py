@@ -85,6 +85,16 @@ def root_error(hypotheses: np.ndarray, truth: np.ndarray) -> float:
     return float(np.linalg.norm(best[:, 0] - truth[:, 0], axis=-1).mean())
 
 
+def answer_mpjpe(answer: np.ndarray, truth: np.ndarray) -> float:
+    """Pelvis-relative mean joint error of one motion ``(T, J, 3)``: the single answer a lift exports."""
+    return float(np.linalg.norm(root_relative(answer) - root_relative(truth), axis=-1).mean())
+
+
+def answer_pa_mpjpe(answer: np.ndarray, truth: np.ndarray) -> float:
+    """Mean joint error of one motion ``(T, J, 3)`` after a Procrustes alignment per frame."""
+    return float(np.linalg.norm(procrustes_align(answer, truth) - truth, axis=-1).mean())
+
+
 def calibration_frequencies(
     hypotheses: np.ndarray, truth: np.ndarray, quantiles: np.ndarray = ECE_QUANTILES
 ) -> np.ndarray:

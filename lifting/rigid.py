@@ -46,9 +46,11 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.linalg import solveh_banded
 
+from platypose.lifting.anthropometry import clamp_to_adult
 from platypose.lifting.camera import Camera
 from platypose.lifting.floor import Floor
 from platypose.lifting.plausibility import stance_ankles
+from platypose.lifting.representative import median_motion
 from platypose.lifting.rigid_shape import (
     BODY_JOINTS,
     RigidShape,
@@ -308,6 +310,14 @@ def _smooth_frames(values: np.ndarray, smoothness: float) -> np.ndarray:
     return np.moveaxis(smooth_over_time(np.moveaxis(values, 1, 0), smoothness), 0, 1)
 
 
+def person_shape(motions: np.ndarray, views: int) -> RigidShape:
+    """The rigid shape of motions ``(K, T, 17, 3)`` (:func:`lifting.rigid_shape.clip_shape`); from one view, its
+    limb bones held to adult lengths (:mod:`lifting.anthropometry`): a camera alone cannot measure them, and
+    the sampler's guesses ran to 12 cm forearms. Several views measure every bone: their lengths stand."""
+    shape = clip_shape(motions)
+    return shape if views > 1 else RigidShape(clamp_to_adult(shape.lengths), shape.bodies)
+
+
 def rigid_person(
     hypotheses,
     median,
@@ -334,12 +344,12 @@ def rigid_person(
     for start in range(0, N, HYPOTHESES_AT_ONCE):
         n = slice(start, min(start + HYPOTHESES_AT_ONCE, N))
         motions = np.asarray(hypotheses[person, n], np.float64)
-        hypotheses[person, n] = rigid_paths(motions, clip_shape(motions), centres, seen, fps, floor)
+        hypotheses[person, n] = rigid_paths(motions, person_shape(motions, len(cameras)), centres, seen, fps, floor)
     for start in range(0, T, MEDIAN_CHUNK):
         t = slice(start, min(start + MEDIAN_CHUNK, T))
-        median[person, t] = np.median(np.asarray(hypotheses[person, :, t], np.float64), axis=0)
+        median[person, t] = median_motion(np.asarray(hypotheses[person, :, t], np.float64))
     middle = np.asarray(median[person], np.float64)[None]
-    median[person] = rigid_paths(middle, clip_shape(middle), centres, seen, fps, floor)[0]
+    median[person] = rigid_paths(middle, person_shape(middle, len(cameras)), centres, seen, fps, floor)[0]
     moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
     moved = moved[np.isfinite(moved)]
     return {

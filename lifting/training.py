@@ -205,7 +205,8 @@ def train_prior(
 ) -> PriorBundle:
     """Train (or resume) a prior on ``motions`` and write checkpoints to ``out_path``; returns the final bundle.
 
-    ``resume`` is the ``extra`` dict of a checkpoint (optimiser state, iteration, RNG).
+    ``resume`` is the ``extra`` dict of a checkpoint (optimiser state, iteration, both RNG states): a resumed
+    run ends with the same weights as one never interrupted.
     ``log`` receives dicts with iteration, losses and elapsed seconds. Raises :class:`TrainingDiverged`
     (before writing anything of that step) when the loss is not finite.
     """
@@ -229,6 +230,8 @@ def train_prior(
         optimiser.load_state_dict(resume["optimiser"])
         start = int(resume["iteration"])
         rng.bit_generator.state = resume["rng"]
+        if "torch_rng" in resume:  # checkpoints before it was saved resume on a fresh noise stream
+            torch.set_rng_state(resume["torch_rng"])
     else:
         normalizer = fit_normalizer(sampler, F)
     if not (np.isfinite(normalizer.mean).all() and np.isfinite(normalizer.std).all()):
@@ -252,6 +255,7 @@ def train_prior(
             "normalizer_mean": normalizer.mean.tolist(),
             "normalizer_std": normalizer.std.tolist(),
             "rng": rng.bit_generator.state,
+            "torch_rng": torch.get_rng_state(),  # diffusion steps, noise and dropout: resuming repeats them exactly
         }
         bundle.manifest["iterations"] = it
         save_prior(out_path, bundle, extra=extra if it < config.iterations else None)

@@ -160,3 +160,27 @@ def test_a_checkpoint_that_is_not_ours_is_refused(run_cli, data_dir, tmp_path):
         code, _, err = run_cli("eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", path)
         _one_line_error(code, err)
         assert str(path) in err
+
+
+def test_a_resumed_training_ends_with_the_weights_of_an_uninterrupted_one(data_dir, tmp_path):
+    import torch
+
+    from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.training import TrainConfig, train_prior
+
+    clips = load_motion_paths([data_dir / "motion/deepmimic/humanoid3d_walk.txt"])
+    prior_config = PriorConfig(layers=1, width=32, heads=2, ff_width=32, max_frames=8)
+    config = TrainConfig(iterations=6, batch_size=4, checkpoint_every=3, validate_every=1)
+    whole = train_prior(clips, str(tmp_path / "whole.pt"), prior_config, config)
+
+    def stop_after_four(entry: dict) -> None:
+        if entry["iteration"] == 4:
+            raise KeyboardInterrupt  # one step after the checkpoint at 3
+
+    with pytest.raises(KeyboardInterrupt):
+        train_prior(clips, str(tmp_path / "cut.pt"), prior_config, config, log=stop_after_four)
+    _, extra = load_prior(tmp_path / "cut.pt")
+    resumed = train_prior(clips, str(tmp_path / "cut.pt"), prior_config, config, resume=extra)
+    for name, value in whole.model.state_dict().items():
+        assert torch.equal(value, resumed.model.state_dict()[name]), name

@@ -113,12 +113,29 @@ def test_worst_clip_ece_shows_opposite_errors_that_pooling_hides():
             hyps.append(base + offsets)
             truths.append(base + truth_offset)
             clips.append(clip)
-    values = score_windows(np.stack(hyps), np.stack(truths), np.array(clips))
+    answers = np.median(np.stack(hyps), axis=1)
+    values = score_windows(np.stack(hyps), np.stack(truths), np.array(clips), answers)
     each = [
-        score_windows(np.stack(hyps[i : i + 60]), np.stack(truths[i : i + 60]), np.zeros(60, dtype=int))
+        score_windows(
+            np.stack(hyps[i : i + 60]), np.stack(truths[i : i + 60]), np.zeros(60, dtype=int), answers[i : i + 60]
+        )
         for i in (0, 60)
     ]
     assert all(e["ECE worst"] == e["ECE"] for e in each)  # one clip: nothing to hide
     assert values["ECE worst"] == pytest.approx(max(e["ECE"] for e in each))
     assert min(e["ECE"] for e in each) > 0.25  # both clips are badly calibrated
     assert values["ECE"] < 0.6 * min(e["ECE"] for e in each)  # and the pool looks much better than either
+
+
+def test_answer_errors_score_one_motion_hip_centred_and_aligned():
+    """A pose shifted as a whole is exact hip-centred; a rotated and scaled copy is exact after alignment."""
+    truth = _truth(5)
+    shifted = truth + np.array([0.3, -2.0, 0.1])
+    assert metrics.answer_mpjpe(shifted, truth) == pytest.approx(0.0, abs=1e-12)
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    turned = 1.1 * truth @ turn.T
+    assert metrics.answer_mpjpe(turned, truth) > 0.05
+    assert metrics.answer_pa_mpjpe(turned, truth) == pytest.approx(0.0, abs=1e-9)
+    bent = truth.copy()
+    bent[:, 3] += np.array([0.0, 0.1, 0.0])  # one joint 10 cm off: 10/17 cm on average
+    assert metrics.answer_mpjpe(bent, truth) == pytest.approx(0.1 / 17)

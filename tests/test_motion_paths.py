@@ -16,10 +16,10 @@ from platypose.lifting.motion_io import load_motion, load_motion_paths, supporte
 def test_whole_bundled_motion_folder(data_dir):
     clips = load_motion_paths([data_dir / "motion"])
     formats = Counter(c.extra["format"] for c in clips)
-    assert formats == {"deepmimic": 15, "holosoma": 5, "c3d": 4, "asf_amc": 2, "bvh": 1}
+    assert formats == {"deepmimic": 15, "holosoma": 5, "c3d": 4, "asf_amc": 2, "bvh": 1, "plain_npz": 196}
     assert all(c.licence != "unknown" and c.source != "unknown" for c in clips)
     minutes = sum(c.duration_s for c in clips) / 60
-    assert 3.7 < minutes < 3.9  # docs/motion-data.md: 3.83 minutes of cleared real motion
+    assert 37.3 < minutes < 37.5  # docs/motion-data.md: 37.40 minutes of cleared real motion
 
 
 def test_folder_skips_licences_and_reports_broken_motion(tmp_path, data_dir):

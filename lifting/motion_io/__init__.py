@@ -19,6 +19,7 @@ from platypose.lifting.motion_io.asf_amc import load_amc
 from platypose.lifting.motion_io.bvh import load_bvh
 from platypose.lifting.motion_io.c3d import load_c3d
 from platypose.lifting.motion_io.checks import check_motion
+from platypose.lifting.motion_io.cmu_expmap import is_cmu_expmap, load_cmu_expmap
 from platypose.lifting.motion_io.deepmimic import is_deepmimic, load_deepmimic
 from platypose.lifting.motion_io.h36m import is_h36m_npz, load_h36m
 from platypose.lifting.motion_io.holosoma import load_holosoma
@@ -76,6 +77,13 @@ FORMATS: tuple[MotionFormat, ...] = (
         is_plain_npz,
     ),
     MotionFormat("c3d", (".c3d",), "C3D marker trial (joint centres it defines; the rest NaN, listed)", load_c3d),
+    MotionFormat(
+        "cmu_expmap",
+        (".txt",),
+        "CMU mocap as exponential maps (117 comma-separated values a frame), 120 fps by default",
+        load_cmu_expmap,
+        is_cmu_expmap,
+    ),
     MotionFormat(
         "deepmimic",
         (".txt", ".json"),

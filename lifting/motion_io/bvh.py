@@ -142,12 +142,15 @@ def bvh_recipe(clip: BvhClip, name_map: Mapping[str, str] | None) -> Recipe:
     else:
         candidates = list(BVH_NAMING.values())
     for limbs, skull, head_joint in candidates:
-        needed = [*limbs.values(), skull, *([head_joint] if head_joint else [])]
+        head_names = list(head_joint) if isinstance(head_joint, Mapping) else [head_joint] if head_joint else []
+        needed = [*limbs.values(), skull, *head_names]
         if not all(_strip_namespace(n) in names for n in needed):
             continue
         limbs = {k: names[_strip_namespace(v)] for k, v in limbs.items()}
         skull = names[_strip_namespace(skull)]
-        if head_joint:
+        if isinstance(head_joint, Mapping):
+            head = {names[_strip_namespace(k)]: w for k, w in head_joint.items()}
+        elif head_joint:
             head = {names[_strip_namespace(head_joint)]: 1.0}
         elif skull + END_SUFFIX in clip.names:
             head = head_between(skull, skull + END_SUFFIX)
