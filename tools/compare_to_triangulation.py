@@ -19,7 +19,10 @@ by frame where the reference has all 17 joints, and printed as a Markdown table 
 - best hypothesis per joint: for each joint and frame the nearest hypothesis (mm, mean);
 - hip-centred best hypothesis per frame: per frame the hypothesis whose pelvis-relative joints are nearest the
   reference's (mean over joints), mean over frames (mm);
-- inside box: share of reference joints inside the hypotheses' per-axis min-max box;
+- hip-centred median: the exported single answer's pelvis-relative joints against the reference's (mm, mean);
+- inside box: share of reference joints inside the hypotheses' per-axis min-max box; and of the 12 limb
+  joints (hips, knees, ankles, shoulders, elbows, wrists) inside the min-max box and inside the per-axis
+  5-95 % band;
 - pelvis depth: 5 / 50 / 95 % of the hypotheses' pelvis depth from the first camera
   of the lift against the reference's median depth, and the share of frames whose
   reference depth lies within the hypotheses' 5-95 % range;
@@ -37,7 +40,10 @@ import numpy as np
 from platypose.exporters.npz import read_npz
 from platypose.lifting.rigid import rigid_paths
 from platypose.lifting.rigid_shape import clip_shape
+from platypose.lifting.skeleton import JOINT_INDEX
 from platypose.lifting.triangulation import triangulate
+
+LIMB_NAMES = ("hip", "knee", "ankle", "shoulder", "elbow", "wrist")
 
 
 def reference_joints(path: Path) -> np.ndarray:
@@ -71,6 +77,11 @@ def compare(path: Path, reference: np.ndarray, rigid: np.ndarray) -> str:
     to_rigid = np.linalg.norm(median - rigid[frames], axis=-1) * 1000
     best = np.linalg.norm(hyps - ref, axis=-1).min(axis=0) * 1000
     inside = ((hyps.min(0) <= ref) & (ref <= hyps.max(0))).all(-1).mean()
+    limbs = [JOINT_INDEX[f"{side}_{joint}"] for side in ("left", "right") for joint in LIMB_NAMES]
+    limb_range = ((hyps.min(0) <= ref) & (ref <= hyps.max(0))).all(-1)[:, limbs].mean()
+    band_low, band_high = np.percentile(hyps, [5, 95], axis=0)
+    limb_band = ((band_low <= ref) & (ref <= band_high)).all(-1)[:, limbs].mean()
+    answer = np.linalg.norm((median - median[:, :1]) - (ref - ref[:, :1]), axis=-1).mean() * 1000
     cam = result.cameras[0]
     depth = (hyps[..., 0, :] @ cam.R.T + cam.t)[..., 2]  # (N, T') pelvis depth from the first camera
     ref_depth = (ref[:, 0] @ cam.R.T + cam.t)[:, 2]
@@ -84,7 +95,8 @@ def compare(path: Path, reference: np.ndarray, rigid: np.ndarray) -> str:
         f"| {path.parent.parent.name} ({len(result.cameras)} view(s), {hyps.shape[0]} hypotheses, {frames.sum()} frames) "
         f"| {to_median.mean():.1f} / {np.median(to_median):.1f} mm | {to_rigid.mean():.1f} mm "
         f"| {to_median[:, 0].mean():.1f} mm "
-        f"| {best.mean():.1f} mm | {centred.min(axis=0).mean():.1f} mm | {100 * inside:.0f} % "
+        f"| {best.mean():.1f} mm | {centred.min(axis=0).mean():.1f} mm | {answer:.1f} mm "
+        f"| {100 * inside:.0f} % / {100 * limb_range:.0f} % / {100 * limb_band:.0f} % "
         f"| {low:.2f} / {mid:.2f} / {high:.2f} m vs {np.median(ref_depth):.2f} m ({100 * within:.0f} % of frames inside) "
         f"| {100 * np.mean(lowest < -0.03):.1f} % ({100 * ref_lowest:.0f} cm) |"
     )
@@ -108,10 +120,11 @@ def main() -> None:
     print(
         "| lift | median vs triangulation (mean / median) | median vs rigid triangulation | pelvis "
         "| best hypothesis per joint "
-        "| hip-centred best hypothesis per frame | inside min-max box | pelvis depth 5 / 50 / 95 % "
+        "| hip-centred best hypothesis per frame | hip-centred median "
+        "| inside min-max box: all / limb joints; limb joints inside 5-95 % | pelvis depth 5 / 50 / 95 % "
         "| lowest ankle under -3 cm (reference's) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for path in lifts:
         print(compare(path, reference, rigid))
 
