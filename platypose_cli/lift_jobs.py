@@ -22,6 +22,8 @@ from platypose.detectors.video import VIDEO_SUFFIXES, sibling_video
 from platypose.lifting.calibration.matching import match_views, normalise_view_name
 from platypose.lifting.errors import InputError
 
+from platypose.cli.safe_names import safe_name
+
 
 @dataclass(frozen=True)
 class View:
@@ -79,13 +81,15 @@ def _group(videos: list[Path], take_name: str, camera_names: Sequence[str]) -> l
 
 
 def _unique_names(jobs: list[Job]) -> list[Job]:
-    """Rename jobs that would share an output folder: ``name``, ``name-2``, ..."""
+    """Jobs named by safe file names (always inside OUT); those that would share an output folder are renamed
+    ``name``, ``name-2``, ..."""
     seen: dict[str, int] = {}
     unique = []
     for job in jobs:
-        count = seen.get(job.name, 0) + 1
-        seen[job.name] = count
-        unique.append(job if count == 1 else Job(f"{job.name}-{count}", job.input, job.views))
+        name = safe_name(job.name)
+        count = seen.get(name, 0) + 1
+        seen[name] = count
+        unique.append(Job(name if count == 1 else f"{name}-{count}", job.input, job.views))
     return unique
 
 
@@ -158,4 +162,4 @@ def keypoints_job(keypoints: Path, videos: Sequence[Path], camera_names: Sequenc
         name = keypoints.resolve().name
     else:
         name = videos[0].stem if videos else views[0].name
-    return Job(name, str(keypoints), tuple(views))
+    return Job(safe_name(name), str(keypoints), tuple(views))

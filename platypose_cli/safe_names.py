@@ -1,0 +1,36 @@
+"""Job and view names made into file names that always stay inside ``--out``.
+
+A name comes from a file or folder name the user gave (a video ``..mp4`` has the stem ``.``, ``...mp4`` the stem
+``..``); it becomes a folder ``OUT/<name>/`` and the prefix of every file there, so it must be one plain path
+component: no separators, no control characters (a newline would also forge console lines), no leading dot
+(``.``, ``..`` and hidden files), not a name the batch writes itself, and short enough for the file system.
+"""
+
+from __future__ import annotations
+
+import re
+
+RESERVED = frozenset({"summary.json", "summary"})  # the batch's own files in OUT
+MAX_BYTES = 120  # leaves room for suffixes such as ``_p12_h099.bvh`` and staging prefixes within 255 bytes
+_UNSAFE = re.compile(r"[\x00-\x1f\x7f/\\:*?\"<>|]")
+
+
+def safe_name(name: str) -> str:
+    """``name`` as one safe path component (unchanged when it already is one): unsafe characters become ``_``,
+    leading dots become ``_``, reserved names get a ``_take`` suffix, long names are cut at a character boundary."""
+    cleaned = _UNSAFE.sub("_", name).strip(" ")
+    stripped = cleaned.lstrip(".")
+    cleaned = "_" * (len(cleaned) - len(stripped)) + stripped
+    if not cleaned:
+        cleaned = "take"
+    if cleaned.lower() in RESERVED:
+        cleaned += "_take"
+    encoded = cleaned.encode("utf-8", errors="replace")
+    if len(encoded) > MAX_BYTES:
+        cleaned = encoded[:MAX_BYTES].decode("utf-8", errors="ignore")
+    return cleaned
+
+
+def printable(text: str) -> str:
+    """``text`` for one console line: control characters (newlines, escapes) shown as ``?``."""
+    return re.sub(r"[\x00-\x1f\x7f]", "?", text)
