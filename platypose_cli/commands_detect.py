@@ -108,10 +108,10 @@ def detect(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
+    from platypose.cli.safe_names import safe_name
     from platypose.detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
     from platypose.detectors.sources import view_name
     from platypose.detectors.tracking import persons_count, persons_to_keep
-    from platypose.cli.safe_names import safe_name
     from platypose.lifting.atomic import check_writable
 
     persons_count(persons)  # a bad --persons fails before any detection

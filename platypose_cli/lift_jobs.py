@@ -17,12 +17,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from platypose.cli.safe_names import safe_name
 from platypose.detectors.sources import KEYPOINT_SUFFIXES, view_name
 from platypose.detectors.video import VIDEO_SUFFIXES, sibling_video
 from platypose.lifting.calibration.matching import match_views, normalise_view_name
 from platypose.lifting.errors import InputError
-
-from platypose.cli.safe_names import safe_name
 
 
 @dataclass(frozen=True)
