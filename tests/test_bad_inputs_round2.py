@@ -4,9 +4,15 @@ damaged results are refused. Each test failed before its fix."""
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
+
+import pytest
 
 from platypose.cli.lift_jobs import discover_jobs, keypoints_job
 from platypose.cli.safe_names import safe_name
+from platypose.lifting.errors import InputError
+
+CALIB = Path(__file__).parent / "data/calib"
 
 
 def _listing(folder):
@@ -41,3 +47,26 @@ def test_lift_of_dot_dot_stem_writes_only_inside_out(run_cli, tmp_path, prior_fi
     assert _listing(parent) == sorted(["out"] + [f"out/{p}" for p in _listing(out)])  # nothing beside OUT
     assert not [p for p in out.iterdir() if p.name.startswith(".") and p.name != ".summary.lock"]
     assert (out / "__" / "__.npz").is_file() and (out / "_" / "_.npz").is_file()
+
+
+def _caliscope_with(path, count: int, source) -> None:
+    """The real Caliscope camera_array.toml with its first camera repeated under ``count`` ids."""
+    import tomllib
+
+    first = tomllib.loads(source.read_text())["cameras"]["0"]
+    body = "\n".join(f"{k} = {v!r}".replace("True", "true").replace("False", "false") for k, v in first.items())
+    path.write_text("".join(f"[cameras.{i}]\n{body.replace('cam_id = 0', f'cam_id = {i}')}\n\n" for i in range(count)))
+
+
+def test_calibration_camera_count_and_file_size_are_bounded(run_cli, data_dir, tmp_path) -> None:
+    from platypose.lifting.calibration import load_calibration
+
+    source = CALIB / "caliscope/camera_array.toml"
+    many = tmp_path / "many.toml"
+    _caliscope_with(many, 2000, source)
+    code, _, err = run_cli("calib", "check", str(many))
+    assert code == 2 and "2000 cameras; at most 256" in err and len(err.strip().splitlines()) == 1, err
+    huge = tmp_path / "huge.toml"
+    huge.write_bytes(source.read_bytes() + b"#" * (17 * 2**20))
+    with pytest.raises(InputError, match="too large for a calibration file"):
+        load_calibration(huge)

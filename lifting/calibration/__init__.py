@@ -28,6 +28,8 @@ __all__ = ["Calibration", "load_calibration", "save_calibration"]
 
 # Cameras farther than this from the world origin (after unit conversion) mean the units are wrong.
 MAX_CAMERA_DISTANCE_M = 100.0
+# A calibration of the largest supported rig takes well under a megabyte; larger files are refused unread.
+MAX_CALIBRATION_BYTES = 16 * 2**20
 
 
 def _read_json(path: Path, subject: str | None) -> Calibration:
@@ -81,6 +83,8 @@ def load_calibration(
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: calibration file not found")
+    if path.is_file() and path.stat().st_size > MAX_CALIBRATION_BYTES:
+        raise InputError(f"{path}: {path.stat().st_size / 2**20:.0f} MiB, too large for a calibration file")
     raw = _read_any(path, subject)
     result = to_z_up_metres(raw, world_up, units)
     _check_distances(path, result, units if units is not None else raw.meta["units"])

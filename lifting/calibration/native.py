@@ -63,6 +63,7 @@ def calibration_from_dict(data: Any, source: str) -> Calibration:
     up_vector(data["world_up"], source)
     if not isinstance(data["cameras"], list):
         raise InputError(f"{source}: cameras must be a list")
+    validate.check_camera_count(len(data["cameras"]), source)
     cameras = validate.check_cameras([camera_from_dict(c, source, i) for i, c in enumerate(data["cameras"])], source)
     stored = data.get("meta", {})
     if not isinstance(stored, dict):

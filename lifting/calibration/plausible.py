@@ -23,7 +23,8 @@ def camera_spread(cameras: Sequence[Camera]) -> float | None:
     centres = np.stack([c.center for c in cameras])
     if len(centres) < 2:
         return None
-    gaps = np.linalg.norm(centres[:, None] - centres[None], axis=-1)[np.triu_indices(len(centres), 1)]
+    # row by row: memory stays linear in the number of cameras (the pairs are counted by check_cameras' bound)
+    gaps = np.concatenate([np.linalg.norm(centres[i + 1 :] - centres[i], axis=-1) for i in range(len(centres) - 1)])
     return float(np.median(gaps)) if gaps.max() > 0 else None
 
 

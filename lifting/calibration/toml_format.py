@@ -86,6 +86,7 @@ def read_toml(path: Path) -> Calibration:
         tables = [
             (str(t.get("name", key)), t) for key, t in data.items() if isinstance(t, dict) and CAMERA_KEYS & set(t)
         ]
+    validate.check_camera_count(len(tables), source)
     cameras, notes = [], []
     for name, table in tables:
         camera, camera_notes = _table_camera(table, name, source)

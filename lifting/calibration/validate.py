@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import xml.etree.ElementTree as ET
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,7 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 
 ROTATION_TOLERANCE = 1e-5
+MAX_CAMERAS = 256  # capture rigs have tens of cameras; more means a damaged or hostile file
 
 
 def read_json(path: Path) -> Any:
@@ -85,12 +87,19 @@ def check_intrinsics(K: np.ndarray, source: str, what: str) -> np.ndarray:
     return K
 
 
-def check_cameras(cameras: Sequence[Camera], source: str) -> tuple[Camera, ...]:
-    """At least one camera, unique names; returns them as a tuple."""
-    if not cameras:
+def check_camera_count(count: int, source: str) -> None:
+    """At least one camera and at most ``MAX_CAMERAS``, else InputError naming the file."""
+    if count == 0:
         raise InputError(f"{source}: no cameras found")
-    names = [c.name for c in cameras]
-    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if count > MAX_CAMERAS:
+        raise InputError(f"{source}: {count} cameras; at most {MAX_CAMERAS} are supported")
+
+
+def check_cameras(cameras: Sequence[Camera], source: str) -> tuple[Camera, ...]:
+    """At least one camera and at most ``MAX_CAMERAS``, unique names; returns them as a tuple."""
+    check_camera_count(len(cameras), source)
+    counts = Counter(c.name for c in cameras)
+    duplicates = sorted(n for n, k in counts.items() if k > 1)
     if duplicates:
         raise InputError(f"{source}: duplicate camera names {duplicates}")
     return tuple(cameras)
