@@ -29,6 +29,7 @@ from pathlib import Path
 
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import MANIFEST, RunSettings, remove_stale_staging
+from platypose.cli.ray_address import check_ray_address
 from platypose.lifting.errors import InputError
 
 INSTALL_HINT = "--executor ray needs Ray on the driver and every worker: pip install 'platypose[ray]'"
@@ -72,6 +73,8 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
         yield ray
         return
     local = options.address is None
+    if not local:
+        check_ray_address(options.address)  # a deadline and one line, before Ray's own minutes of retries
     settings = {
         "address": "local" if local else options.address,  # "local": never join a cluster found on this machine
         "log_to_driver": False,
@@ -85,7 +88,7 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
         )
     try:
         ray.init(**settings)
-    except ConnectionError as err:
+    except (ConnectionError, ValueError) as err:
         raise InputError(
             f"--ray-address {options.address}: could not connect ({' '.join(str(err).split())}); is the cluster "
             "up, and with Ray's token authentication is RAY_AUTH_MODE=token set here (docs/ray.md)?"
