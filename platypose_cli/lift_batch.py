@@ -33,6 +33,7 @@ from platypose.cli.lift_run import (
     fingerprint,
     finished_outputs,
     job_entry,
+    remove_stale_staging,
     run_job,
 )
 from platypose.lifting.plausibility import plausibility_lines
@@ -155,6 +156,7 @@ def run_batch(
         outputs, why = finished_outputs(folder, settings.formats, digest)
         failed = earlier_failure(folder, digest) if not retry_failed else None
         if outputs is not None:
+            remove_stale_staging(settings.out, job.name)  # a killed run's staging folder goes even when skipped
             entries[index] = {**job_entry(job, "skipped", outputs), "reason": why}
             say(f"{job.name}: skipped, {why} ({len(outputs)} files)")
         elif failed is not None:

@@ -128,6 +128,7 @@ def write_collected(folder: Path, entry: dict, files: dict[str, bytes]) -> dict:
     relative to its folder, so it holds as it was written on the worker); the entry with paths in ``folder``."""
     from platypose.lifting.atomic import atomic_open
 
+    (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here
     for relative in sorted(files, key=lambda name: name == MANIFEST):
         with atomic_open(folder / relative) as stream:
             stream.write(files[relative])

@@ -38,6 +38,7 @@ from platypose.cli.app import describe_os_error
 from platypose.cli.detection import Detection, DetectOptions
 from platypose.cli.lift_jobs import Job
 from platypose.cli.options import as_json, cli_message
+from platypose.cli.output_set import changed_files, digests
 from platypose.cli.sync_option import write_offsets
 from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.errors import InputError
@@ -281,6 +282,7 @@ def export_atomically(result, videos, staging: Path, folder: Path, name: str, fo
     from platypose.exporters import export
 
     written = export(result, staging, name, formats, videos, say=log)
+    (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here: see output_set
     final = []
     for path in written:
         os.replace(path, folder / path.name)
@@ -306,6 +308,11 @@ def finished_outputs(folder: Path, formats, digest: str | None = None) -> tuple[
     missing = [Path(p).name for p in outputs if not Path(p).is_file()]
     if missing:
         return None, f"output(s) {', '.join(missing)} of the earlier run are missing"
+    changed = changed_files(folder, manifest.get("files"))
+    if changed is None or not {Path(p).name for p in outputs} <= set(manifest["files"]):
+        return None, f"its {MANIFEST} has no checksums of every output (an older version, or damaged)"
+    if changed:
+        return None, f"output(s) {', '.join(changed)} differ from what the earlier run wrote"
     return outputs, "finished earlier with the same inputs and settings"
 
 
@@ -405,6 +412,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
             "input": job.input,
             "formats": list(settings.formats),
             "outputs": [p.name for p in written],  # relative to this folder
+            "files": digests(written),
             "fingerprint": digest,
         }
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
