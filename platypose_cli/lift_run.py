@@ -36,6 +36,7 @@ import typer
 
 from platypose.cli.app import describe_os_error
 from platypose.cli.detection import Detection, DetectOptions
+from platypose.cli.input_stamps import input_stamp
 from platypose.cli.lift_jobs import Job
 from platypose.cli.options import as_json, cli_message
 from platypose.cli.output_set import changed_files, digests
@@ -316,16 +317,6 @@ def finished_outputs(folder: Path, formats, digest: str | None = None) -> tuple[
     return outputs, "finished earlier with the same inputs and settings"
 
 
-def _stamp(path: Path) -> list:
-    """What identifies a file's or folder's content cheaply, wherever it lies: name, size (or entry count), latest
-    change."""
-    if path.is_dir():
-        entries = list(path.iterdir())
-        return [path.name, len(entries), max((e.stat().st_mtime_ns for e in entries), default=0)]
-    stat = path.stat() if path.exists() else None
-    return [path.name, stat.st_size if stat else None, stat.st_mtime_ns if stat else None]
-
-
 def fingerprint(job: Job, settings: RunSettings) -> str:
     """A digest of the job's input files and the settings that decide whether it can succeed."""
     sync_file = Path(settings.sync) if settings.sync not in ("auto", "none") else None
@@ -338,9 +329,11 @@ def fingerprint(job: Job, settings: RunSettings) -> str:
         settings.persons,
         settings.root,
         settings.floor,
+        settings.prior.runtime,
+        settings.prior.device,
         as_json(settings.sampler),
         as_json(settings.windows),
-        [_stamp(Path(f)) for f in files],
+        [input_stamp(Path(f)) for f in files],
     ]
     return hashlib.sha256(json.dumps(decisive, sort_keys=True, default=str).encode()).hexdigest()
 

@@ -208,3 +208,22 @@ def test_a_half_switched_output_set_is_not_taken_as_finished(run_cli, monkeypatc
     (tmp_path / ".good.999999999.y.partial").mkdir()
     code, out, _ = run_cli(*old, "--resume")
     assert "1 skipped" in out and not list(tmp_path.glob(".good.*.partial"))  # skipped, and the leftover removed
+
+
+def test_resume_fingerprint_sees_runtime_and_keypoints_copied_with_old_times(data_dir, tmp_path) -> None:
+    from dataclasses import replace
+
+    from platypose.cli.lift_jobs import keypoints_job
+    from platypose.cli.lift_run import RunSettings, fingerprint
+    from platypose.lifting.runtime import PriorSettings
+
+    folder = tmp_path / "cam01_json"
+    shutil.copytree(data_dir / "video/pose2sim-balancing/openpose-body25b/cam01_json", folder)
+    job = keypoints_job(folder, [], ())
+    settings = RunSettings(out=tmp_path / "out")
+    before = fingerprint(job, settings)
+    assert fingerprint(job, settings) == before
+    assert fingerprint(job, replace(settings, prior=PriorSettings(runtime="bfloat16"))) != before
+    files = sorted(folder.iterdir())
+    shutil.copy2(files[-1], files[len(files) // 2])  # cp -p: other content, an older time, same count
+    assert fingerprint(job, settings) != before
