@@ -75,3 +75,14 @@ def write_text_atomic(target: Path | str, text: str) -> Path:
     with atomic_open(target, "w", encoding="utf-8") as stream:
         stream.write(text)
     return Path(target)
+
+
+def same_file(a: Path | str, b: Path | str) -> bool:
+    """Whether paths ``a`` and ``b`` name one file (the same resolved path, or links to one file)."""
+    a, b = Path(a), Path(b)
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False

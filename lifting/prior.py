@@ -22,6 +22,7 @@ from torch import nn
 
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.errors import InputError
+from platypose.lifting.prior_checks import CONFIG_BOUNDS, check_config_value, check_manifest
 from platypose.lifting.representation import FEATURES_PER_FRAME, Normalizer
 from platypose.lifting.schedule import TRAIN_STEPS
 from platypose.lifting.skeleton import JOINT_NAMES
@@ -58,6 +59,8 @@ class PriorConfig:
             raise ValueError(f"fps must be a positive number, got {self.fps}")
         if not 0 <= self.dropout < 1:
             raise ValueError(f"dropout must be in [0, 1), got {self.dropout}")
+        for name in CONFIG_BOUNDS:  # a checkpoint's config decides memory and work: types and upper bounds
+            check_config_value(name, getattr(self, name))
 
 
 def sinusoidal_embedding(positions: torch.Tensor, width: int) -> torch.Tensor:
@@ -212,6 +215,8 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
     if list(payload["joint_names"]) != list(JOINT_NAMES):
         raise InputError(f"{path}: prior was trained on another joint set")
     try:
+        if not isinstance(payload["config"], dict):
+            raise TypeError("config is not a table")
         config = PriorConfig(**payload["config"])
         model = MotionPrior(config).to(device)
         model.load_state_dict(payload["state_dict"], strict=True)
@@ -224,6 +229,9 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
             f"{path}: not a valid platypose prior ({type(err).__name__}: {err})".replace("\n", " ")
         ) from None
     _check_finite(path, model, normalizer)
+    if normalizer.mean.shape != (config.features,) or normalizer.std.shape != (config.features,):
+        raise InputError(f"{path}: prior normalisation does not have {config.features} values per statistic")
+    manifest = check_manifest(path, payload.get("manifest", {}), config.diffusion_steps)
     model.eval()
-    bundle = PriorBundle(model, normalizer, payload.get("manifest", {}), hashlib.sha256(data).hexdigest())
+    bundle = PriorBundle(model, normalizer, manifest, hashlib.sha256(data).hexdigest())
     return bundle, payload.get("extra", {})

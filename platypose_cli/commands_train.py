@@ -42,7 +42,7 @@ def train(
     quiet: bool = typer.Option(False, "--quiet", help="No progress output."),
 ) -> None:
     """Train a motion prior (x0-predicting transformer) on real 3D motion, or distil one into fewer calls."""
-    from platypose.lifting.atomic import check_writable
+    from platypose.lifting.atomic import check_writable, same_file
     from platypose.lifting.distillation import DistilConfig, distil_prior
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.prior import PriorConfig, load_prior
@@ -75,6 +75,8 @@ def train(
     if threads < 0:
         raise InputError(f"train: --threads must be 0 (torch's default) or more, got {threads}")
     check_writable(out)
+    if distil_from is not None and same_file(out, distil_from):
+        raise InputError(f"--out {out}: is the teacher given by --distil-from; it would be overwritten")
     if log_file is not None:
         check_writable(log_file)
     teacher = load_prior(distil_from)[0] if distil_from is not None else None

@@ -227,3 +227,47 @@ def test_resume_fingerprint_sees_runtime_and_keypoints_copied_with_old_times(dat
     files = sorted(folder.iterdir())
     shutil.copy2(files[-1], files[len(files) // 2])  # cp -p: other content, an older time, same count
     assert fingerprint(job, settings) != before
+
+
+def _edited_prior(source, path, edit) -> str:
+    """The checkpoint ``source`` with ``edit(payload)`` applied, saved to ``path``."""
+    import torch
+
+    payload = torch.load(source, weights_only=True)
+    edit(payload)
+    torch.save(payload, path)
+    return str(path)
+
+
+@pytest.mark.parametrize(
+    "edit, needle",
+    [
+        (lambda p: p["config"].update(diffusion_steps=1e9), "diffusion_steps must be a whole number"),
+        (lambda p: p["config"].update(diffusion_steps=10**9), "diffusion_steps must be within"),
+        (lambda p: p["config"].update(layers=10**6), "layers must be within"),
+        (lambda p: p["config"].update(width="64"), "not a valid platypose prior"),
+        (lambda p: p.update(config=[1, 2]), "not a valid platypose prior"),
+        (lambda p: p["manifest"].update(sampling_steps=[10**12, 3]), "sampling_steps must be decreasing"),
+        (lambda p: p["manifest"].update(distilled={"x": 1}), "'distilled' is damaged"),
+        (lambda p: p["manifest"].update(clips=[{"name": 3}]), "'clips' must list"),
+        (lambda p: p["normalizer"].update(mean=[0.0] * 7), "normalisation does not have"),
+    ],
+)
+def test_prior_config_and_manifest_are_validated(run_cli, prior_file, tmp_path, edit, needle) -> None:
+    bad = _edited_prior(prior_file, tmp_path / "bad.pt", edit)
+    code, _, err = run_cli("prior-info", bad)
+    assert code == 2 and needle in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_distilling_into_the_teacher_is_refused(run_cli, data_dir, prior_file, tmp_path) -> None:
+    teacher = tmp_path / "teacher.pt"
+    shutil.copy(prior_file, teacher)
+    before = teacher.read_bytes()
+    (tmp_path / "link.pt").symlink_to(teacher)
+    for out in (teacher, tmp_path / "link.pt", tmp_path / "." / "teacher.pt"):
+        code, _, err = run_cli(
+            "train", str(data_dir / "motion/deepmimic"), "--out", str(out), "--distil-from", str(teacher),
+            "--iterations", "1",
+        )  # fmt: skip
+        assert code == 2 and "is the teacher given by --distil-from" in err, err
+    assert teacher.read_bytes() == before
