@@ -10,6 +10,7 @@ from typing import IO
 import numpy as np
 
 from platypose.exporters.frames import FrameArray, frame_chunks
+from platypose.exporters.npz_checks import check_coordinates, check_field_sizes
 from platypose.exporters.result import LiftResult
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.calibration.model import Calibration, new_meta
@@ -107,6 +108,7 @@ def read_npz(path: Path | str) -> LiftResult:
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     try:
+        check_field_sizes(path)
         with np.load(path, allow_pickle=False) as data:
             missing = [k for k in REQUIRED if k not in data.files]
             if missing:
@@ -120,16 +122,19 @@ def read_npz(path: Path | str) -> LiftResult:
             meta = json.loads(_text(data, "meta"))
             if not isinstance(meta, dict):
                 raise ValueError("meta must be a JSON object")
-            for key in ("hypotheses", "median", "keypoints2d", "frame_times", "track_ids"):
-                if data[key].dtype.kind not in "fiu":
-                    raise ValueError(f"field {key!r} must be numeric, got {data[key].dtype}")
+            fields = {key: data[key] for key in ("hypotheses", "median", "keypoints2d", "frame_times", "track_ids")}
+            for key, value in fields.items():
+                if value.dtype.kind not in "fiu":
+                    raise ValueError(f"field {key!r} must be numeric, got {value.dtype}")
+            check_coordinates("hypotheses", fields["hypotheses"])
+            check_coordinates("median", fields["median"])
             return LiftResult(
-                hypotheses=data["hypotheses"],
-                median=data["median"],
-                keypoints2d=data["keypoints2d"],
-                frame_times=data["frame_times"],
+                hypotheses=fields["hypotheses"],
+                median=fields["median"],
+                keypoints2d=fields["keypoints2d"],
+                frame_times=fields["frame_times"],
                 fps=float(data["fps"]),
-                track_ids=data["track_ids"],
+                track_ids=fields["track_ids"],
                 cameras=calibration_from_dict(json.loads(_text(data, "cameras")), f"{path} cameras").cameras,
                 energy=data["energy"] if "energy" in data.files else None,
                 meta=meta,
@@ -140,3 +145,5 @@ def read_npz(path: Path | str) -> LiftResult:
         raise InputError(f"{path}: empty or truncated npz file") from None
     except (ValueError, KeyError, OSError, zipfile.BadZipFile, json.JSONDecodeError) as err:
         raise InputError(f"{path}: {err}") from None
+    except RecursionError:
+        raise InputError(f"{path}: meta or cameras nested too deeply") from None

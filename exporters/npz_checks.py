@@ -1,0 +1,54 @@
+"""Checks on a result npz before and after its arrays are loaded: what its headers claim, what its values hold.
+
+A damaged or crafted file can claim arrays far larger than memory in a header of a few bytes (or compress millions
+of frames into megabytes), and hold coordinates no person has: infinite, or kilometres from the origin. Both are
+refused with the field named, before ``info`` or ``export`` works on them; NaN stays (a person absent in a frame).
+"""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+MAX_FIELD_BYTES = 2**30  # one array of a result, as loaded
+MAX_RESULT_BYTES = 3 * 2**29  # all of them (1.5 GiB: 20 hypotheses of one person over 85 minutes at 60 fps)
+MAX_COORDINATE_M = 1000.0  # a pose farther than this from the world origin is not a lift of a person
+
+
+def check_field_sizes(path: Path) -> None:
+    """ValueError naming the first ``.npy`` member whose header claims more than ``MAX_FIELD_BYTES``, or when
+    all of them claim more than ``MAX_RESULT_BYTES``."""
+    total = 0
+    with zipfile.ZipFile(path) as archive:
+        for info in archive.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            with archive.open(info) as member:
+                version = np.lib.format.read_magic(member)
+                if version == (1, 0):
+                    shape, _, dtype = np.lib.format.read_array_header_1_0(member)
+                else:
+                    shape, _, dtype = np.lib.format.read_array_header_2_0(member)
+            size = int(np.prod(shape, dtype=object)) * dtype.itemsize
+            if size > MAX_FIELD_BYTES:
+                raise ValueError(
+                    f"field {info.filename[:-4]!r} claims shape {shape} ({size / 2**30:.1f} GiB), "
+                    f"over the {MAX_FIELD_BYTES / 2**30:.0f} GiB a result field may hold"
+                )
+            total += size
+    if total > MAX_RESULT_BYTES:
+        raise ValueError(
+            f"its fields claim {total / 2**30:.1f} GiB, over the {MAX_RESULT_BYTES / 2**30:.1f} GiB a result may hold"
+        )
+
+
+def check_coordinates(name: str, values: np.ndarray) -> None:
+    """ValueError when ``values`` (metres) hold infinities or finite values farther than ``MAX_COORDINATE_M``."""
+    if np.isinf(values).any():
+        raise ValueError(f"field {name!r} holds infinite coordinates (a damaged result)")
+    with np.errstate(invalid="ignore"):
+        far = np.nanmax(np.abs(values), initial=0.0)
+    if far > MAX_COORDINATE_M:
+        raise ValueError(f"field {name!r} holds coordinates {far:.3g} m from the origin (over {MAX_COORDINATE_M:g} m)")
