@@ -318,7 +318,10 @@ def test_damaged_results_are_refused_by_info_and_export(run_cli, result_npz, tmp
     )
     deep_meta = np.array("[" * 100_000 + "]" * 100_000)
     cases = {
-        "inf": ({"hypotheses": np.full_like(good.hypotheses, np.inf)}, "infinite coordinates"),
+        "inf": (
+            {"hypotheses": np.full_like(good.hypotheses, np.inf), "median": np.full_like(good.median, np.inf)},
+            "infinite coordinates",
+        ),
         "far": ({"hypotheses": good.hypotheses * 1e30, "median": good.median * 1e30}, "m from the origin"),
         "header": ({"hypotheses": huge_header}, "GiB"),
         "meta": ({"meta": deep_meta}, "nested too deeply"),
