@@ -73,7 +73,7 @@ def read_keypoints_npz(path: str | Path, camera: int = 0) -> PoseTrack2D:
         raise InputError(f"{path}: no such file") from None
     except EOFError:
         raise InputError(f"{path}: empty or truncated npz file") from None
-    except (OSError, KeyError, ValueError, IndexError, zipfile.BadZipFile, json.JSONDecodeError) as err:
+    except (OSError, KeyError, ValueError, IndexError, zipfile.BadZipFile, json.JSONDecodeError, RecursionError) as err:
         raise InputError(f"{path}: {err}") from None
     return replace(check_tracks(tracks), source=source)
 

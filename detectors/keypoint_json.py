@@ -54,7 +54,7 @@ def read_keypoints_json(path: str | Path, tracker: TrackerConfig = TrackerConfig
             frames[number] = [_person(person) for person in entry["people"]]
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
-    except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError) as err:
         raise InputError(f"{path}: not a {FORMAT} file ({describe_parse_error(err)})") from None
     ids = {person.track_id is None for people in frames.values() for person in people}
     if len(ids) > 1:

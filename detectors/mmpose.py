@@ -86,7 +86,7 @@ def read_mmpose_json(
         frames = parse_frames(content)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
-    except (OSError, ValueError, KeyError, TypeError) as err:
+    except (OSError, ValueError, KeyError, TypeError, RecursionError) as err:
         raise InputError(f"{path}: not MMPose or COCO-style keypoint JSON ({describe_parse_error(err)})") from None
     if not frames:
         raise InputError(f"{path}: no frames")

@@ -42,7 +42,7 @@ def _read_people(path: Path) -> list[np.ndarray]:
     try:
         people = json.loads(path.read_text())["people"]
         poses = [np.asarray(person["pose_keypoints_2d"], dtype=np.float64) for person in people]
-    except (OSError, ValueError, KeyError, TypeError) as err:
+    except (OSError, ValueError, KeyError, TypeError, RecursionError) as err:
         raise InputError(f"{path}: not an OpenPose keypoint file ({describe_parse_error(err)})") from None
     for pose in poses:
         if pose.ndim != 1 or pose.size == 0 or pose.size % 3:

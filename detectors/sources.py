@@ -55,5 +55,5 @@ def _declares_minimal_schema(path: Path) -> bool:
     """Whether a JSON file says it follows the minimal schema (unreadable files: no, the other reader reports)."""
     try:
         return json.loads(path.read_text()).get("format") == FORMAT
-    except (OSError, ValueError, AttributeError):
+    except (OSError, ValueError, AttributeError, RecursionError):
         return False

@@ -74,7 +74,7 @@ def read_offsets(path: Path, camera_names: Sequence[str]) -> list[float]:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise InputError(f"{path}: offsets file not found (sync takes auto, none or an offsets .json)") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as err:
         raise InputError(f"{path}: not valid JSON ({err})") from None
     offsets = data.get("offsets_s", data) if isinstance(data, dict) else None
     return offsets_by_name(offsets, camera_names, str(path))

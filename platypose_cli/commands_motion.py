@@ -25,7 +25,7 @@ def _name_map(path: Path | None) -> dict[str, str] | None:
         return None
     try:
         mapping = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
+    except (OSError, ValueError, RecursionError) as err:
         raise InputError(f"{path}: name map must be a JSON object of our joint -> BVH joint names ({err})") from None
     if not isinstance(mapping, dict):
         raise InputError(f"{path}: name map must be a JSON object of our joint -> BVH joint names")

@@ -28,6 +28,10 @@ __all__ = ["Calibration", "load_calibration", "save_calibration"]
 
 # Cameras farther than this from the world origin (after unit conversion) mean the units are wrong.
 MAX_CAMERA_DISTANCE_M = 100.0
+# Cameras of one rig stand farther apart than this (a file in metres read as mm puts them millimetres apart).
+MIN_RIG_SPREAD_M = 0.02
+MIN_CAMERA_GAP_M = 1e-4  # two cameras closer than this are one place given twice
+WITHOUT_EXTRINSICS = ("intrinsics-txt", "default")
 # A calibration of the largest supported rig takes well under a megabyte; larger files are refused unread.
 MAX_CALIBRATION_BYTES = 16 * 2**20
 
@@ -73,6 +77,28 @@ def _check_distances(path: Path, calibration: Calibration, units_read: str | flo
         )
 
 
+def _check_spacing(path: Path, calibration: Calibration, units_read: str | float) -> None:
+    """Refuse two cameras at one place, and a rig whose cameras all lie within ``MIN_RIG_SPREAD_M`` (a file in
+    metres read as millimetres). Files without extrinsics (intrinsics only, defaults) are not checked."""
+    if calibration.meta.get("format") in WITHOUT_EXTRINSICS or len(calibration.cameras) < 2:
+        return
+    centres = np.stack([c.center for c in calibration.cameras])
+    gaps = np.linalg.norm(centres[:, None] - centres[None], axis=-1)  # at most MAX_CAMERAS squared
+    if gaps.max() < MIN_RIG_SPREAD_M:
+        raise InputError(
+            f"{path}: the cameras all lie within {gaps.max() * 1000:.1f} mm of one another; the units look wrong "
+            f"(file read as {units_read}) or the positions are missing; pass units mm, cm or m",
+            option="units",
+        )
+    np.fill_diagonal(gaps, np.inf)
+    i, j = np.unravel_index(np.argmin(gaps), gaps.shape)
+    if gaps[i, j] < MIN_CAMERA_GAP_M:
+        names = calibration.names
+        raise InputError(
+            f"{path}: cameras {names[i]} and {names[j]} are at the same place ({gaps[i, j] * 1000:.2f} mm apart)"
+        )
+
+
 def load_calibration(
     path: str | Path, world_up: str | None = None, units: str | float | None = None, subject: str | None = None
 ) -> Calibration:
@@ -88,6 +114,7 @@ def load_calibration(
     raw = _read_any(path, subject)
     result = to_z_up_metres(raw, world_up, units)
     _check_distances(path, result, units if units is not None else raw.meta["units"])
+    _check_spacing(path, result, units if units is not None else raw.meta["units"])
     return result
 
 

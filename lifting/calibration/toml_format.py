@@ -77,7 +77,7 @@ def read_toml(path: Path) -> Calibration:
     source = str(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError) as err:
         raise InputError(f"{source}: not valid TOML ({err})") from None
     layout = _layout(data)
     if layout == "caliscope":

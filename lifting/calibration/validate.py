@@ -17,13 +17,16 @@ from platypose.lifting.errors import InputError
 
 ROTATION_TOLERANCE = 1e-5
 MAX_CAMERAS = 256  # capture rigs have tens of cameras; more means a damaged or hostile file
+MAX_IMAGE_SIDE = 65536  # pixels
+FOCAL_RANGE_PX = (1.0, 1e6)  # a focal length outside is no lens on any camera we lift from
+MAX_DISTORTION = 1000.0  # |k1..k3|, |p1|, |p2| on normalised coordinates; real lenses stay far below
 
 
 def read_json(path: Path) -> Any:
     """The content of a JSON file, else InputError naming the file."""
     try:
         return json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as err:
         raise InputError(f"{path}: not valid JSON ({err})") from None
 
 
@@ -63,8 +66,10 @@ def as_rotation(value: object, source: str, what: str) -> np.ndarray:
 def as_size(value: object, source: str, what: str) -> tuple[int, int]:
     """Two positive whole pixel counts."""
     arr = as_array(value, (2,), source, what)
-    if np.any(arr <= 0) or np.any(arr != np.round(arr)):
-        raise InputError(f"{source}: {what} must be two positive whole pixel counts, got {arr.tolist()}")
+    if np.any(arr <= 0) or np.any(arr != np.round(arr)) or np.any(arr > MAX_IMAGE_SIDE):
+        raise InputError(
+            f"{source}: {what} must be two positive whole pixel counts up to {MAX_IMAGE_SIDE}, got {arr.tolist()}"
+        )
     return int(arr[0]), int(arr[1])
 
 
@@ -74,7 +79,16 @@ def as_distortion(value: object, source: str, what: str) -> np.ndarray:
     arr = as_array(value, (n,), source, what)
     if n not in (0, 4, 5) and not (n > 5 and np.all(arr[5:] == 0)):
         raise InputError(f"{source}: {what} has {n} coefficients; supported: k1 k2 p1 p2 [k3]")
+    check_distortion(arr[:5], source, what)
     return arr[:5]
+
+
+def check_distortion(dist: np.ndarray, source: str, what: str) -> None:
+    """InputError when a distortion coefficient is not finite or over ``MAX_DISTORTION`` in size."""
+    if not np.all(np.isfinite(dist)) or np.any(np.abs(dist) > MAX_DISTORTION):
+        raise InputError(
+            f"{source}: {what} distortion {np.asarray(dist).tolist()} is out of range (|k| <= {MAX_DISTORTION:g})"
+        )
 
 
 def check_intrinsics(K: np.ndarray, source: str, what: str) -> np.ndarray:
@@ -82,6 +96,12 @@ def check_intrinsics(K: np.ndarray, source: str, what: str) -> np.ndarray:
     K = as_array(K, (3, 3), source, what)
     if K[0, 0] <= 0 or K[1, 1] <= 0:
         raise InputError(f"{source}: {what} has a non-positive focal length")
+    low, high = FOCAL_RANGE_PX
+    if not (low <= K[0, 0] <= high and low <= K[1, 1] <= high) or np.any(np.abs(K[:2, 2]) > 100 * MAX_IMAGE_SIDE):
+        raise InputError(
+            f"{source}: {what} focal length {K[0, 0]:.4g}, {K[1, 1]:.4g} px or principal point out of range "
+            f"(focal {low:g}-{high:g} px)"
+        )
     if not np.allclose(K[2], [0.0, 0.0, 1.0]) or K[1, 0] != 0:
         raise InputError(f"{source}: {what} is not a pinhole camera matrix (expected [[fx,s,cx],[0,fy,cy],[0,0,1]])")
     return K
@@ -98,6 +118,8 @@ def check_camera_count(count: int, source: str) -> None:
 def check_cameras(cameras: Sequence[Camera], source: str) -> tuple[Camera, ...]:
     """At least one camera and at most ``MAX_CAMERAS``, unique names; returns them as a tuple."""
     check_camera_count(len(cameras), source)
+    for camera in cameras:
+        check_distortion(camera.dist, source, f"camera {camera.name!r}")
     counts = Counter(c.name for c in cameras)
     duplicates = sorted(n for n, k in counts.items() if k > 1)
     if duplicates:

@@ -85,6 +85,20 @@ def fit_opencv_radial(radial: np.ndarray, K: np.ndarray, size: tuple[int, int]) 
     return fitted, np.linalg.norm(residual, axis=-1)
 
 
+def check_radial(radial: np.ndarray, size: tuple[int, int], source: str, where: str) -> None:
+    """InputError unless Vicon's radial correction scales the farthest image corner by 0.1 to 10 (real lenses:
+    a few per cent)."""
+    height, width = size
+    corners = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]])
+    r2 = float(np.max(np.sum((corners - radial[:2]) ** 2, axis=-1)))
+    with np.errstate(all="ignore"):
+        factor = 1 + radial[2] * r2 + radial[3] * r2**2 + radial[4] * r2**3
+    if not (np.isfinite(factor) and 0.1 < factor < 10) or np.any(np.abs(radial[:2]) > 100 * max(size)):
+        raise InputError(
+            f"{source}: {where} VICON_RADIAL2 distortion is out of range (scales the image corner by {factor:.3g})"
+        )
+
+
 def vicon_camera(element: ET.Element, source: str) -> tuple[Camera, np.ndarray]:
     """One OpenCV camera (file units, millimetres) from a ``<Camera>`` element, and its distortion-fit errors in px."""
     name = camera_name(element)
@@ -112,7 +126,9 @@ def vicon_camera(element: ET.Element, source: str) -> tuple[Camera, np.ndarray]:
     if model != DISTORTION_MODEL:
         raise InputError(f"{source}: {where} has no VICON_RADIAL2 {DISTORTION_MODEL} distortion (the supported model)")
     radial = _numbers(values, 5, source, f"{where} VICON_RADIAL2")
+    check_radial(radial, size, source, where)
     k, errors_px = fit_opencv_radial(radial, K, size)
+    validate.check_distortion(k, source, f"{where} VICON_RADIAL2 (as OpenCV k1 k2 k3)")
     quaternion = _numbers(key.get("ORIENTATION"), 4, source, f"{where} ORIENTATION")
     if abs(np.linalg.norm(quaternion) - 1.0) > 1e-3:
         raise InputError(f"{source}: {where} ORIENTATION is not a unit quaternion")

@@ -148,7 +148,7 @@ def load_deepmimic(
         raise InputError(f"{path}: DeepMimic clip needs its {URDF_NAME} beside it (or pass urdf=...)")
     try:
         frames = np.asarray(json.loads(path.read_text(encoding="utf-8"))["Frames"], dtype=np.float64)
-    except (ValueError, KeyError, TypeError) as err:
+    except (ValueError, KeyError, TypeError, RecursionError) as err:
         raise InputError(f"{path}: not a DeepMimic clip ({type(err).__name__}: {err})") from None
     if frames.ndim != 2 or frames.shape[0] < 2:
         raise InputError(f"{path}: DeepMimic Frames must be a list of at least 2 equal-length rows")

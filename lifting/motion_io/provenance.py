@@ -19,6 +19,6 @@ def find_provenance(path: Path) -> tuple[str, str]:
             try:
                 info = json.loads(candidate.read_text(encoding="utf-8"))
                 return str(info["source"]), str(info["licence"])
-            except (ValueError, KeyError, TypeError) as err:
+            except (ValueError, KeyError, TypeError, RecursionError) as err:
                 raise InputError(f'{candidate}: expected {{"source": ..., "licence": ...}} ({err})') from None
     return UNKNOWN, UNKNOWN
