@@ -18,6 +18,20 @@ from platypose.lifting.calibration.matching import gather_views
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 
+RATE_TOLERANCE = 0.05  # views whose median frame steps differ more than this are at different frame rates
+
+
+def check_frame_rates(views: Sequence[PoseTrack2D], source: str) -> None:
+    """InputError when the views are at different frame rates: each view's frames are matched to the first view's
+    one by one, so a 30 fps view beside a 60 fps one would lose half its frames (or its persons)."""
+    steps = [float(np.median(np.diff(v.frame_times))) for v in views if v.num_frames > 1]
+    if len(steps) > 1 and (max(steps) - min(steps)) > RATE_TOLERANCE * min(steps):
+        rates = ", ".join(f"{1 / s:.3g}" for s in steps)
+        raise InputError(
+            f"{source}: the views are at different frame rates ({rates} fps); give them at one rate "
+            "(re-encode the videos, or read the keypoints with one --fps)"
+        )
+
 
 def take_keypoints(
     views: Sequence[PoseTrack2D], cameras: Sequence[Camera], persons: str = "all", source: str = "input"
@@ -27,6 +41,7 @@ def take_keypoints(
     A view's frame counts as the first view's when it lies within half a frame of it
     (each camera's ``time_offset_s`` applied). InputError naming ``source`` when no person is left.
     """
+    check_frame_rates(views, source)
     if len(views) > 1:
         from platypose.detectors.multiview import match_across_views
 

@@ -37,6 +37,7 @@ REFINE_FRAMES = 2  # geometric refinement stays within this many frames of the m
 REFINE_STEP = 0.1  # ... then steps of this many frames within one frame of the best
 REFINE_PASSES = 2  # every view is refined this many times, the others held at their latest offsets
 MAX_REFINE_FRAMES = 300  # reference frames used by the refinement (evenly spread)
+MIN_MOTION = 0.1  # median motion signal (person heights per second) below which a view is taken as still
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,9 @@ class SyncEstimate:
     ``confidence`` in [0, 1] (how far that peak stands above the runner-up lag; 1 for the reference);
     the median reprojection error of all views with no offsets and with these (pixels), the
     reference frame rate, and ``at_limit`` (C,): the geometric refinement stopped at the edge of its
-    window around the motion estimate (the view's reprojection wants more: often a calibration error).
+    window around the motion estimate (the view's reprojection wants more: often a calibration error);
+    ``motion`` (C,): the median motion signal (person heights per second); a view below ``MIN_MOTION`` (or any
+    view when the reference is) has confidence 0 and no coarse lag, as its motion says nothing about time.
     """
 
     offsets_s: np.ndarray
@@ -55,6 +58,7 @@ class SyncEstimate:
     error_after_px: float
     rate: float
     at_limit: np.ndarray
+    motion: np.ndarray
 
     @property
     def offsets_frames(self) -> np.ndarray:
@@ -206,7 +210,10 @@ def estimate_offsets(
     times = [np.asarray(t, dtype=np.float64) for t in frame_times]
     views = [np.asarray(v, dtype=np.float64) for v in views]
     rate = 1.0 / float(np.median(np.diff(times[0]))) if len(times[0]) > 1 else 1.0
-    signals = [_resample(t, motion_signal(v, t), rate) for v, t in zip(views, times)]
+    raw = [motion_signal(v, t) for v, t in zip(views, times)]
+    with np.errstate(all="ignore"):
+        motion = np.array([np.nanmedian(r) if np.isfinite(r).any() else 0.0 for r in raw])
+    signals = [_resample(t, r, rate) for r, t in zip(raw, times)]
     shortest = min(t[-1] - t[0] for t in times)
     bound = min(MAX_OFFSET_S, 0.5 * shortest) if max_offset_s is None else max_offset_s
     max_lag = max(int(round(bound * rate)), 1)
@@ -215,6 +222,8 @@ def estimate_offsets(
     for c in range(1, C):
         lags, corr = lag_correlation(signals[0], signals[c], max_lag)
         lag, correlation[c], confidence[c] = _peak(lags, corr, int(round(DISTINCT_S * rate)))
+        if min(motion[0], motion[c]) < MIN_MOTION:  # a still view's signal is noise: no lag, no confidence
+            lag, confidence[c] = 0, 0.0
         # reference[k + lag] matches signal[k]: grid time t_c0 + k / rate is reference time t_00 + (k + lag) / rate
         coarse[c] = times[0][0] - times[c][0] + lag / rate
     at = times[0][:: max(len(times[0]) // MAX_REFINE_FRAMES, 1)]
@@ -222,7 +231,7 @@ def estimate_offsets(
     before = views_error(views, times, cameras, np.zeros(C), at)
     after = views_error(views, times, cameras, offsets, at)
     at_limit = np.abs(offsets - coarse) * rate >= REFINE_FRAMES - 0.5 * REFINE_STEP
-    return SyncEstimate(offsets, correlation, confidence, before, after, rate, at_limit)
+    return SyncEstimate(offsets, correlation, confidence, before, after, rate, at_limit, motion)
 
 
 def with_offsets(cameras: Sequence[Camera], offsets_s: Sequence[float]) -> list[Camera]:

@@ -24,6 +24,8 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 
 LOW_CONFIDENCE = 0.2  # below this an estimated offset is reported as unreliable
+SHORT_CLIP_S = 1.5  # estimates from less motion than this can be frames off
+MAX_OFFSET_S = 24 * 3600.0  # larger offsets are not a clock difference of one take
 SyncChoice = str | Path | Mapping[str, float]
 
 
@@ -61,15 +63,37 @@ def offsets_by_name(offsets: object, camera_names: Sequence[str], where: str) ->
         matched = match_views(camera_names, [str(k) for k in offsets])
     except InputError as err:
         raise InputError(f"{where}: {err}") from None
-    by_key = {str(k): float(v) for k, v in offsets.items()}
-    values = [by_key[matched[name]] for name in camera_names]
-    if not all(np.isfinite(values)):
-        raise InputError(f"{where}: offsets must be finite numbers of seconds")
+    try:
+        by_key = {str(k): float(v) for k, v in offsets.items()}
+    except OverflowError:
+        by_key = {}
+    values = [by_key.get(matched[name], np.inf) for name in camera_names]
+    if not all(np.isfinite(values)) or max(np.abs(values)) > MAX_OFFSET_S:
+        raise InputError(f"{where}: offsets must be finite numbers of seconds, at most {MAX_OFFSET_S:g} in size")
     return values
+
+
+def check_overlap(cameras: Sequence[Camera], frame_times: Sequence[np.ndarray], where: str) -> None:
+    """InputError naming a view whose frames, with its offset, share no time with the first view's."""
+    first = np.asarray(frame_times[0], dtype=np.float64) + cameras[0].time_offset_s
+    for camera, times in zip(cameras[1:], frame_times[1:]):
+        shifted = np.asarray(times, dtype=np.float64) + camera.time_offset_s
+        if len(shifted) and len(first) and (shifted[-1] < first[0] or shifted[0] > first[-1]):
+            raise InputError(
+                f"{where}: with its offset {camera.time_offset_s:+.6g} s, view {camera.name} "
+                f"({shifted[0]:.6g} to {shifted[-1]:.6g} s) shares no time with {cameras[0].name} "
+                f"({first[0]:.6g} to {first[-1]:.6g} s)"
+            )
 
 
 def read_offsets(path: Path, camera_names: Sequence[str]) -> list[float]:
     """Offsets (s) per camera, in ``camera_names`` order, from a JSON file keyed by camera or view name."""
+    return offsets_by_name(offsets_in(path), camera_names, str(path))
+
+
+def offsets_in(path: Path) -> object:
+    """The offsets mapping of a JSON offsets file (its ``offsets_s`` or the whole object), checked to be names to
+    finite seconds; InputError naming the file otherwise."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -77,7 +101,9 @@ def read_offsets(path: Path, camera_names: Sequence[str]) -> list[float]:
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as err:
         raise InputError(f"{path}: not valid JSON ({err})") from None
     offsets = data.get("offsets_s", data) if isinstance(data, dict) else None
-    return offsets_by_name(offsets, camera_names, str(path))
+    names = [str(k) for k in offsets] if isinstance(offsets, Mapping) else []
+    offsets_by_name(offsets, names, str(path))  # a mapping, each value a bounded number
+    return offsets
 
 
 def synchronise(
@@ -89,24 +115,43 @@ def synchronise(
     warn: Callable[[str], None],
 ) -> Synced:
     """The cameras with the time offsets ``choice`` asks for; ``keypoints[c]`` (T_c, P, J, 3) on ``frame_times[c]``."""
-    from platypose.lifting.sync import estimate_offsets, main_person, with_offsets
+    from platypose.lifting.sync import MIN_MOTION, estimate_offsets, main_person, with_offsets
 
     names = [c.name for c in cameras]
     if isinstance(choice, Mapping):
-        return Synced(with_offsets(cameras, offsets_by_name(choice, names, "sync offsets")), "offsets")
+        synced = with_offsets(cameras, offsets_by_name(choice, names, "sync offsets"))
+        check_overlap(synced, frame_times, "sync offsets")
+        return Synced(synced, "offsets")
+    if choice not in ("none", "auto") and len(cameras) < 2:
+        offsets_in(Path(choice))  # one view: nothing to shift, but a broken file is still an error
     if choice == "none" or len(cameras) < 2:
         return Synced(list(cameras), "none")
     if choice != "auto":
-        return Synced(with_offsets(cameras, read_offsets(Path(choice), names)), "offsets")
+        synced = with_offsets(cameras, read_offsets(Path(choice), names))
+        check_overlap(synced, frame_times, str(choice))
+        return Synced(synced, "offsets")
     estimate = estimate_offsets([main_person(k) for k in keypoints], frame_times, cameras)
     synced = with_offsets(cameras, estimate.offsets_s)
-    rows = zip(synced[1:], estimate.offsets_frames[1:], estimate.confidence[1:], estimate.at_limit[1:])
-    for camera, frames, confidence, at_limit in rows:
+    shortest = min(float(t[-1] - t[0]) if len(t) else 0.0 for t in frame_times)
+    if shortest < SHORT_CLIP_S:
+        warn(
+            f"sync: only {shortest:.1f} s of frames; offsets estimated from under {SHORT_CLIP_S:g} s of motion can "
+            "be frames off: check them or pass an offsets .json"
+        )
+    rows = zip(synced, estimate.offsets_frames, estimate.confidence, estimate.at_limit, estimate.motion)
+    for index, (camera, frames, confidence, at_limit, motion) in enumerate(rows):
+        if motion < MIN_MOTION:
+            warn(
+                f"sync {camera.name}: the person barely moves in this view ({motion:.2f} heights/s); offsets "
+                "cannot be estimated from its motion: check them or pass an offsets .json"
+            )
+        if index == 0:
+            continue
         log(
             f"sync {camera.name}: {camera.time_offset_s:+.3f} s ({frames:+.1f} frames) after {synced[0].name}, "
             f"confidence {confidence:.2f}"
         )
-        if confidence < LOW_CONFIDENCE:
+        if confidence < LOW_CONFIDENCE and motion >= MIN_MOTION:
             warn(f"sync {camera.name}: low confidence {confidence:.2f}; check the offset or pass an offsets.json")
         if at_limit:
             warn(

@@ -403,3 +403,71 @@ def test_importers_refuse_absurd_values(run_cli, tmp_path) -> None:
         "freemocap_test_data_camera_calibration.toml",
     ):
         assert load_calibration(CALIB / real).cameras  # the real files still load
+
+
+TAKE = "video/pose2sim-balancing"
+
+
+@pytest.fixture(scope="module")
+def take_views(data_dir):
+    """The bundled take's cameras, tracks (OpenPose, 60 fps) and each view's main person."""
+    from platypose.detectors.openpose import read_openpose_folder
+    from platypose.lifting.calibration import load_calibration
+
+    cal = load_calibration(data_dir / TAKE / "calib_pose2sim.toml")
+    folders = [data_dir / TAKE / "openpose-body25b" / f"cam0{i}_json" for i in range(1, 5)]
+    tracks = [read_openpose_folder(f, fps=60, image_size=c.size) for f, c in zip(folders, cal.cameras)]
+    return cal.cameras, tracks
+
+
+def _sync(choice, cameras, keypoints, times):
+    from platypose.lifting.sync_choice import synchronise
+
+    warnings: list[str] = []
+    synced = synchronise(choice, keypoints, times, cameras, lambda _: None, warnings.append)
+    return synced, warnings
+
+
+def test_sync_offsets_bounded_and_still_or_short_views_warned(run_cli, data_dir, take_views, tmp_path) -> None:
+    import numpy as np
+
+    cameras, tracks = take_views
+    keypoints, times = [t.keypoints for t in tracks], [t.frame_times for t in tracks]
+    for offsets, needle in (
+        ({"cam01": 0, "cam02": 1e4, "cam03": 0, "cam04": 0}, "shares no time with"),
+        ({"cam01": 0, "cam02": 1e6, "cam03": 0, "cam04": 0}, "at most 86400"),
+        ({"cam01": 0, "cam02": 10**400, "cam03": 0, "cam04": 0}, "finite numbers of seconds"),
+    ):
+        path = tmp_path / "offsets.json"
+        path.write_text(__import__("json").dumps(offsets))
+        with pytest.raises(InputError, match=needle):
+            _sync(offsets, cameras, keypoints, times)
+        code, _, err = run_cli(
+            "calib", "check", str(data_dir / TAKE / "calib_pose2sim.toml"), "--keypoints",
+            str(data_dir / TAKE / "openpose-body25b"), "--fps", "60", "--sync", str(path),
+        )  # fmt: skip
+        assert code == 2 and needle in err and len(err.strip().splitlines()) == 1, err
+    rng = np.random.default_rng(0)
+    still = np.repeat(keypoints[1][:1], len(keypoints[1]), axis=0)
+    still[..., :2] += rng.normal(0.0, 1.0, still[..., :2].shape)  # a frozen view: detector jitter only
+    synced, warnings = _sync("auto", cameras, [keypoints[0], still, *keypoints[2:]], times)
+    assert synced.confidence[1] == 0.0 and any("cam_02: the person barely moves" in w for w in warnings), warnings
+    _, warnings = _sync("auto", cameras, keypoints, times)
+    assert not [w for w in warnings if "barely moves" in w or "s of frames" in w]  # the real take moves for 1.7 s
+    _, warnings = _sync("auto", cameras, [k[:60] for k in keypoints], [t[:60] for t in times])
+    assert any("only 1.0 s of frames" in w for w in warnings), warnings
+    broken = tmp_path / "broken.json"
+    broken.write_text("{oops")
+    with pytest.raises(InputError, match="not valid JSON"):
+        _sync(str(broken), cameras[:1], keypoints[:1], times[:1])
+
+
+def test_views_at_different_frame_rates_are_refused(data_dir, take_views) -> None:
+    from platypose.detectors.openpose import read_openpose_folder
+    from platypose.detectors.take import take_keypoints
+
+    cameras, tracks = take_views
+    slow = read_openpose_folder(data_dir / TAKE / "openpose-body25b/cam02_json", fps=30, image_size=cameras[1].size)
+    assert take_keypoints(tracks[:2], cameras[:2])[0].shape[0] == 2
+    with pytest.raises(InputError, match=r"different frame rates \(60, 30 fps\)"):
+        take_keypoints([tracks[0], slow], cameras[:2], source="take")
