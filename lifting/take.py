@@ -26,6 +26,7 @@ from platypose.lifting.triangulation import view_median_errors
 ROOT_MODES = ("auto", "triangulate", "solve")
 MIN_ROOT_COVERAGE = 0.5  # share of frames with a triangulated pelvis needed to use the path (gaps interpolated)
 REPROJECTION_WARNING_SHARE = 0.02  # of the image width: a view the median motion misses by more is suspect
+WELL_SEEN_SHARE = 0.25  # a view is judged by the persons it sees in at least this share of their frames
 
 
 def check_root_mode(root: str) -> None:
@@ -115,11 +116,20 @@ def lift_persons(
             median[group, t] = np.median(chunk.hypotheses, axis=1)
 
 
+def well_seen(keypoints: np.ndarray) -> np.ndarray:
+    """(C, P): whether view c sees person p in at least ``WELL_SEEN_SHARE`` of the frames where it sees anyone
+    (the person a view sees most always counts), from ``keypoints`` (C, T, P, 17, 3)."""
+    seen = keypoints[..., 2].max(axis=-1) > 0  # (C, T, P)
+    frames = np.maximum(seen.any(axis=2).sum(axis=1, keepdims=True), 1)  # (C, 1)
+    share = seen.sum(axis=1) / frames  # (C, P)
+    return (share >= WELL_SEEN_SHARE) | (share == share.max(axis=1, keepdims=True))
+
+
 def reprojection_report(
     median: np.ndarray, keypoints: np.ndarray, cameras: Sequence[Camera]
 ) -> tuple[dict[str, float], list[str]]:
     """Per view, the median pixel distance between the median motion ``(P, T, 17, 3)`` and the view's keypoints
-    ``(C, T, P, 17, 3)`` (the largest over persons), and a warning for each view above
+    ``(C, T, P, 17, 3)`` (the largest over the persons the view sees well: :func:`well_seen`), and a warning for each view above
     ``REPROJECTION_WARNING_SHARE`` of its image width.
 
     With one view guidance fits the keypoints exactly and nothing is reported (empty dict). With several, a
@@ -128,7 +138,11 @@ def reprojection_report(
     if len(cameras) < 2:
         return {}, []
     per_person = [view_median_errors(median[p], keypoints[:, :, p], cameras) for p in range(keypoints.shape[2])]
-    errors = np.nanmax(np.stack(per_person), axis=0) if per_person else np.full(len(cameras), np.nan)
+    errors = np.full(len(cameras), np.nan)
+    if per_person:
+        stacked = np.stack(per_person, axis=1)  # (C, P)
+        judged = np.where(well_seen(keypoints) & np.isfinite(stacked), stacked, -np.inf).max(axis=1)
+        errors = np.where(np.isfinite(judged), judged, np.nan)  # NaN: a view that sees nobody
     report = {cam.name: round(float(e), 2) for cam, e in zip(cameras, errors)}
     warnings = [
         f"view {cam.name}: the median motion lies {value:.1f} px (median) from its keypoints, "

@@ -171,7 +171,7 @@ def lift(
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
     arguments = {k: as_json(v) for k, v in locals().items()}
     from platypose.cli.lift_batch import run_batch
-    from platypose.cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
+    from platypose.cli.lift_jobs import check_views_match, discover_jobs, expand_inputs, keypoints_job
     from platypose.lifting.errors import InputError
 
     if keypoints is not None and detector is not None:
@@ -188,6 +188,8 @@ def lift(
         job_list = [keypoints_job(keypoints, paths, camera_names)]
     else:
         job_list = discover_jobs(paths, camera_names)
+    if cams is not None:
+        check_views_match(job_list, camera_names, cams)
     detect = DetectOptions(
         detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps, image_size=image_size
     )

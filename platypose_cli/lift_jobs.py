@@ -162,3 +162,22 @@ def keypoints_job(keypoints: Path, videos: Sequence[Path], camera_names: Sequenc
     else:
         name = videos[0].stem if videos else views[0].name
     return Job(safe_name(name), str(keypoints), tuple(views))
+
+
+def check_views_match(jobs: Sequence[Job], camera_names: Sequence[str], cams: Path) -> None:
+    """One InputError, saying how to fix it, when a calibration of several cameras matches no view of any job by
+    name (each input would otherwise fail alone with the same mismatch)."""
+    if len(camera_names) < 2:
+        return
+    for job in jobs:
+        try:
+            match_views(camera_names, [v.name for v in job.views], allow_missing=True)
+        except InputError:
+            continue
+        return
+    views = sorted({v.name for job in jobs for v in job.views})
+    raise InputError(
+        f"{cams}: no camera matches a view by name (cameras {', '.join(camera_names)}; views "
+        f"{', '.join(views[:8])}{', ...' if len(views) > 8 else ''}); name each video or keypoint folder after its "
+        f"camera (e.g. {camera_names[0]}.mp4) or rename the cameras in the calibration"
+    )

@@ -147,6 +147,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     """The LiftResult of one job, its long arrays in files under ``staging``, and the videos of its cameras."""
     from platypose import __version__
     from platypose.detectors.take import take_keypoints
+    from platypose.detectors.view_agreement import disagreeing_views
     from platypose.exporters.frames import FrameArray
     from platypose.lifting.floor import floor_for_lift, parse_floor
     from platypose.lifting.sync_choice import synchronise
@@ -177,6 +178,9 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
     if synced.confidence is not None:
         write_offsets(settings.out / job.name / SYNC_FILE, synced)
     keypoints, times, track_ids = take_keypoints(views, cameras, settings.persons, job.input)
+    swapped = disagreeing_views(keypoints, [c.name for c in cameras])
+    if swapped:
+        log.warning(swapped)
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
     roots = root_paths(keypoints, times, cameras, settings, log)
     prior = _prior(settings.prior)

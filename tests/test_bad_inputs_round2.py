@@ -471,3 +471,42 @@ def test_views_at_different_frame_rates_are_refused(data_dir, take_views) -> Non
     assert take_keypoints(tracks[:2], cameras[:2])[0].shape[0] == 2
     with pytest.raises(InputError, match=r"different frame rates \(60, 30 fps\)"):
         take_keypoints([tracks[0], slow], cameras[:2], source="take")
+
+
+def test_swapped_cameras_warned_and_views_judged_by_persons_seen_well(take_views) -> None:
+    import numpy as np
+
+    from platypose.detectors.take import take_keypoints
+    from platypose.detectors.view_agreement import disagreeing_views
+    from platypose.lifting.take import reprojection_report
+    from platypose.lifting.triangulation import triangulate
+
+    cameras, tracks = take_views
+    names = [c.name for c in cameras]
+    keypoints, _, _ = take_keypoints(tracks, cameras)
+    assert disagreeing_views(keypoints, names) is None  # the real rig
+    swapped, _, _ = take_keypoints([tracks[2], tracks[1], tracks[0], tracks[3]], cameras)
+    warning = disagreeing_views(swapped, names)
+    assert warning and "cam_01 (0%)" in warning and "cam_03 (0%)" in warning and "swapped" in warning, warning
+    # the correct rig, plus a far person cam_02 alone sees in 7 of 100 frames, 300 px off wherever it is lifted
+    points = triangulate(keypoints[..., :2], keypoints[..., 2], cameras).transpose(1, 0, 2, 3)  # (P, T, 17, 3)
+    extra = np.zeros(keypoints.shape[:2] + (1, 17, 3))
+    extra[1, :7, 0] = keypoints[1, :7, 0]
+    extra[1, :7, 0, :, 0] += 300.0
+    median = np.concatenate([points, points[:1]])  # (P + 1, T, 17, 3)
+    report, warnings = reprojection_report(median, np.concatenate([keypoints, extra], axis=2), cameras)
+    assert report["cam_02"] < 20 and not [w for w in warnings if "cam_02" in w], (report, warnings)
+
+
+def test_calibration_names_matching_no_video_are_one_error(run_cli, data_dir, tmp_path, prior_file, batch_folder):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for name in ("front.mp4", "side.mp4", "back.mp4", "top.mp4"):
+        (folder / name).symlink_to(batch_folder / "good.mp4")
+    code, out, err = run_cli(
+        "lift", str(folder), "--cams", str(data_dir / TAKE / "calib_pose2sim.toml"), "--prior", prior_file,
+        "--out", str(tmp_path / "out"), "--quiet",
+    )  # fmt: skip
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "no camera matches a view by name" in err and "name each video" in err and "cam_01.mp4" in err
+    assert not (tmp_path / "out").exists()
