@@ -36,6 +36,9 @@ LEVEL_PRIOR = 1e-3  # weight of a pitch of 10 degrees against the capped log dro
 STANDS_ELSEWHERE = np.log(1.3)  # a stance ankle dropping 30 % more or less than the floor level stands elsewhere
 SHARED = 0.2  # share of the stance ankles that the floor's level must hold
 MIN_DROP = 0.05  # metres: a stance ankle must be this far below the camera to count
+MAX_FLOOR_TILT_DEG = 45.0  # a given floor steeper than this is a wall or upside down
+MIN_UP_COSINE = float(np.cos(np.radians(MAX_FLOOR_TILT_DEG)))
+MAX_FLOOR_DISTANCE_M = 1000.0
 FLOOR_SPECS = "auto, none, z=H (a height) or nx,ny,nz,d (a plane n.x + d = 0, n up)"
 
 
@@ -80,7 +83,13 @@ def parse_floor(text: str) -> Floor | str | None:
             return plane_floor(0.0, 0.0, 1.0, -float(spec[2:]), "given")
         values = [float(v) for v in spec.split(",")]
         if len(values) == 4:
-            return plane_floor(*values, "given")
+            floor = plane_floor(*values, "given")
+            if floor.normal[2] < MIN_UP_COSINE or abs(floor.offset) > MAX_FLOOR_DISTANCE_M:
+                raise ValueError(
+                    f"a floor's normal points up (within {MAX_FLOOR_TILT_DEG:g} degrees of +z, the world's up) "
+                    f"and it lies within {MAX_FLOOR_DISTANCE_M:g} m of the origin"
+                )
+            return floor
     except ValueError as err:
         raise InputError(f"floor {text!r}: {err}; use {FLOOR_SPECS}") from None
     raise InputError(f"floor {text!r}: not understood; use {FLOOR_SPECS}")

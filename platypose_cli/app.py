@@ -8,6 +8,7 @@ import sys
 import typer
 
 from platypose import __version__
+from platypose.cli.safe_names import printable
 from platypose.lifting.errors import InputError
 
 app = typer.Typer(
@@ -65,10 +66,10 @@ def main() -> None:
     except InputError as err:
         from platypose.cli.options import cli_message
 
-        typer.echo(f"error: {cli_message(err)}", err=True)
+        typer.echo(printable(f"error: {cli_message(err)}"), err=True)
         sys.exit(2)
     except OSError as err:  # a file that cannot be read or written: full disk, read-only folder, name too long
-        typer.echo(f"error: {describe_os_error(err)}", err=True)
+        typer.echo(printable(f"error: {describe_os_error(err)}"), err=True)
         sys.exit(2)
 
 

@@ -40,7 +40,7 @@ def floor_plane(text: str) -> tuple[float, float, float, float] | None:
 def evaluate_command(
     motion: list[Path] = typer.Argument(..., help="3D motion files or folders to project and lift."),
     cams: Path = typer.Option(None, "--cams", help="Calibration file; default: a ring of 4 Human3.6M-like cameras."),
-    views: int = typer.Option(0, help="Use only the first this many cameras (0: all)."),
+    views: int = typer.Option(None, help="Use only the first this many cameras (at least 1; default: all)."),
     frames: str = typer.Option("1,16,64", help="Window lengths to evaluate, comma-separated."),
     samples: str = typer.Option("50,200", help="Numbers of hypotheses, comma-separated."),
     noise_px: float = typer.Option(0.0, help="Gaussian noise (px, std) added to the projected 2D keypoints."),
@@ -59,11 +59,20 @@ def evaluate_command(
     sampler: SamplerConfig = None,
 ) -> None:
     """Project motion through cameras, lift it, and print minMPJPE, minMPSPE, PA-*, MPJVE, ECE."""
+    import math
+
+    from platypose.lifting.atomic import check_writable
     from platypose.lifting.camera_rigs import ring_cameras
     from platypose.lifting.evaluation import evaluate, floor_height, format_header
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.timebase import resample
 
+    if views is not None and views < 1:
+        raise InputError(f"--views {views}: use at least 1 camera (leave it out for all)")
+    if not (math.isfinite(noise_px) and noise_px >= 0):
+        raise InputError(f"--noise-px {noise_px}: must be a finite number of pixels, 0 or more")
+    if json_out is not None:
+        check_writable(json_out)  # before the evaluation, not after it
     frames_list = int_list(frames, "--frames")
     samples_list = int_list(samples, "--samples")
     plane = floor_plane(floor)
@@ -77,7 +86,7 @@ def evaluate_command(
         cameras = list(load_calibration(cams).cameras)
     else:
         cameras = ring_cameras(4)
-    if views:
+    if views is not None:
         if views > len(cameras):
             raise InputError(f"--views {views}: only {len(cameras)} cameras")
         cameras = cameras[:views]

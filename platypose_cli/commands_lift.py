@@ -90,14 +90,16 @@ def ray_executor(executor: str, address: str | None, cpus_per_input: int, collec
 
 def finish(entries: list[dict], out: Path) -> None:
     """Print the batch's outcome and its warnings; exit 2 if inputs failed for bad input only, 1 if any other way."""
+    from platypose.cli.safe_names import printable
+
     failed = [e for e in entries if e["status"] == "failed"]
     counts = ", ".join(f"{sum(e['status'] == s for e in entries)} {s}" for s in ("ok", "failed", "skipped"))
     typer.echo(f"{len(entries)} input(s): {counts}; summary in {out / 'summary.json'}")
     for entry in entries:
         for warning in entry.get("warnings", []):
-            typer.echo(f"warning: {entry['name']}: {warning}", err=True)
+            typer.echo(printable(f"warning: {entry['name']}: {warning}"), err=True)
     for entry in failed:
-        typer.echo(f"  failed {entry['input']}: {entry['error']}", err=True)
+        typer.echo(printable(f"  failed {entry['input']}: {entry['error']}"), err=True)
     if failed:
         raise typer.Exit(2 if all(e.get("error_kind") == "input" for e in failed) else 1)
 
@@ -172,6 +174,7 @@ def lift(
     arguments = {k: as_json(v) for k, v in locals().items()}
     from platypose.cli.lift_batch import run_batch
     from platypose.cli.lift_jobs import check_views_match, discover_jobs, expand_inputs, keypoints_job
+    from platypose.cli.safe_names import printable
     from platypose.lifting.errors import InputError
 
     if keypoints is not None and detector is not None:
@@ -214,9 +217,14 @@ def lift(
 
     batch_executor = ray_executor(executor, ray_address, cpus_per_input, collect, jobs)
 
+    if quiet:  # -q: numpy's RuntimeWarnings (all-NaN slices of absent persons) are not the user's to read
+        import warnings
+
+        warnings.simplefilter("ignore", RuntimeWarning)
+
     def say(message: str) -> None:
         if not quiet:
-            typer.echo(message, err=True)
+            typer.echo(printable(message), err=True)
 
     try:
         entries = run_batch(job_list, settings, jobs, resume, say, retry_failed, batch_executor)

@@ -20,7 +20,9 @@ whatever finished, and re-raises.
 from __future__ import annotations
 
 import os
+import signal
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -86,6 +88,7 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
             num_cpus=options.num_cpus,
             object_store_memory=options.object_store_memory,
         )
+    ours = signal.getsignal(signal.SIGTERM)  # the batch's: SIGTERM stops it as Ctrl-C does (exit 130)
     try:
         ray.init(**settings)
     except (ConnectionError, ValueError) as err:
@@ -93,6 +96,9 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
             f"--ray-address {options.address}: could not connect ({' '.join(str(err).split())}); is the cluster "
             "up, and with Ray's token authentication is RAY_AUTH_MODE=token set here (docs/ray.md)?"
         ) from None
+    finally:
+        if ours is not None and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, ours)  # Ray's own handler dumps a native stack and exits 1
     try:
         yield ray
     finally:

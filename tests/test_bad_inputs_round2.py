@@ -3,6 +3,7 @@ damaged results are refused. Each test failed before its fix."""
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
@@ -510,3 +511,45 @@ def test_calibration_names_matching_no_video_are_one_error(run_cli, data_dir, tm
     assert code == 2 and len(err.strip().splitlines()) == 1, err
     assert "no camera matches a view by name" in err and "name each video" in err and "cam_01.mp4" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_smaller_round_two_cases(run_cli, monkeypatch, data_dir, tmp_path) -> None:
+    import signal
+    import sys
+    import types
+
+    from platypose.cli import lift_ray
+    from platypose.lifting.floor import parse_floor
+
+    for spec in ("0,0,-1,0", "1,0,0,0", "0,0,1,1e9"):
+        with pytest.raises(InputError, match="normal points up"):
+            parse_floor(spec)
+    assert parse_floor("0,0.1,1,0").normal[2] > 0.99  # a slightly tilted floor is fine
+    motion = str(data_dir / "motion/deepmimic")
+    read_only = tmp_path / "ro"
+    read_only.mkdir()
+    read_only.chmod(0o500)
+    for options, needle in (
+        (["--noise-px", "nan"], "--noise-px nan"),
+        (["--noise-px", "-5"], "--noise-px -5"),
+        (["--views", "0"], "--views 0"),
+        (["--json", str(read_only / "x" / "table.json")] if os.geteuid() else ["--json", str(tmp_path)], "--json"),
+    ):
+        code, _, err = run_cli("eval", motion, *options)
+        assert code == 2 and len(err.strip().splitlines()) == 1, (options, err)
+    read_only.chmod(0o700)
+    code, _, err = run_cli("calib", "check", str(tmp_path / "no\nerror: forged.toml"))
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "no?error: forged" in err, err
+
+    def fake_init(**_):  # as Ray's driver does: its own SIGTERM handler
+        signal.signal(signal.SIGTERM, lambda *a: sys.exit(1))
+
+    fake = types.SimpleNamespace(is_initialized=lambda: False, init=fake_init, shutdown=lambda: None)
+    monkeypatch.setattr(lift_ray, "import_ray", lambda: fake)
+    monkeypatch.setattr(lift_ray, "check_ray_address", lambda address: None)
+    ours = signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        with lift_ray.connected(lift_ray.RayOptions(), quiet=True):
+            assert signal.getsignal(signal.SIGTERM) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGTERM, ours)
