@@ -536,7 +536,7 @@ def test_smaller_round_two_cases(run_cli, monkeypatch, data_dir, tmp_path) -> No
         (["--json", str(read_only / "x" / "table.json")] if os.geteuid() else ["--json", str(tmp_path)], "--json"),
     ):
         code, _, err = run_cli("eval", motion, *options)
-        assert code == 2 and len(err.strip().splitlines()) == 1, (options, err)
+        assert code == 2 and needle in err and len(err.strip().splitlines()) == 1, (options, err)
     read_only.chmod(0o700)
     code, _, err = run_cli("calib", "check", str(tmp_path / "no\nerror: forged.toml"))
     assert code == 2 and len(err.strip().splitlines()) == 1 and "no?error: forged" in err, err

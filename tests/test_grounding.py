@@ -309,5 +309,5 @@ def test_bad_floor_options_are_refused(run_cli, data_dir: Path, tmp_path: Path):
     take = data_dir / TAKE
     code, _, err = run_cli("lift", "--keypoints", str(take / "openpose-body25b/cam01_json"), "--floor", "up")
     assert code == 2 and "floor 'up'" in err
-    code, _, err = run_cli("eval", str(data_dir / "motion/deepmimic"), "--floor", "1,0,0,0", "--frames", "16")
+    code, _, err = run_cli("eval", str(data_dir / "motion/deepmimic"), "--floor", "0,0.5,1,0", "--frames", "16")
     assert code == 2 and "level floor" in err
