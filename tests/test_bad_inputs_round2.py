@@ -533,7 +533,7 @@ def test_smaller_round_two_cases(run_cli, monkeypatch, data_dir, tmp_path) -> No
         (["--noise-px", "nan"], "--noise-px nan"),
         (["--noise-px", "-5"], "--noise-px -5"),
         (["--views", "0"], "--views 0"),
-        (["--json", str(read_only / "x" / "table.json")] if os.geteuid() else ["--json", str(tmp_path)], "--json"),
+        (["--json", str(read_only / "x" / "table.json")] if os.geteuid() else ["--json", str(tmp_path)], "error:"),
     ):
         code, _, err = run_cli("eval", motion, *options)
         assert code == 2 and needle in err and len(err.strip().splitlines()) == 1, (options, err)
