@@ -20,6 +20,8 @@ MAX_COORDINATE_M = 1000.0  # a pose farther than this from the world origin is n
 def check_field_sizes(path: Path) -> None:
     """ValueError naming the first ``.npy`` member whose header claims more than ``MAX_FIELD_BYTES``, or when
     all of them claim more than ``MAX_RESULT_BYTES``."""
+    if not zipfile.is_zipfile(path):
+        return  # an empty, truncated or non-npz file: numpy's reader says which
     total = 0
     with zipfile.ZipFile(path) as archive:
         for info in archive.infolist():
