@@ -553,3 +553,15 @@ def test_smaller_round_two_cases(run_cli, monkeypatch, data_dir, tmp_path) -> No
             assert signal.getsignal(signal.SIGTERM) is signal.default_int_handler
     finally:
         signal.signal(signal.SIGTERM, ours)
+
+
+def test_calibration_numbers_too_large_for_a_float(run_cli, tmp_path) -> None:
+    import re
+
+    freemocap = (CALIB / "freemocap_test_data_camera_calibration.toml").read_text()
+    path = tmp_path / "bigint.toml"
+    path.write_text(
+        re.sub(r"translation = \[[^\]]*\]", "translation = [ " + "9" * 400 + ", 0.0, 0.0,]", freemocap, count=1)
+    )
+    code, _, err = run_cli("calib", "check", str(path))
+    assert code == 2 and "non-finite" in err and len(err.strip().splitlines()) == 1, err

@@ -44,6 +44,8 @@ def as_array(value: object, shape: tuple[int, ...], source: str, what: str) -> n
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise InputError(f"{source}: {what} is not a numeric array") from None
+    except OverflowError:  # a whole number too large for a float (hundreds of digits)
+        raise InputError(f"{source}: {what} contains non-finite values") from None
     if arr.size != int(np.prod(shape)):
         raise InputError(f"{source}: {what} has {arr.size} values, expected shape {shape}")
     if not np.all(np.isfinite(arr)):
