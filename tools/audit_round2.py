@@ -449,7 +449,7 @@ def main(work: Path) -> None:
         "damaged/make", ["lift", str(good), "--out", str(dm / "out"), "--formats", "npz", *lift], "ok", out=dm / "out"
     )
     src = dm / "out/good/good.npz"
-    with np.load(src) as d:
+    with np.load(src, allow_pickle=False) as d:
         hyp, med = d["hypotheses"], d["median"]
     P, N, T = hyp.shape[:3]
     header = (
