@@ -21,7 +21,8 @@ from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.camera import Camera, project
 from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig
 from platypose.lifting.representation import features_to_joints
-from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, network_steps, sample
+from platypose.lifting.sampler import cameras_and_rays, network_steps, sample
+from platypose.lifting.settings import SamplerConfig
 
 BENCH_IMAGE_SIZE = (1080, 1920)  # (height, width) of the synthetic view
 BENCH_DISTANCE_M = 4.0  # person in front of the camera

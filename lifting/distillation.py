@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 
 import numpy as np
 import torch
@@ -23,8 +23,8 @@ from platypose.lifting.motion import Motion
 from platypose.lifting.prior import MotionPrior, PriorBundle, save_prior
 from platypose.lifting.representation import joints_to_features
 from platypose.lifting.schedule import DiffusionSchedule
+from platypose.lifting.settings import DistilConfig, TrainConfig
 from platypose.lifting.training import (
-    TrainConfig,
     TrainingDiverged,
     WindowSampler,
     cosine_rate,
@@ -33,35 +33,6 @@ from platypose.lifting.training import (
 )
 
 END = -1  # "no next step": the pair ends the sampling
-
-
-@dataclass(frozen=True)
-class DistilConfig:
-    """Settings of one halving: ``calls`` the student makes (half the teacher's), optimisation and checkpoints.
-
-    ``start_share`` is the share of first-call rows drawn as the sampler starts them (the
-    noise alone, no signal), the rest are noised training windows like every other call's.
-    """
-
-    calls: int = 4
-    iterations: int = 4000
-    batch_size: int = 64
-    learning_rate: float = 1e-4
-    start_share: float = 0.5
-    checkpoint_every: int = 250
-    validate_every: int = 250
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        for name in ("calls", "iterations", "batch_size", "checkpoint_every", "validate_every"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name.replace('_', '-')} must be at least 1, got {getattr(self, name)}")
-        if not (np.isfinite(self.learning_rate) and 0 < self.learning_rate < 1):
-            raise ValueError(f"learning-rate must be a number in (0, 1), got {self.learning_rate}")
-        if not 0 <= self.start_share <= 1:
-            raise ValueError(f"start share must be in [0, 1], got {self.start_share}")
-        if not 0 <= self.seed < 2**63:
-            raise ValueError(f"seed must be in [0, 2**63), got {self.seed}")
 
 
 def halving_plan(teacher_steps: Sequence[int], calls: int) -> np.ndarray:

@@ -19,7 +19,8 @@ from platypose.lifting.camera import Camera, project
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.representative import median_motion
 from platypose.lifting.rigid import person_shape, rigid_paths
-from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, sample
+from platypose.lifting.sampler import cameras_and_rays, sample
+from platypose.lifting.settings import SamplerConfig
 
 METRIC_NAMES = (
     "minMPJPE",

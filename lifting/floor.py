@@ -82,8 +82,8 @@ def parse_floor(text: str) -> Floor | str | None:
         if len(values) == 4:
             return plane_floor(*values, "given")
     except ValueError as err:
-        raise InputError(f"floor {text!r}: {err}; use {FLOOR_SPECS}") from None
-    raise InputError(f"floor {text!r}: not understood; use {FLOOR_SPECS}")
+        raise InputError(f"floor {text!r}: {err}; use {FLOOR_SPECS}", option="floor") from None
+    raise InputError(f"floor {text!r}: not understood; use {FLOOR_SPECS}", option="floor")
 
 
 CALIBRATED_FLOOR = Floor((0.0, 0.0, 1.0), 0.0, "calibration")

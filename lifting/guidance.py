@@ -21,7 +21,7 @@ from platypose.lifting.linalg import add_to_diagonal_, rigid_motion, solve_symme
 from platypose.lifting.placement import Anchor, continuation_ramp, continued_offset, typical_size
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.representation import features_to_joints, joints_to_features
-from platypose.lifting.sampler_config import SamplerConfig
+from platypose.lifting.settings import SamplerConfig
 from platypose.lifting.translation import RayConstraints, solve_translation
 from platypose.lifting.views import OneView, SeveralViews, views_for
 

@@ -24,8 +24,8 @@ from platypose.lifting.energy import Observations, reprojection_energy
 from platypose.lifting.guidance import GuidedProblem
 from platypose.lifting.placement import DEPTH_RANGE, Anchor, limit_depth, typical_size
 from platypose.lifting.prior import PriorBundle
-from platypose.lifting.sampler_config import SamplerConfig
 from platypose.lifting.schedule import DiffusionSchedule, sampling_steps
+from platypose.lifting.settings import SamplerConfig
 from platypose.lifting.translation import RayConstraints, ray_constraints
 from platypose.lifting.views import views_for
 

@@ -20,43 +20,9 @@ from platypose.lifting.motion import Motion
 from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
 from platypose.lifting.representation import Normalizer, joints_to_features
 from platypose.lifting.schedule import DiffusionSchedule
+from platypose.lifting.settings import TrainConfig
 from platypose.lifting.skeleton import MIRROR, PARENTS, mirror_joints
 from platypose.lifting.timebase import interpolate, resample
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Optimisation and augmentation settings."""
-
-    iterations: int = 20000
-    batch_size: int = 64
-    learning_rate: float = 3e-4
-    weight_decay: float = 1e-4
-    validation_fraction: float = 0.15
-    time_scale: tuple[float, float] = (0.8, 1.25)
-    bone_scale: float = 0.15
-    global_scale: float = 0.10
-    mirror_probability: float = 0.5
-    checkpoint_every: int = 1000
-    validate_every: int = 250
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        for name in ("iterations", "batch_size", "checkpoint_every", "validate_every"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name.replace('_', '-')} must be at least 1, got {getattr(self, name)}")
-        if not (np.isfinite(self.learning_rate) and 0 < self.learning_rate < 1):
-            raise ValueError(f"learning-rate must be a number in (0, 1), got {self.learning_rate}")
-        if not (np.isfinite(self.weight_decay) and self.weight_decay >= 0):
-            raise ValueError(f"weight decay must be a non-negative number, got {self.weight_decay}")
-        if not 0 <= self.bone_scale < 1 or not 0 <= self.global_scale < 1:
-            raise ValueError(f"bone-scale must be in [0, 1), got {self.bone_scale}")
-        if not 0 <= self.validation_fraction < 1:
-            raise ValueError(f"validation fraction must be in [0, 1), got {self.validation_fraction}")
-        if not 0 < self.time_scale[0] <= self.time_scale[1]:
-            raise ValueError(f"time scale range must be positive and ordered, got {self.time_scale}")
-        if not 0 <= self.seed < 2**63:
-            raise ValueError(f"seed must be in [0, 2**63), got {self.seed}")
 
 
 class TrainingDiverged(ValueError):

@@ -18,7 +18,7 @@ from platypose.lifting.energy import Observations, reprojection_terms
 from platypose.lifting.linalg import rigid_motion
 from platypose.lifting.noise_spread import noise_spread, unit_weight_variance
 from platypose.lifting.placement import limit_depth
-from platypose.lifting.sampler_config import SamplerConfig
+from platypose.lifting.settings import SamplerConfig
 from platypose.lifting.temporal_fit import (
     acceleration_weight,
     fit_to_noise,

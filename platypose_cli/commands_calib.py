@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from platypose.cli.app import app
-from platypose.cli.sync_option import SYNC_HELP
+from platypose.lifting.settings import SYNC_HELP
 
 calib_app = typer.Typer(help="Convert camera calibrations to calib.json and check them.", no_args_is_help=True)
 app.add_typer(calib_app, name="calib")

@@ -16,8 +16,7 @@ from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.errors import InputError
 
 if TYPE_CHECKING:
-    from platypose.lifting.runtime import PriorSettings
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import PriorSettings, SamplerConfig
 
 
 def floor_plane(text: str) -> tuple[float, float, float, float] | None:

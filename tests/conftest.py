@@ -31,7 +31,8 @@ def tiny_prior(real_clips, tmp_path_factory):
     import torch
 
     from platypose.lifting.prior import PriorConfig, load_prior
-    from platypose.lifting.training import TrainConfig, train_prior
+    from platypose.lifting.settings import TrainConfig
+    from platypose.lifting.training import train_prior
 
     path = tmp_path_factory.mktemp("prior") / "tiny.pt"
     torch.manual_seed(0)

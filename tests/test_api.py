@@ -91,3 +91,21 @@ def test_a_video_view_is_detected_and_lifted_as_the_command_does(tiny_default_pr
     assert result.hypotheses.shape == written.hypotheses.shape and result.num_frames == 6
     assert np.array_equal(result.hypotheses, written.hypotheses, equal_nan=True)
     assert any(w.startswith("no cams: a level camera") for w in result.meta["warnings"])
+
+
+def test_a_truncated_video_lifts_alike_both_ways(tiny_default_prior, run_cli, data_dir, tmp_path):
+    """The command and the API share one pipeline: the same warnings (the truncated video's among them) and the
+    same hypotheses for one truncated real video."""
+    from media_helpers import truncated_copy
+
+    video = truncated_copy(TAKE / "cam01.mp4", tmp_path / "cam01.mp4", 0.6)
+    cams = TAKE / "calib_pose2sim.toml"
+    options = ["--samples", "3", "--stride", "5", "--formats", "npz", "--threads", "1", "--out", tmp_path / "out"]
+    code, _, err = run_cli("lift", video, "--cams", cams, *options, "-q")
+    assert code == 0, err
+    written = platypose.load_result(tmp_path / "out" / "cam01" / "cam01.npz")
+    result = platypose.lift(video, cams, samples=3, stride=5, threads=1)
+    assert any("states 100 frames but only" in w for w in result.meta["warnings"])
+    assert result.meta["warnings"] == written.meta["warnings"]
+    assert np.array_equal(result.hypotheses, written.hypotheses, equal_nan=True)
+    assert result.meta["sync"] == written.meta["sync"] and result.meta["root"] == written.meta["root"]

@@ -99,7 +99,8 @@ def test_train_writes_a_loadable_checkpoint(run_cli, data_dir, tmp_path):
 def test_an_interrupted_training_resumes_from_its_last_checkpoint(run_cli, data_dir, tmp_path):
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.prior import PriorConfig, load_prior
-    from platypose.lifting.training import TrainConfig, train_prior
+    from platypose.lifting.settings import TrainConfig
+    from platypose.lifting.training import train_prior
 
     out, log = tmp_path / "p.pt", tmp_path / "log.jsonl"
     clips = [data_dir / "motion/deepmimic/humanoid3d_walk.txt", data_dir / "motion/deepmimic/humanoid3d_run.txt"]
@@ -167,7 +168,8 @@ def test_a_resumed_training_ends_with_the_weights_of_an_uninterrupted_one(data_d
 
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.prior import PriorConfig, load_prior
-    from platypose.lifting.training import TrainConfig, train_prior
+    from platypose.lifting.settings import TrainConfig
+    from platypose.lifting.training import train_prior
 
     clips = load_motion_paths([data_dir / "motion/deepmimic/humanoid3d_walk.txt"])
     prior_config = PriorConfig(layers=1, width=32, heads=2, ff_width=32, max_frames=8)

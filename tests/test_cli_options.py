@@ -1,26 +1,48 @@
 """Options of lift, eval, bench and demo come from the library's settings classes: one table row per field."""
 
+import subprocess
+import sys
 import typing
-from dataclasses import fields
 
 import pytest
 
-from platypose.cli.options import SETTINGS, cli_message, declared_defaults, settings_class
+from platypose.cli.options import SETTINGS, cli_message, flags
 from platypose.lifting.errors import InputError
 
 
 @pytest.mark.parametrize("group", sorted(SETTINGS))
-def test_every_flag_names_a_field_of_its_class_with_its_type(group):
-    cls = settings_class(group)
+def test_every_flag_is_a_field_of_its_class_with_its_type_default_and_help(group):
+    cls = SETTINGS[group]
     hints = typing.get_type_hints(cls)
-    names = {f.name for f in fields(cls)}
-    for flag in SETTINGS[group][2]:
-        assert flag.field in names, f"{group}: {flag.field} is not a field of {cls.__name__}"
+    made = flags(group)
+    assert made
+    for flag in made:
+        field = cls.__dataclass_fields__[flag.field]
         assert flag.type in (hints[flag.field], *typing.get_args(hints[flag.field])), flag.field
+        assert flag.default == field.default and flag.help == field.metadata["help"] and flag.help
         assert all(n.startswith("--") for n in flag.names)
-    shown = declared_defaults(group)  # what --help shows, read without importing the class
-    assert shown == {f.name: f.default for f in fields(cls) if f.name in shown}
-    assert {f.field for f in SETTINGS[group][2]} <= set(shown)
+
+
+@pytest.mark.parametrize("command", [[], ["lift"], ["train"], ["eval"], ["bench"], ["demo"], ["detect"]])
+def test_help_imports_no_torch_numpy_or_cv2(command):
+    """``python -X importtime -m platypose ... --help`` lists every module it imports."""
+    done = subprocess.run(
+        [sys.executable, "-X", "importtime", "-m", "platypose", *command, "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and "Usage" in done.stdout, done.stderr[-500:]
+    imported = {line.split("|")[-1].strip().split(".")[0] for line in done.stderr.splitlines() if "|" in line}
+    assert "typer" in imported and not imported & {"torch", "numpy", "cv2", "scipy", "av"}, command
+
+
+def test_help_shows_switches_without_a_type_and_options_in_panels(run_cli):
+    code, out, _ = run_cli("lift", "--help")
+    assert code == 0 and "<bool>" not in out
+    for panel in ("Input", "Output", "People", "Sampler", "Ray", "Experimental"):
+        assert f"─ {panel} " in out, panel
+    assert out.index("─ Experimental ") > out.index("--samples") and "--temperature" in out.split("─ Experimental ")[1]
 
 
 def test_lift_eval_and_bench_spell_the_shared_options_alike(run_cli):
@@ -49,8 +71,8 @@ def test_old_eval_spellings_still_work(run_cli, prior_file, data_dir):
     code, _, err = run_cli(
         "eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", prior_file, "--k", "-1"
     )
-    assert code == 2 and "guidance iterations must be >= 0" in err
+    assert code == 2 and "--guidance-iters must be >= 0" in err
     code, _, err = run_cli(
         "eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", prior_file, "--lambda", "0"
     )
-    assert code == 2 and "energy scale must be positive" in err
+    assert code == 2 and "--energy-scale must be positive" in err

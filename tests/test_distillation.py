@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 import torch
 
-from platypose.lifting.distillation import END, DistilConfig, distil_prior, halving_plan, two_step_target
+from platypose.lifting.distillation import END, distil_prior, halving_plan, two_step_target
 from platypose.lifting.prior import load_prior
 from platypose.lifting.schedule import DiffusionSchedule, sampling_steps
+from platypose.lifting.settings import DistilConfig
 
 TEACHER_STEPS = sampling_steps(10, 2)  # the shipped sampler's 8 calls: 38, 32, 27, 21, 16, 10, 5, 0
 
@@ -90,7 +91,8 @@ def test_the_sampler_calls_a_distilled_prior_at_its_steps(real_clips, tiny_prior
     from platypose.lifting import metrics
     from platypose.lifting.camera import project
     from platypose.lifting.camera_rigs import ring_cameras
-    from platypose.lifting.sampler import SamplerConfig, cameras_and_rays, network_steps, sample
+    from platypose.lifting.sampler import cameras_and_rays, network_steps, sample
+    from platypose.lifting.settings import SamplerConfig
 
     _distil(real_clips, tiny_prior, tmp_path / "student.pt", 3)
     student, _ = load_prior(tmp_path / "student.pt")

@@ -16,7 +16,7 @@ from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.floor import CALIBRATED_FLOOR, ESTIMATE, estimate_floor, parse_floor
 from platypose.lifting.grounding import Grounding, image_still_ankles
-from platypose.lifting.lift import WindowSettings, lift_tracks
+from platypose.lifting.lift import lift_tracks
 from platypose.lifting.plausibility import (
     lasting,
     lowest_ankle,
@@ -25,7 +25,8 @@ from platypose.lifting.plausibility import (
     stance_ankles,
     stance_slides,
 )
-from platypose.lifting.sampler import SamplerConfig, cameras_and_rays
+from platypose.lifting.sampler import cameras_and_rays
+from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.triangulation import triangulate
 
 TAKE = "video/pose2sim-balancing"

@@ -10,9 +10,16 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 FORBIDDEN = {
-    "lifting": ("platypose.detectors", "platypose.exporters", "platypose.media", "platypose.cli", "platypose.pipeline"),
-    "detectors": ("platypose.exporters", "platypose.cli", "platypose.pipeline"),
-    "exporters": ("platypose.detectors", "platypose.cli", "platypose.pipeline"),
+    "lifting": (
+        "platypose.detectors",
+        "platypose.exporters",
+        "platypose.media",
+        "platypose.cli",
+        "platypose.pipeline",
+        "platypose.take_pipeline",
+    ),
+    "detectors": ("platypose.exporters", "platypose.cli", "platypose.pipeline", "platypose.take_pipeline"),
+    "exporters": ("platypose.detectors", "platypose.cli", "platypose.pipeline", "platypose.take_pipeline"),
 }
 
 

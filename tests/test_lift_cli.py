@@ -183,7 +183,7 @@ def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir,
     code, _, err = run_cli(
         *lift_args(data_dir, prior_file, tmp_path / "bad", "--keypoints", keypoints, "--depth-smoothness", "-1")
     )
-    assert code == 2 and "depth smoothness must be >= 0" in err and len(err.strip().splitlines()) == 1, err
+    assert code == 2 and "--depth-smoothness must be >= 0" in err and len(err.strip().splitlines()) == 1, err
 
 
 def test_keypoint_views_must_match_cameras(run_cli, data_dir, tmp_path, prior_file) -> None:

@@ -125,9 +125,7 @@ def test_ray_batch_equals_local_batch(cluster, run_cli, batch_folder, prior_file
 
 def ray_settings(prior_file: str, out: Path):
     """The RunSettings of ``batch_args`` (for run_batch called directly)."""
-    from platypose.lifting.lift import WindowSettings
-    from platypose.lifting.runtime import PriorSettings
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
 
     prior, sampler = PriorSettings(Path(prior_file)), SamplerConfig(samples=4, seed=3)
     detect, formats = DetectOptions(threads=1), "npz,csv,bvh,rrd"
@@ -248,9 +246,8 @@ def test_ctrl_c_cancels_tasks_and_keeps_what_finished(
     local, _ = local_run
     jobs = discover_jobs([batch_folder])
     settings = ray_settings(prior_file, tmp_path)
-    slower = replace(
-        settings, sampler=replace(settings.sampler, samples=5000)
-    )  # good lifts for a long while, also on a loaded machine
+    # good lifts for a long while, also on a loaded machine
+    slower = replace(settings, take=replace(settings.take, sampler=replace(settings.take.sampler, samples=5000)))
 
     def interrupt_when_lifting() -> None:
         deadline = time.monotonic() + 60

@@ -4,15 +4,8 @@ import numpy as np
 import pytest
 
 from platypose.lifting import lift as lift_module
-from platypose.lifting.lift import (
-    KeypointWindows,
-    WindowSettings,
-    lift_stream,
-    lift_tracks,
-    prior_clock,
-    resample_keypoints,
-)
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.lift import KeypointWindows, lift_stream, lift_tracks, prior_clock, resample_keypoints
+from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import interpolate
 from platypose.lifting.windows import cut, plan_windows, stitch
 

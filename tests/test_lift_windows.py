@@ -5,8 +5,8 @@ import pytest
 
 from platypose.lifting.camera import project
 from platypose.lifting.camera_rigs import ring_cameras
-from platypose.lifting.lift import WindowSettings, lift_tracks
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.lift import lift_tracks
+from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import resample
 from platypose.lifting.windows import blend_weights, cut, plan_windows, stitch
 

@@ -15,13 +15,12 @@ from platypose.lifting.calibration import load_calibration
 from platypose.lifting.camera import project
 from platypose.lifting.camera_rigs import ring_cameras
 from platypose.lifting.floor import CALIBRATED_FLOOR
-from platypose.lifting.lift import WindowSettings
 from platypose.lifting.plausibility import stance_slides
 from platypose.lifting.rigid import place_on_sphere, rigid_motion, rigid_paths, smooth_over_time, two_bone_limb
 from platypose.lifting.rigid_shape import RigidShape, body_frames, body_offsets, clip_shape
 from platypose.lifting.root import presence
 from platypose.lifting.rotations import rotvec_matrices
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.skeleton import bone_lengths
 from platypose.lifting.take import lift_persons
 from platypose.lifting.timebase import resample

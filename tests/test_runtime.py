@@ -11,12 +11,12 @@ from platypose.lifting.representation import Normalizer
 from platypose.lifting.runtime import (
     BFloat16Denoiser,
     OnnxDenoiser,
-    PriorSettings,
     auto_runtime,
     resolve_device,
     resolve_runtime,
     with_runtime,
 )
+from platypose.lifting.settings import PriorSettings
 
 TINY = PriorConfig(layers=2, width=64, heads=4, ff_width=128, max_frames=16, dropout=0.0)
 
@@ -144,7 +144,7 @@ def test_eval_cli_runs_with_a_runtime_and_device(run_cli, prior_file, data_dir) 
     code, stdout, _ = run_cli(*args, "--runtime", "onnx")
     assert code == 0 and "platypose" in stdout
     code, _, stderr = run_cli(*args, "--runtime", "int8")
-    assert code == 2 and "unknown runtime 'int8'" in stderr
+    assert code == 2 and "unknown --runtime 'int8'" in stderr
 
 
 def test_lift_cli_device_option(run_cli, prior_file, data_dir, tmp_path) -> None:
@@ -180,4 +180,4 @@ def test_lift_cli_device_option(run_cli, prior_file, data_dir, tmp_path) -> None
     assert code == 0, stderr
     assert "1 ok, 0 failed" in stdout
     code, _, stderr = run_cli(*args, "--device", "tpu")
-    assert code == 2 and "unknown device 'tpu'" in stderr and len(stderr.strip().splitlines()) == 1
+    assert code == 2 and "unknown --device 'tpu'" in stderr and len(stderr.strip().splitlines()) == 1

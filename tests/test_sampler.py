@@ -7,7 +7,8 @@ import torch
 from platypose.lifting import metrics
 from platypose.lifting.camera import project
 from platypose.lifting.camera_rigs import ring_cameras
-from platypose.lifting.sampler import DEPTH_RANGE, SamplerConfig, cameras_and_rays, limit_depth, sample, typical_size
+from platypose.lifting.sampler import DEPTH_RANGE, cameras_and_rays, limit_depth, sample, typical_size
+from platypose.lifting.settings import SamplerConfig
 from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_lengths
 
 

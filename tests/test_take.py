@@ -6,9 +6,8 @@ import pytest
 from platypose.lifting.camera import project
 from platypose.lifting.camera_rigs import ring_cameras
 from platypose.lifting.errors import InputError
-from platypose.lifting.lift import WindowSettings
 from platypose.lifting.root import presence
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.take import lift_persons, root_paths
 from platypose.lifting.timebase import resample
 

@@ -10,7 +10,8 @@ import torch
 from platypose.lifting.errors import InputError
 from platypose.lifting.motion import Motion
 from platypose.lifting.prior import PriorConfig, load_prior, save_prior
-from platypose.lifting.training import TrainConfig, TrainingDiverged, train_prior
+from platypose.lifting.settings import TrainConfig
+from platypose.lifting.training import TrainingDiverged, train_prior
 
 WALK = "motion/deepmimic/humanoid3d_walk.txt"
 
@@ -29,10 +30,11 @@ def one_line_error(code: int, err: str, *needles: str) -> None:
         (["--fps", "0"], "fps must be a positive number"),
         (["--fps", "inf"], "fps must be a positive number"),
         (["--width", "10", "--heads", "3"], "width 10 must be even and a multiple of heads (3)"),
-        (["--learning-rate", "nan"], "learning-rate must be a number in (0, 1)"),
-        (["--iterations", "0"], "iterations must be at least 1"),
-        (["--checkpoint-every", "0"], "checkpoint-every must be at least 1"),
-        (["--bone-scale", "2"], "bone-scale must be in [0, 1)"),
+        (["--learning-rate", "nan"], "--learning-rate must be a finite number"),
+        (["--iterations", "0"], "--iterations must be at least 1"),
+        (["--learning-rate", "2"], "--learning-rate must be in (0, 1)"),
+        (["--checkpoint-every", "0"], "--checkpoint-every must be at least 1"),
+        (["--bone-scale", "2"], "--bone-scale must be in [0, 1)"),
         (["--max-frames", "100000"], "max_frames must be at most 4096"),
         (["--threads", "-1"], "--threads must be 0"),
     ],
@@ -126,12 +128,12 @@ def test_the_shipped_prior_is_finite():
         ({"seed": 10**23}, "seed must be in 0..2**63-1"),
         ({"samples": 10**9}, "samples must be at most 5000"),
         ({"eta": float("nan")}, "eta must be a finite number"),
-        ({"bone_weight": float("inf")}, "bone weight must be a finite number"),
+        ({"bone_weight": float("inf")}, "bone_weight must be a finite number"),
     ],
 )
 def test_sampler_options_out_of_range(options, needle):
     """Issue 17.11: --seed 1e23 and --samples 1e9 ended in internal exceptions; infinite weights were accepted."""
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import SamplerConfig
 
     with pytest.raises(ValueError, match=needle.replace("*", r"\*").replace(".", r"\.")):
         SamplerConfig(**options)

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from platypose.lifting.settings import TrainConfig
 from platypose.lifting.skeleton import BONES, bone_lengths
 from platypose.lifting.timebase import resample
-from platypose.lifting.training import TrainConfig, WindowSampler, prepare_clips, scale_bones
+from platypose.lifting.training import WindowSampler, prepare_clips, scale_bones
 
 
 def _windows(real_clips, frames: int = 16) -> np.ndarray:

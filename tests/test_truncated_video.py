@@ -5,28 +5,14 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from pathlib import Path
 
-import av
 import numpy as np
+from media_helpers import truncated_copy
 
 from platypose.detectors.pipeline import detect_video
 from platypose.detectors.video import decoding_shortfall, iter_frames, video_info
 
 CAM01 = "video/pose2sim-balancing/cam01.mp4"
-
-
-def truncated_copy(source: Path, target: Path, keep: float) -> Path:
-    """``source`` re-muxed with its index first (faststart), then cut to ``keep`` of its bytes."""
-    with av.open(str(source)) as inp, av.open(str(target), "w", options={"movflags": "faststart"}) as out:
-        stream = out.add_stream_from_template(inp.streams.video[0])
-        for packet in inp.demux(inp.streams.video[0]):
-            if packet.dts is not None:
-                packet.stream = stream
-                out.mux(packet)
-    data = target.read_bytes()
-    target.write_bytes(data[: int(len(data) * keep)])
-    return target
 
 
 class _OnePerson:
