@@ -31,18 +31,6 @@ MAX_SAMPLES = 5000  # hypotheses per person: beyond this the arrays outgrow any 
 DEVICES = ("cpu", "cuda", "auto")
 RUNTIMES = ("auto", "float32", "bfloat16", "onnx")
 ROOT_MODES = ("auto", "triangulate", "solve")
-PERSONS_HELP = "Who to lift: all, largest, or N (the N largest)."
-ROOT_HELP = "Root path: auto (triangulated with 2+ views, else solved), triangulate, solve."
-ROOT_TRAJECTORY_HELP = "Known pelvis path: npz (frame_times, root) or CSV (time,x,y,z)."
-FLOOR_HELP = (
-    "auto (the calibration's z = 0; without one, one camera: estimated under a quick lift), z=H, "
-    "nx,ny,nz,d (the plane n.x + d = 0), or none. Grounds every hypothesis (docs/lift.md)."
-)
-SYNC_HELP = (
-    "Camera synchronisation: auto (estimate each view's time offset from the keypoints' motion, "
-    "refined by reprojection), none (use the calibration's time_offset_s), or an offsets.json "
-    '({"cam01": 0.0, "cam02": 0.12}, seconds to add to each view\'s frame times).'
-)
 
 
 def setting(default, help: str, *, option: bool = False, also: tuple[str, ...] = (), panel: str | None = None):
@@ -274,11 +262,20 @@ class TakeSettings:
     None as "none" and four numbers as "nx,ny,nz,d", ``sync`` None as "none".
     """
 
-    persons: str = setting("all", PERSONS_HELP)
-    root: str = setting("auto", ROOT_HELP)
-    root_trajectory: Path | None = setting(None, ROOT_TRAJECTORY_HELP)
-    floor: str = setting("auto", FLOOR_HELP)
-    sync: object = setting("none", SYNC_HELP)
+    persons: str = setting("all", "Who to lift: all, largest, or N (the N largest).")
+    root: str = setting("auto", "Root path: auto (triangulated with 2+ views, else solved), triangulate, solve.")
+    root_trajectory: Path | None = setting(None, "Known pelvis path: npz (frame_times, root) or CSV (time,x,y,z).")
+    floor: str = setting(
+        "auto",
+        "auto (the calibration's z = 0; without one, one camera: estimated under a quick lift), z=H, "
+        "nx,ny,nz,d (the plane n.x + d = 0), or none. Grounds every hypothesis (docs/lift.md).",
+    )
+    sync: object = setting(
+        "none",
+        "Camera synchronisation: auto (estimate each view's time offset from the keypoints' motion, "
+        "refined by reprojection), none (use the calibration's time_offset_s), or an offsets.json "
+        '({"cam01": 0.0, "cam02": 0.12}, seconds to add to each view\'s frame times).',
+    )
     sampler: SamplerConfig = setting(SamplerConfig(), "The sampler's settings.")
     windows: WindowSettings = setting(WindowSettings(), "How tracks are cut into windows.")
 

@@ -9,8 +9,8 @@ import typer
 
 from platypose.cli.app import app
 from platypose.cli.detection import DetectOptions
-from platypose.cli.options import as_json, settings_options
-from platypose.lifting.settings import FLOOR_HELP, PERSONS_HELP, ROOT_HELP, ROOT_TRAJECTORY_HELP, SYNC_HELP
+from platypose.cli.options import as_json, field_option, settings_options
+from platypose.lifting.settings import TakeSettings
 
 if TYPE_CHECKING:
     from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
@@ -128,12 +128,10 @@ def lift(
         help="Comma-separated: npz, csv, bvh, trc, c3d, angles, report, rrd (docs/outputs.md).",
         rich_help_panel="Output",
     ),
-    persons: str = typer.Option("all", "--persons", help=PERSONS_HELP, rich_help_panel="People"),
-    root: str = typer.Option("auto", "--root", help=ROOT_HELP, rich_help_panel="People"),
-    root_trajectory: Path | None = typer.Option(
-        None, "--root-trajectory", help=ROOT_TRAJECTORY_HELP, rich_help_panel="People"
-    ),
-    sync: str = typer.Option("none", "--sync", help=SYNC_HELP, rich_help_panel="Input"),
+    persons: str = field_option(TakeSettings, "persons", "People"),
+    root: str = field_option(TakeSettings, "root", "People"),
+    root_trajectory: Path | None = field_option(TakeSettings, "root_trajectory", "People"),
+    sync: str = field_option(TakeSettings, "sync", "Input"),
     fps: float | None = typer.Option(
         None, "--fps", help="Frame rate of keypoints without a video beside them.", rich_help_panel="Input"
     ),
@@ -180,7 +178,7 @@ def lift(
         False, "--retry-failed", help="With --resume: run failed inputs again.", rich_help_panel="Output"
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars.", rich_help_panel="Output"),
-    floor: str = typer.Option("auto", "--floor", help=FLOOR_HELP, rich_help_panel="People"),
+    floor: str = field_option(TakeSettings, "floor", "People"),
     prior: PriorSettings = None,
     sampler: SamplerConfig = None,
     windows: WindowSettings = None,

@@ -66,6 +66,14 @@ def flags(group: str) -> tuple[Flag, ...]:
     return tuple(made)
 
 
+def field_option(cls: type, name: str, panel: str | None = None):
+    """A typer option ``--name`` for field ``name`` of settings class ``cls``, with the field's default and help."""
+    field = cls.__dataclass_fields__[name]
+    return typer.Option(
+        field.default, "--" + name.replace("_", "-"), help=field.metadata["help"], rich_help_panel=panel
+    )
+
+
 def settings_options(
     group: str,
     *,
