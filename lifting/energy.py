@@ -15,8 +15,6 @@ import torch
 
 from platypose.lifting.camera import CameraBatch, undistort_normalized
 from platypose.lifting.linalg import SYMMETRIC_PAIRS
-from platypose.lifting.linalg import add_to_diagonal_ as add_to_diagonal_  # re-exported
-from platypose.lifting.linalg import solve_symmetric3 as solve_symmetric3  # re-exported
 from platypose.lifting.settings import ROBUST_LOSSES
 from platypose.lifting.skeleton import BONES, SYMMETRIC_BONES
 

@@ -17,7 +17,7 @@ from platypose.lifting.energy import (
     symmetry_energy,
 )
 from platypose.lifting.grounding import Grounding
-from platypose.lifting.linalg import add_to_diagonal_, rigid_motion, solve_symmetric3
+from platypose.lifting.linalg import add_to_diagonal_, rotate_translate, solve_symmetric3
 from platypose.lifting.placement import Anchor, continuation_ramp, continued_offset, typical_size
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.representation import features_to_joints, joints_to_features
@@ -205,8 +205,8 @@ class GuidedProblem:
         anchor = None if self.anchor is None else self.anchor.joints
         frame = self.camera_frame()
         if frame is not None:
-            start = rigid_motion(start, *frame)
-            anchor = None if anchor is None else rigid_motion(anchor.movedim(-1, 0), *frame).movedim(0, -1)
+            start = rotate_translate(start, *frame)
+            anchor = None if anchor is None else rotate_translate(anchor.movedim(-1, 0), *frame).movedim(0, -1)
         start = start.contiguous()
         if self.grounding is not None:  # stance detected per hypothesis from where guidance starts
             self.floor_state = self.grounding.held(start.movedim(0, -1), *(frame or (None, None)))
@@ -240,7 +240,7 @@ class GuidedProblem:
             settled = torch.where(kept, moved, settled)
         moved = settled
         if frame is not None:  # the move back in world axes
-            moved = rigid_motion(moved, frame[0].T)
+            moved = rotate_translate(moved, frame[0].T)
         return self.absorb(x0, offset, moved)
 
 

@@ -4,7 +4,7 @@
   solved by the adjugate (:func:`solve_symmetric3`).
 - Paths over frames: the second-difference (acceleration) operator and the block-tridiagonal
   solve of a per-frame 3x3 system coupled by an acceleration penalty (:func:`solve_smoothed`).
-- Rigid motions of component-first points (:func:`rigid_motion`).
+- Rigid motions of component-first points (:func:`rotate_translate`).
 """
 
 from __future__ import annotations
@@ -58,7 +58,9 @@ def solve_symmetric3(matrix: torch.Tensor, rhs: torch.Tensor, scale: float = 1.0
     return solution
 
 
-def rigid_motion(points: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor | None = None) -> torch.Tensor:
+def rotate_translate(
+    points: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor | None = None
+) -> torch.Tensor:
     """``rotation @ p + translation`` for component-first points ``(3, ...)`` (one matrix product)."""
     flat = points.reshape(3, -1)
     moved = rotation @ flat if translation is None else torch.addmm(translation[:, None], rotation, flat)

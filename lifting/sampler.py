@@ -22,25 +22,12 @@ import torch
 from platypose.lifting.camera import CameraBatch
 from platypose.lifting.energy import Observations, reprojection_energy
 from platypose.lifting.guidance import GuidedProblem
-from platypose.lifting.placement import DEPTH_RANGE, Anchor, limit_depth, typical_size
+from platypose.lifting.placement import Anchor
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.schedule import DiffusionSchedule, sampling_steps
 from platypose.lifting.settings import SamplerConfig
 from platypose.lifting.translation import RayConstraints, ray_constraints
 from platypose.lifting.views import views_for
-
-__all__ = [  # with the placement's names the sampler's callers and tests use
-    "DEPTH_RANGE",
-    "Anchor",
-    "GuidedProblem",
-    "SampleResult",
-    "SamplerConfig",
-    "cameras_and_rays",
-    "limit_depth",
-    "network_steps",
-    "sample",
-    "typical_size",
-]
 
 
 @dataclass(frozen=True)

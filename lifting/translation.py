@@ -21,7 +21,6 @@ import torch
 
 from platypose.lifting.camera import CameraBatch
 from platypose.lifting.energy import Observations
-from platypose.lifting.linalg import solve_block_tridiagonal as solve_block_tridiagonal  # re-exported
 from platypose.lifting.linalg import solve_smoothed
 
 

@@ -15,7 +15,7 @@ import torch
 from platypose.lifting.camera import CameraBatch
 from platypose.lifting.depth_smoothing import smooth_depth
 from platypose.lifting.energy import Observations, reprojection_terms
-from platypose.lifting.linalg import rigid_motion
+from platypose.lifting.linalg import rotate_translate
 from platypose.lifting.noise_spread import noise_spread, unit_weight_variance
 from platypose.lifting.placement import limit_depth
 from platypose.lifting.settings import SamplerConfig
@@ -69,10 +69,10 @@ class OneView:
         if config.depth_smoothness <= 0:
             return moved
         rotation, translation = self.rotation, self.translation
-        joints = start + moved if in_camera else rigid_motion(start + moved, rotation, translation)
+        joints = start + moved if in_camera else rotate_translate(start + moved, rotation, translation)
         smoothed = smooth_depth(joints, config.depth_smoothness, anchored)
         if not in_camera:
-            smoothed = rigid_motion(smoothed, rotation.T, -rotation.T @ translation)
+            smoothed = rotate_translate(smoothed, rotation.T, -rotation.T @ translation)
         smoothed_move = smoothed - start
         return torch.where(torch.isfinite(smoothed_move), smoothed_move, moved)  # frames without a root keep theirs
 

@@ -8,15 +8,8 @@ import torch
 
 from platypose.lifting.camera import CameraBatch
 from platypose.lifting.camera_rigs import ring_cameras
-from platypose.lifting.energy import (
-    SYMMETRIC_PAIRS,
-    Observations,
-    add_to_diagonal_,
-    reprojection_energy,
-    reprojection_terms,
-    solve_symmetric3,
-)
-from platypose.lifting.translation import solve_block_tridiagonal
+from platypose.lifting.energy import Observations, reprojection_energy, reprojection_terms
+from platypose.lifting.linalg import SYMMETRIC_PAIRS, add_to_diagonal_, solve_block_tridiagonal, solve_symmetric3
 
 
 def _unpack(packed: torch.Tensor) -> torch.Tensor:

@@ -5,8 +5,9 @@ import pytest
 
 from platypose.lifting import lift as lift_module
 from platypose.lifting.lift import lift_stream, lift_tracks, person_spans, prior_clock, resample_keypoints
+from platypose.lifting.placement import Anchor
 from platypose.lifting.root import presence
-from platypose.lifting.sampler import Anchor, cameras_and_rays, sample
+from platypose.lifting.sampler import cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import interpolate
 from platypose.lifting.windows import continuation_anchor, cut, plan_windows, stitch

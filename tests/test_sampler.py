@@ -7,7 +7,8 @@ import torch
 from platypose.lifting import metrics
 from platypose.lifting.camera import project
 from platypose.lifting.camera_rigs import ring_cameras
-from platypose.lifting.sampler import DEPTH_RANGE, cameras_and_rays, limit_depth, sample, typical_size
+from platypose.lifting.placement import DEPTH_RANGE, limit_depth, typical_size
+from platypose.lifting.sampler import cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig
 from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_lengths
 
@@ -246,7 +247,7 @@ def test_noise_free_views_get_no_spread(tiny_prior, heldout_window):
 
 def _problem(prior, truth, views, root=False, **config):
     """A guidance problem for ``truth`` seen by ``views`` ring cameras, and a network prediction ``x0`` for it."""
-    from platypose.lifting.sampler import GuidedProblem
+    from platypose.lifting.guidance import GuidedProblem
 
     cams = ring_cameras(4)[:views]
     pixels = np.stack([project(truth, c) for c in cams])[:, None]
@@ -291,7 +292,7 @@ def test_gradient_direction_moves_the_joints_as_a_step_down_the_feature_gradient
 def test_guidance_stops_once_the_fit_gains_nothing_and_lands_where_k_steps_land(
     tiny_prior, heldout_window, monkeypatch
 ):
-    from platypose.lifting.sampler import GuidedProblem
+    from platypose.lifting.guidance import GuidedProblem
 
     problem, x0 = _problem(tiny_prior, heldout_window, views=1)
     calls = []
@@ -306,7 +307,8 @@ def test_guidance_stops_once_the_fit_gains_nothing_and_lands_where_k_steps_land(
 
 
 def test_one_view_guidance_in_the_camera_frame_equals_guidance_in_the_world(tiny_prior, heldout_window, monkeypatch):
-    from platypose.lifting.sampler import Anchor, GuidedProblem
+    from platypose.lifting.guidance import GuidedProblem
+    from platypose.lifting.placement import Anchor
 
     problem, x0 = _problem(tiny_prior, heldout_window, views=1, guidance_tol=0.0, bone_weight=1.0)
     mask = (torch.arange(len(heldout_window)) < 4).float()[None]
