@@ -19,10 +19,10 @@ import numpy as np
 import torch
 
 from platypose.lifting.camera import Camera
-from platypose.lifting.placement import Anchor
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.root import presence
-from platypose.lifting.sampler import SampleResult, cameras_and_rays, sample
+from platypose.lifting.sampling.placement import Anchor
+from platypose.lifting.sampling.sampler import SampleResult, cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights
 from platypose.lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows

@@ -114,8 +114,8 @@ class SamplerConfig:
     """Every knob of the sampler; defaults follow the paper (T=10, S=2, k=10) except where noted.
 
     Each field's help says what it does; the longer story of the guidance, placement, floor and
-    noise options is in the modules that use them (:mod:`platypose.lifting.guidance`,
-    :mod:`platypose.lifting.views`, :mod:`platypose.lifting.grounding`), and what they trade is in docs/prior.md.
+    noise options is in the modules that use them (:mod:`platypose.lifting.sampling.guidance`,
+    :mod:`platypose.lifting.sampling.views`, :mod:`platypose.lifting.sampling.grounding`), and what they trade is in docs/prior.md.
     """
 
     samples: int = setting(50, "Hypotheses per person.", option=True)

@@ -21,8 +21,8 @@ if TYPE_CHECKING:
 
 def floor_plane(text: str) -> tuple[float, float, float, float] | None:
     """The level floor ``--floor`` gives evaluation: auto is the motion's z = 0; InputError for a tilted plane."""
-    from platypose.lifting.evaluation import floor_height
     from platypose.lifting.floor import CALIBRATED_FLOOR, parse_floor
+    from platypose.lifting.offline.evaluation import floor_height
 
     floor = parse_floor(text)
     plane = CALIBRATED_FLOOR.plane if floor == "auto" else (None if floor is None else floor.plane)
@@ -59,8 +59,8 @@ def evaluate_command(
 ) -> None:
     """Project motion through cameras, lift it, and print minMPJPE, minMPSPE, PA-*, MPJVE, ECE."""
     from platypose.lifting.camera_rigs import ring_cameras
-    from platypose.lifting.evaluation import evaluate, floor_height, format_header
     from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.offline.evaluation import evaluate, floor_height, format_header
     from platypose.lifting.timebase import resample
 
     frames_list = int_list(frames, "--frames")

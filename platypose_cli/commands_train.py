@@ -43,12 +43,12 @@ def train(
 ) -> None:
     """Train a motion prior (x0-predicting transformer) on real 3D motion, or distil one into fewer calls."""
     from platypose.lifting.atomic import check_writable
-    from platypose.lifting.distillation import distil_prior
     from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.offline.distillation import distil_prior
+    from platypose.lifting.offline.training import TrainingDiverged, train_prior
     from platypose.lifting.prior import PriorConfig, load_prior
-    from platypose.lifting.sampler import network_steps
+    from platypose.lifting.sampling.sampler import network_steps
     from platypose.lifting.settings import SamplerConfig
-    from platypose.lifting.training import TrainingDiverged, train_prior
 
     try:
         prior_config = PriorConfig(

@@ -30,9 +30,9 @@ def tiny_prior(real_clips, tmp_path_factory):
     """A small prior trained in seconds on real clips (16-frame windows, 30 fps)."""
     import torch
 
+    from platypose.lifting.offline.training import train_prior
     from platypose.lifting.prior import PriorConfig, load_prior
     from platypose.lifting.settings import TrainConfig
-    from platypose.lifting.training import train_prior
 
     path = tmp_path_factory.mktemp("prior") / "tiny.pt"
     torch.manual_seed(0)
