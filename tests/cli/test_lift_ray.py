@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import ray
-from test_export_rrd import read_entities
+from export_helpers import read_entities
 
 from platypose.cli import lift_ray
 from platypose.cli.commands_lift import lift_settings

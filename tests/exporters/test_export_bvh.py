@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from bvh import Bvh
-from export_helpers import climb_joints
+from export_helpers import climb_joints, largest_bone_turn
 
 from platypose.exporters.bvh import write_bvh
-from platypose.lifting.skeleton import BONES, JOINT_NAMES, bone_lengths
+from platypose.lifting.skeleton import JOINT_NAMES, bone_lengths
 
 
 def _axis_rotation(axis: str, degrees: np.ndarray) -> np.ndarray:
@@ -94,7 +94,7 @@ def test_bvh_rotations_are_continuous(climb, tmp_path):
     mocap = Bvh((tmp_path / "clip.bvh").read_text())
     channels = np.array(mocap.frames, dtype=np.float64)[:, 3:]
     # the real climb at 120 fps turns no bone by more than a few degrees per frame
-    data_step = _largest_bone_turn(joints)
+    data_step = largest_bone_turn(joints)
     assert data_step < 8.0
     assert np.abs(np.diff(channels, axis=0)).max() < 4 * data_step
     assert fit.step_deg < 2 * data_step
@@ -117,14 +117,7 @@ def test_high_step_keeps_the_thigh_roll(data_dir, tmp_path):
     joints, fps = climb_joints(data_dir, 2050)
     joints = joints[1900:]  # the climber's highest left step of this clip (frame 1963)
     fit = write_bvh(joints, fps, tmp_path / "step.bvh")
-    assert fit.step_deg < 2 * _largest_bone_turn(joints)
-
-
-def _largest_bone_turn(joints: np.ndarray) -> float:
-    """Largest angle (degrees) any bone of joints (T, 17, 3) turns between consecutive frames."""
-    bones = np.stack([joints[:, c] - joints[:, p] for c, p in BONES], axis=1)
-    bones /= np.linalg.norm(bones, axis=-1, keepdims=True)
-    return float(np.degrees(np.arccos(np.clip(np.sum(bones[1:] * bones[:-1], -1), -1, 1))).max())
+    assert fit.step_deg < 2 * largest_bone_turn(joints)
 
 
 def test_clean_motion_round_trips_under_a_millimetre(climb, tmp_path):

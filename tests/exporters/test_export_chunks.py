@@ -6,8 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from export_helpers import two_person_result
-from test_export_rrd import read_entities
+from export_helpers import read_entities, two_person_result
 
 from platypose.exporters import export, frames
 from platypose.exporters.frames import FrameArray, Lead

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from export_helpers import largest_bone_turn
 from scipy.spatial.transform import Rotation
-from test_export_bvh import _largest_bone_turn
 
 from platypose.exporters import frames
 from platypose.exporters.bvh import fit_skeleton, motion_channels, to_bvh_axes, write_bvh
@@ -126,7 +126,7 @@ def test_one_view_elbow_swing_turns_the_arm_without_a_pop(cam01_median):
     offsets = fit_skeleton(joints, np.ones(len(joints), bool))
     _, rot, _ = motion_channels(joints, offsets)
     arms = [JOINT_NAMES.index(n) for n in ("left_shoulder", "left_elbow", "right_shoulder", "right_elbow")]
-    assert joint_steps(rot)[:, arms].max() < 1.2 * _largest_bone_turn(joints)
+    assert joint_steps(rot)[:, arms].max() < 1.2 * largest_bone_turn(joints)
     bend, cos = hinge_alignment(rot, to_bvh_axes(joints), offsets)
     right_arm = list(LIMBS).index(JOINT_NAMES.index("right_shoulder"))
     cos = cos[bend[:, right_arm] > 60, right_arm]

@@ -8,10 +8,8 @@ from pathlib import Path
 
 import av
 import numpy as np
-import pyarrow as pa
 import pytest
-from export_helpers import two_person_result
-from rerun.chunk import RrdReader
+from export_helpers import read_entities, two_person_result
 
 from platypose.exporters.rrd import (
     camera_grid_columns,
@@ -37,29 +35,6 @@ def recording(result, data_dir, tmp_path_factory):
     path = tmp_path_factory.mktemp("rrd") / "clip.rrd"
     write_rrd(result, path, "clip", {"cam01": data_dir / CAM01})
     return path
-
-
-def read_entities(path: Path, store: str = "recording") -> dict[str, dict[str, list]]:
-    """Per entity path: column name -> values, static rows under 'static:<column>', time-sorted otherwise."""
-    reader = RrdReader(path)
-    entry = (reader.recordings() if store == "recording" else reader.blueprints())[0]
-    out: dict[str, dict[str, list]] = {}
-    for chunk in reader.stream(store=entry).to_chunks():
-        batch = chunk.to_record_batch()
-        cols = out.setdefault(chunk.entity_path, {})
-        for name in batch.schema.names:
-            if name.startswith("rerun.controls"):
-                continue
-            column = batch.column(name)
-            if pa.types.is_timestamp(column.type) or pa.types.is_duration(column.type):
-                column = column.cast(pa.int64())
-            key = f"static:{name}" if chunk.is_static else name
-            if name.endswith(":blob"):  # one blob per row, as bytes
-                values = [row.values.flatten().to_numpy(zero_copy_only=False).tobytes() for row in column]
-            else:
-                values = column.to_pylist()
-            cols.setdefault(key, []).extend(values)
-    return out
 
 
 def test_people_positions_equal_the_npz(result, recording):

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from test_export_rrd import read_entities
+from export_helpers import read_entities
 
 from platypose.exporters import rerun_adapter as rra
 from platypose.exporters.rrd_floor import GRID_EXTENT, log_floor_and_plausibility
