@@ -76,3 +76,20 @@ def test_old_eval_spellings_still_work(run_cli, prior_file, data_dir):
         "eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", prior_file, "--lambda", "0"
     )
     assert code == 2 and "--energy-scale must be positive" in err
+
+
+def test_lift_md_tables_every_option_of_lift():
+    """docs/lift.md's option table (right after the quick start) names every flag ``platypose lift`` takes."""
+    from pathlib import Path
+
+    import typer
+
+    from platypose.cli.app import _register, app
+
+    _register()
+    lift = typer.main.get_command(app).commands["lift"]
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "lift.md").read_text(encoding="utf-8")
+    table = doc.split("## Options", 1)[1].split("\n## ", 1)[0]
+    flags = [o.split("/")[0] for p in lift.params for o in p.opts if o.startswith("--")]
+    assert len(flags) > 40 and [f for f in flags if f"`{f}" not in table] == []
+    assert doc.index("## Quick start") < doc.index("## Options") < doc.index("## What is one input")
