@@ -41,7 +41,6 @@ def run_take(
     *,
     what: str,
     described: str = "the cameras given",
-    cams_option: str = "cams",
     arguments: dict | None = None,
     arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
     progress: Callable[[list[int], int, int], None] | None = None,
@@ -49,8 +48,7 @@ def run_take(
     """The LiftResult of the take seen by ``views`` (name, source) under ``calibration`` (None: one view, a default
     camera), lifted as ``take`` says with the prior ``prior()`` gives (called once the inputs are read and checked).
 
-    ``what`` names the take in errors, ``described`` the calibration (its file), ``cams_option`` the option a
-    missing calibration is asked for by. ``arguments`` go into ``meta`` as given; ``arrays`` and ``progress`` as
+    ``what`` names the take in errors, ``described`` the calibration (its file). ``arguments`` go into ``meta`` as given; ``arrays`` and ``progress`` as
     :func:`platypose.pipeline.lift_take` takes them. InputError for bad input, before any lifting.
     """
     from platypose import __version__
@@ -66,7 +64,7 @@ def run_take(
     tracks = [_read_view(read, name, source, log) for name, source in views]
     timings = {"keypoints_s": time.perf_counter() - started}
     sizes = [t.image_size for t in tracks]
-    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, cams_option)
+    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log)
     synced = synchronise(
         take.sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
     )
