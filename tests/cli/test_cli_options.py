@@ -23,7 +23,7 @@ def test_every_flag_is_a_field_of_its_class_with_its_type_default_and_help(group
         assert all(n.startswith("--") for n in flag.names)
 
 
-@pytest.mark.parametrize("command", [[], ["lift"], ["train"], ["eval"], ["bench"], ["demo"], ["detect"]])
+@pytest.mark.parametrize("command", [[], ["lift"]])  # every command registers on import: lift builds the most
 def test_help_imports_no_torch_numpy_or_cv2(command):
     """``python -X importtime -m platypose ... --help`` lists every module it imports."""
     done = subprocess.run(
