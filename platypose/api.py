@@ -110,14 +110,7 @@ def lift(
     )
     if say is not None and not callable(say):
         raise InputError(f"say must be a function taking a line of text, got {say!r}", option="say")
-    if isinstance(prior, PriorBundle):
-        bundle = prior
-    else:
-        prior_path = _path("prior", prior, optional=True)
-
-        def bundle() -> PriorBundle:
-            return Prior.load(prior_path)
-
+    load_prior = _prior_loader(prior)
     calibration = _calibration(cams)
     arguments = {
         "views": [str(v) for v in sources],
@@ -136,7 +129,7 @@ def lift(
         calibration,
         take,
         read,
-        (lambda: bundle) if isinstance(bundle, PriorBundle) else bundle,
+        load_prior,
         _Log(say),
         what=", ".join(map(str, sources)),
         described=_described(cams),
@@ -155,6 +148,14 @@ class _Log(JobLog):
         super().__call__(message)
         if self.say is not None:
             self.say(message)
+
+
+def _prior_loader(prior: object) -> Callable[[], PriorBundle]:
+    """The prior to lift with, loaded when the pipeline asks for it (once the inputs are read and checked)."""
+    if isinstance(prior, PriorBundle):
+        return lambda: prior
+    path = _path("prior", prior, optional=True)
+    return lambda: Prior.load(path)
 
 
 def _calibration(cams: object) -> Calibration | None:

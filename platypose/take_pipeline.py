@@ -48,8 +48,9 @@ def run_take(
     """The LiftResult of the take seen by ``views`` (name, source) under ``calibration`` (None: one view, a default
     camera), lifted as ``take`` says with the prior ``prior()`` gives (called once the inputs are read and checked).
 
-    ``what`` names the take in errors, ``described`` the calibration (its file). ``arguments`` go into ``meta`` as given; ``arrays`` and ``progress`` as
-    :func:`platypose.pipeline.lift_take` takes them. InputError for bad input, before any lifting.
+    ``what`` names the take in errors, ``described`` the calibration (its file). ``arguments`` go into ``meta``
+    as given; ``arrays`` and ``progress`` as :func:`platypose.pipeline.lift_take` takes them. InputError for bad
+    input, before any lifting.
     """
     from platypose import __version__
     from platypose.detectors.take import take_keypoints
