@@ -7,7 +7,7 @@ upright facing +Z (our -y) with the arms out sideways (T-pose); its bone
 lengths and the shape of pelvis and thorax are fitted once over the motion
 (:func:`exporters.ik.rest_offsets`). The root has ``Xposition Yposition
 Zposition`` then its rotation channels; every joint's rotation channels are in
-its own Euler order (:data:`exporters.euler.EULER_ORDERS`), continuous in time.
+its own Euler order (:data:`exporters.ik.EULER_ORDERS`), continuous in time.
 
 Rotations are fitted by :mod:`exporters.ik`.
 """
@@ -19,12 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, joint_steps, local_euler
+from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, local_euler
 from platypose.exporters.frames import Lead, frame_chunks
 from platypose.exporters.ik import (
     CHILDREN,
     body_directions,
     fit_rotations,
+    joint_steps,
     placed_offsets,
     refine_rotations,
     rest_offsets,

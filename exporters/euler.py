@@ -1,9 +1,8 @@
-"""Local rotations of our 17-joint tree and their Euler angles, as BVH channels write them (pure array maths).
+"""Euler angles of the BVH channels: one intrinsic order per joint, continuous in time.
 
-Local rotations are written as Euler angles in a per-joint order (:data:`EULER_ORDERS`) chosen so
-that gimbal lock falls on a rotation the joint does not make (a bone's twist, or the root pitching
-to horizontal), and :func:`continuous_euler` picks, frame after frame, the equivalent angles nearest
-the previous frame's, so channels never wrap by 360 degrees.
+Each joint's order (:data:`EULER_ORDERS`) puts gimbal lock on a rotation the joint does not make (a
+bone's twist, or the root pitching to horizontal); :func:`continuous_euler` picks, frame after frame,
+the equivalent angles nearest the previous frame's, so channels never wrap by 360 degrees.
 """
 
 from __future__ import annotations
@@ -13,28 +12,13 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from platypose.lifting.skeleton import PARENTS
+from platypose.exporters.ik import local_rotations
 
 # Intrinsic Euler order of each joint's local rotation (the BVH channel order). The middle axis is
 # the one where gimbal lock sits at 90 degrees: the bone's own axis (twist) for limbs and trunk,
 # the pitch for the root (whose heading turns freely).
 _LEG, _ARM = "ZYX", "ZXY"
 EULER_ORDERS: tuple[str, ...] = ("YXZ", _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG) + (_ARM,) * 6
-
-
-def local_rotations(global_rot: np.ndarray) -> np.ndarray:
-    """Local rotations (T, 17, 3, 3), each relative to its parent, from global ones."""
-    parent_rot = np.concatenate(
-        [np.broadcast_to(np.eye(3), global_rot[:, :1].shape), global_rot[:, list(PARENTS[1:])]], axis=1
-    )
-    return np.swapaxes(parent_rot, -1, -2) @ global_rot
-
-
-def joint_steps(global_rot: np.ndarray) -> np.ndarray:
-    """Angles (T - 1, 17) in degrees by which each joint's local rotation changes between consecutive frames."""
-    local = local_rotations(global_rot)
-    rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
-    return np.degrees(np.arccos(np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)))
 
 
 def local_euler(global_rot: np.ndarray) -> np.ndarray:

@@ -28,8 +28,8 @@ Then :func:`refine_rotations` solves all bone directions of each frame at
 once by damped Gauss-Newton on the squared distances of the forward-kinematics
 joints to the observed ones (the roll about each bone is left as set).
 
-Local rotations and their Euler angles are :mod:`platypose.exporters.euler`'s. Forward kinematics is the
-importers' (:func:`platypose.lifting.motion_io.kinematics.forward_kinematics`).
+The Euler angles of the local rotations are :mod:`exporters.euler`'s. Forward
+kinematics is the importers' (:func:`platypose.lifting.motion_io.kinematics.forward_kinematics`).
 """
 
 from __future__ import annotations
@@ -40,7 +40,6 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from platypose.exporters.euler import local_rotations
 from platypose.lifting.motion_io.kinematics import forward_kinematics
 from platypose.lifting.rotations import kabsch, rotation_between, skew, two_vector_frame
 from platypose.lifting.skeleton import BODIES, BONES, JOINT_NAMES, NUM_JOINTS, PARENTS
@@ -357,6 +356,14 @@ def refine_rotations(
     return rot, root
 
 
+def local_rotations(global_rot: np.ndarray) -> np.ndarray:
+    """Local rotations (T, 17, 3, 3), each relative to its parent, from global ones."""
+    parent_rot = np.concatenate(
+        [np.broadcast_to(np.eye(3), global_rot[:, :1].shape), global_rot[:, list(PARENTS[1:])]], axis=1
+    )
+    return np.swapaxes(parent_rot, -1, -2) @ global_rot
+
+
 def hinge_alignment(rot: np.ndarray, positions: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """How each limb of :data:`LIMBS` bends about its hinge: bend angles (T, 4) degrees of ``positions`` (T, 17, 3)
     and cosines (T, 4) between the hinge axis of global rotations ``rot`` (T, 17, 3, 3) on rest ``offsets`` and the
@@ -374,3 +381,10 @@ def hinge_alignment(rot: np.ndarray, positions: np.ndarray, offsets: np.ndarray)
         with np.errstate(invalid="ignore", divide="ignore"):
             cos.append(np.sum(axis * normal, axis=-1) / sine)
     return np.stack(bend, axis=1), np.stack(cos, axis=1)
+
+
+def joint_steps(global_rot: np.ndarray) -> np.ndarray:
+    """Angles (T - 1, 17) in degrees by which each joint's local rotation changes between consecutive frames."""
+    local = local_rotations(global_rot)
+    rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
+    return np.degrees(np.arccos(np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)))

@@ -23,9 +23,8 @@ import numpy as np
 
 from platypose.exporters.angles import ANGLE_NAMES, angle_series
 from platypose.exporters.bvh import fit_skeleton, motion_channels, to_bvh_axes
-from platypose.exporters.euler import joint_steps
 from platypose.exporters.export import export
-from platypose.exporters.ik import hinge_alignment
+from platypose.exporters.ik import hinge_alignment, joint_steps
 from platypose.exporters.npz import read_npz
 from platypose.lifting.skeleton import BONES, JOINT_NAMES
 

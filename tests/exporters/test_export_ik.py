@@ -11,12 +11,13 @@ from scipy.spatial.transform import Rotation
 
 from platypose.exporters import frames
 from platypose.exporters.bvh import fit_skeleton, motion_channels, to_bvh_axes, write_bvh
-from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, joint_steps, local_euler
+from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, local_euler
 from platypose.exporters.ik import (
     CHILDREN,
     LIMBS,
     fit_rotations,
     hinge_alignment,
+    joint_steps,
     kabsch,
     refine_rotations,
     rotation_between,
