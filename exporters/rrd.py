@@ -33,10 +33,10 @@ import numpy as np
 
 from platypose.exporters import rerun_adapter as rra
 from platypose.exporters.frames import frame_chunks
-from platypose.exporters.quality import per_joint_spread, person_report, quality_flags, quality_text
 from platypose.exporters.result import LiftResult
 from platypose.exporters.rrd_floor import log_floor_and_plausibility
 from platypose.exporters.video import jpeg_frames, needs_reencode, reencode_h264
+from platypose.exporters.video_clock import video_stamps
 from platypose.exporters.watched_writer import run_watched
 from platypose.lifting.atomic import atomic_path
 from platypose.lifting.errors import InputError
@@ -46,6 +46,8 @@ VIDEO_MODES = ("asset", "frames", "none")
 KEYPOINTS_CLASS = 0
 ENERGY_SHADES = (0.55, 1.0, 0.55)  # value of the 5 %, median and 95 % lines in the person's hue
 LABEL_HEIGHT_M = 0.25  # the name floats this far above the head
+SPREAD_FLAG_M = 0.15  # a person whose mean joint spread exceeds this is flagged
+STRETCH_FLAG_M = 0.10  # ... or whose BVH had to absorb a bone stretching by more than this
 # The camera views share a region of about this aspect (width / height) beside the 3D view.
 CAMERA_REGION = (800.0, 700.0)
 
@@ -81,6 +83,11 @@ def camera_grid_columns(sizes_hw: list[tuple[int, int]], region: tuple[float, fl
         return min(region[0] / columns / w, region[1] / rows / h)
 
     return max(range(1, count + 1), key=scale)
+
+
+def per_joint_spread(hypotheses: np.ndarray, median: np.ndarray) -> np.ndarray:
+    """RMS distance of hypotheses (N, T, 17, 3) to the median (T, 17, 3) per frame and joint, (T, 17)."""
+    return np.sqrt(np.mean(np.sum((hypotheses - median[None]) ** 2, axis=-1), axis=0))
 
 
 def _layout(result: LiftResult) -> rra.Layout:
@@ -224,35 +231,6 @@ def _log_keypoints(rec, result: LiftResult, c: int) -> None:
             rra.flush(rec)
 
 
-def video_stamps(video_seconds: np.ndarray, frame_times: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
-    """Clock stamps (ns) and output frame indices (-1: none) of video frames at ``video_seconds`` (V,) on the clock.
-
-    A video frame within half an output frame of an output frame's time takes that frame's exact
-    stamp and index (the nearest one only, when several video frames are that close); any other
-    keeps its own time and no index.
-    """
-    stamps = rra.nanoseconds(video_seconds)
-    frames = np.full(len(stamps), -1, dtype=np.int64)
-    if len(stamps) == 0:
-        return stamps, frames
-    last = len(frame_times) - 1
-    after = np.clip(np.searchsorted(frame_times, video_seconds), 0, last)
-    before = np.clip(after - 1, 0, last)
-    closer_before = np.abs(frame_times[before] - video_seconds) <= np.abs(frame_times[after] - video_seconds)
-    nearest = np.where(closer_before, before, after)
-    gap = np.abs(frame_times[nearest] - video_seconds)
-    close = gap <= 0.5 / fps
-    order = np.lexsort((gap, nearest))  # for each output frame, its closest video frame first
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = nearest[order][1:] != nearest[order][:-1]
-    keep = np.zeros(len(stamps), dtype=bool)
-    keep[order[first]] = True
-    keep &= close
-    frames[keep] = nearest[keep]
-    stamps[keep] = rra.nanoseconds(frame_times[nearest[keep]])
-    return stamps, frames
-
-
 def _log_video(
     rec, entity: str, video: Path, mode: str, offset_s: float, result: LiftResult, say: Callable[[str], None]
 ) -> None:
@@ -271,6 +249,64 @@ def _log_video(
         for times, blobs in jpeg_frames(video):
             stamps, frames = video_stamps(times + offset_s, result.frame_times, result.fps)
             rra.send_jpeg_frames(rec, entity, stamps, frames, blobs)
+
+
+def person_report(result: LiftResult, p: int) -> dict | None:
+    """Person ``p``'s entry of ``meta["plausibility"]`` (one dict per person, :mod:`lifting.plausibility`), if any."""
+    reports = result.meta.get("plausibility") or []
+    return reports[p] if p < len(reports) and isinstance(reports[p], dict) else None
+
+
+def quality_flags(result: LiftResult, p: int) -> list[str]:
+    """Reasons to check person ``p`` (empty when none): a large spread, a stretching skeleton, few frames, and the
+    lift's own plausibility flags (under the floor, sliding, one view)."""
+    flags = [f"plausibility: {flag}" for flag in (person_report(result, p) or {}).get("flags", [])]
+    present = result.present()[p]
+    track = f"p{result.track_ids[p]}"
+    spread = _mean_spread(result, p)
+    if spread > SPREAD_FLAG_M:
+        flags.append(f"hypotheses spread {1000 * spread:.0f} mm on average (over {1000 * SPREAD_FLAG_M:.0f})")
+    fit = result.meta.get("bvh_fit_error", {}).get(track, {}).get("median", {})
+    if fit.get("stretch_m", 0.0) > STRETCH_FLAG_M:
+        flags.append(f"bones stretch by up to {1000 * fit['stretch_m']:.0f} mm (not a rigid body)")
+    if present.mean() < 0.5:
+        flags.append(f"present in {present.sum()} of {len(present)} frames")
+    return flags
+
+
+def _mean_spread(result: LiftResult, p: int) -> float:
+    """Mean over present frames and joints of the hypotheses' RMS distance to the median, metres."""
+    total, count = 0.0, 0
+    present = result.present()[p]
+    for t in frame_chunks(result.num_frames):
+        on = np.flatnonzero(present[t])
+        if len(on):
+            hyp = np.asarray(result.hypotheses[p, :, t], np.float64)[:, on]
+            spread = per_joint_spread(hyp, np.asarray(result.median[p, t], np.float64)[on])
+            total, count = total + spread.sum(), count + spread.size
+    return total / max(count, 1)
+
+
+def quality_text(result: LiftResult, flags: dict[int, list[str]]) -> str:
+    """Markdown: per person frames, spread, BVH fit, flags and ``meta["plausibility"]`` entry; the lift's warnings."""
+    lines = ["# Quality", ""]
+    present = result.present()
+    for p, track in enumerate(result.track_ids):
+        fit = result.meta.get("bvh_fit_error", {}).get(f"p{track}", {}).get("median")
+        line = f"- **p{track}**: present in {present[p].sum()} / {result.num_frames} frames"
+        if present[p].any():
+            line += f", mean joint spread {1000 * _mean_spread(result, p):.0f} mm"
+        if fit:
+            line += f", BVH fit {1000 * fit['mean_m']:.0f} mm mean / {1000 * fit['max_m']:.0f} mm max"
+        lines.append(line)
+        lines += [f"  - check: {f}" for f in flags.get(p, [])]
+        report = person_report(result, p)
+        if report is not None:
+            lines.append(f"  - plausibility: {', '.join(report.get('flags', [])) or 'no flags'}")
+    warnings = result.meta.get("warnings") or []
+    if warnings:
+        lines += ["", "## Warnings", ""] + [f"- {w}" for w in warnings]
+    return "\n".join(lines) + "\n"
 
 
 def people_centre(result: LiftResult) -> np.ndarray:

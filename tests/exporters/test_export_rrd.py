@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from export_helpers import read_entities, two_person_result
 
-from platypose.exporters.quality import quality_flags, quality_text
-from platypose.exporters.rrd import camera_grid_columns, person_colour, video_stamps, write_rrd
+from platypose.exporters.rrd import camera_grid_columns, person_colour, quality_flags, quality_text, write_rrd
+from platypose.exporters.video_clock import video_stamps
 from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import BONES, NUM_JOINTS
 
