@@ -25,7 +25,7 @@ from platypose.detectors.id_repair import SwitchRepairConfig, repair_id_switches
 from platypose.detectors.keypoints import missing_persons
 from platypose.detectors.pose_metrics import person_size, pose_distance
 from platypose.detectors.types import PoseTrack2D
-from platypose.lifting.settings import persons_count
+from platypose.lifting.errors import InputError
 
 _NO_MATCH = 1e6
 
@@ -164,6 +164,17 @@ def track_detections(
         repair = SwitchRepairConfig(min_confidence=config.min_confidence, min_joints=config.min_joints)
         keypoints = repair_id_switches(keypoints, times, repair)[0]
     return PoseTrack2D(keypoints, times, np.arange(len(tracks)), image_size, source)
+
+
+def persons_count(persons: str) -> int | None:
+    """Parse a ``persons`` choice: ``all`` -> None, ``largest`` -> 1, ``N`` -> N; InputError otherwise."""
+    if persons == "all":
+        return None
+    if persons == "largest":
+        return 1
+    if persons.isdigit() and int(persons) > 0:
+        return int(persons)
+    raise InputError(f"persons must be 'all', 'largest' or a positive number, got {persons!r}", option="persons")
 
 
 def persons_to_keep(views: Sequence[PoseTrack2D], persons: str) -> np.ndarray | None:

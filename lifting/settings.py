@@ -98,17 +98,6 @@ def require(checks: list[tuple[bool, str, str]]) -> None:
             raise InputError(message, option=name)
 
 
-def persons_count(persons: str) -> int | None:
-    """Parse a ``persons`` choice: ``all`` -> None, ``largest`` -> 1, ``N`` -> N; InputError otherwise."""
-    if persons == "all":
-        return None
-    if persons == "largest":
-        return 1
-    if persons.isdigit() and int(persons) > 0:
-        return int(persons)
-    raise InputError(f"persons must be 'all', 'largest' or a positive number, got {persons!r}", option="persons")
-
-
 @dataclass(frozen=True)
 class SamplerConfig:
     """Every knob of the sampler; defaults follow the paper (T=10, S=2, k=10) except where noted.
@@ -290,8 +279,7 @@ class TakeSettings:
         sync = "none" if sync is None else str(sync) if isinstance(sync, os.PathLike) else sync
         for name, value in (("persons", persons), ("floor", floor), ("sync", sync)):
             object.__setattr__(self, name, value)
-        check_types(self)
-        persons_count(self.persons)
+        check_types(self)  # the persons choice itself is the detectors' (platypose.take_pipeline.take_settings)
         require([(self.root in ROOT_MODES, "root", f"root must be one of {', '.join(ROOT_MODES)}, got {self.root!r}")])
         from platypose.lifting.floor import parse_floor
         from platypose.lifting.sync_choice import check_choice

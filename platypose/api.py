@@ -20,7 +20,7 @@ from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.prior import PriorBundle
-from platypose.lifting.settings import PriorSettings, SamplerConfig, TakeSettings, WindowSettings
+from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
 from platypose.pipeline import JobLog
 
 
@@ -89,10 +89,10 @@ def lift(
     for a bad one, and for bad input, as the CLI.
     """
     from platypose.detectors.sources import view_name
-    from platypose.take_pipeline import run_take
+    from platypose.take_pipeline import run_take, take_settings
 
     sources = _sources(views)
-    take = TakeSettings(
+    take = take_settings(
         persons=persons,
         root=root,
         root_trajectory=_path("root_trajectory", root_trajectory, optional=True),

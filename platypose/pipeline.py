@@ -89,20 +89,24 @@ def view_cameras(
     sources: Sequence[str],
     what: str,
     log: JobLog,
+    calibration_word: str = "cams",
 ) -> list[Camera]:
     """The matched ``cameras`` checked against the views' image sizes (height, width), or without a calibration
     the default camera of a single view (with a warning); InputError for several views without one.
 
+    ``calibration_word`` is how the messages name the missing calibration (the CLI says ``--cams``).
     """
     if cameras is not None:
         for camera, size, source in zip(cameras, image_sizes, sources):
             check_image_size(camera, size, source, log)
         return list(cameras)
     if len(names) > 1:
-        raise InputError(f"{what}: {len(names)} views need cams to place the cameras", option="cams")
+        raise InputError(f"{what}: {len(names)} views need {calibration_word} to place the cameras")
     from platypose.lifting.calibration.defaults import default_camera
 
-    log.warning("no calibration: a level camera at the origin with a 53 degree diagonal field of view is assumed")
+    log.warning(
+        f"no {calibration_word}: a level camera at the origin with a 53 degree diagonal field of view is assumed"
+    )
     return [default_camera(names[0], *image_sizes[0])]
 
 

@@ -41,6 +41,7 @@ def run_take(
     *,
     what: str,
     described: str = "the cameras given",
+    cams_option: str = "cams",
     arguments: dict | None = None,
     arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
     progress: Callable[[list[int], int, int], None] | None = None,
@@ -48,7 +49,8 @@ def run_take(
     """The LiftResult of the take seen by ``views`` (name, source) under ``calibration`` (None: one view, a default
     camera), lifted as ``take`` says with the prior ``prior()`` gives (called once the inputs are read and checked).
 
-    ``what`` names the take in errors, ``described`` the calibration (its file). ``arguments`` go into ``meta``
+    ``what`` names the take in errors, ``described`` the calibration (its file), ``cams_option`` the option a
+    missing calibration is asked for by (``--cams`` in the command). ``arguments`` go into ``meta``
     as given; ``arrays`` and ``progress`` as :func:`platypose.pipeline.lift_take` takes them. InputError for bad
     input, before any lifting.
     """
@@ -65,7 +67,7 @@ def run_take(
     tracks = [_read_view(read, name, source, log) for name, source in views]
     timings = {"keypoints_s": time.perf_counter() - started}
     sizes = [t.image_size for t in tracks]
-    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log)
+    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, cams_option)
     synced = synchronise(
         take.sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
     )
@@ -100,6 +102,17 @@ def run_take(
         "warnings": log.warnings,
     }
     return replace(result, meta=meta)
+
+
+def take_settings(**values: object) -> TakeSettings:
+    """:class:`TakeSettings` from ``values`` (natural Python values or the command's strings), with the persons
+    choice checked as the detectors read it: the one check of a take's settings the command and the API both make
+    before any work (InputError naming the field)."""
+    from platypose.detectors.tracking import persons_count
+
+    take = TakeSettings(**values)
+    persons_count(take.persons)
+    return take
 
 
 def _read_view(read: Reader, name: str, source: Path, log: JobLog) -> PoseTrack2D:

@@ -203,11 +203,11 @@ def bench(
     import torch
 
     from platypose.cli.bench_clip import peak_rss_mb
+    from platypose.detectors.tracking import persons_count
     from platypose.lifting.atomic import write_text_atomic
     from platypose.lifting.errors import InputError
     from platypose.lifting.prior import DEFAULT_PRIOR
     from platypose.lifting.runtime import resolve_runtime
-    from platypose.lifting.settings import persons_count
 
     def say(message: str) -> None:
         if not quiet:

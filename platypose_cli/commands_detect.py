@@ -110,9 +110,8 @@ def detect(
     """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
     from platypose.detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
     from platypose.detectors.sources import view_name
-    from platypose.detectors.tracking import persons_to_keep
+    from platypose.detectors.tracking import persons_count, persons_to_keep
     from platypose.lifting.atomic import check_writable
-    from platypose.lifting.settings import persons_count
 
     persons_count(persons)  # a bad --persons fails before any detection
     names = [view_name(source) for source in sources]

@@ -37,9 +37,9 @@ def lift_settings(
     from platypose.exporters.export import parse_formats
     from platypose.lifting.atomic import check_writable
     from platypose.lifting.runtime import resolve_device
-    from platypose.lifting.settings import TakeSettings
+    from platypose.take_pipeline import take_settings
 
-    take = TakeSettings(
+    take = take_settings(
         persons=persons, root=root, root_trajectory=root_file, floor=floor, sync=sync, sampler=sampler, windows=windows
     )
     resolve_device(prior.device)

@@ -140,6 +140,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
             log,
             what=job.input,
             described=str(settings.cams),
+            cams_option="--cams",
             arguments=settings.arguments,
             arrays=lambda shape, name: FrameArray.create(staging / f".{name}.npy", shape, np.float32),
             progress=bars.update,

@@ -72,20 +72,41 @@ def test_importing_platypose_loads_no_torch():
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
 
 
+def test_a_video_view_is_detected_and_lifted_as_the_command_does(tiny_default_prior, run_cli, tmp_path):
+    import cv2
+
+    from platypose.detectors.video import iter_frames
+
+    video = tmp_path / "cam01.mp4"  # the take's first 12 frames of cam01, halved
+    frames = [f[::2, ::2].copy() for _, f in iter_frames(TAKE / "cam01.mp4", max_frames=12)]
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 60.0, frames[0].shape[1::-1])
+    for frame in frames:
+        writer.write(frame)
+    writer.release()
+    options = ["--samples", "3", "--stride", "2", "--formats", "npz", "--threads", "1", "--out", tmp_path / "out", "-q"]
+    code, _, err = run_cli("lift", video, *options)
+    assert code == 0, err
+    written = platypose.load_result(tmp_path / "out" / "cam01" / "cam01.npz")
+    result = platypose.lift(video, samples=3, stride=2, threads=1)
+    assert result.hypotheses.shape == written.hypotheses.shape and result.num_frames == 6
+    assert np.array_equal(result.hypotheses, written.hypotheses, equal_nan=True)
+    assert any(w.startswith("no cams: a level camera") for w in result.meta["warnings"])
+
+
 def test_a_truncated_video_lifts_alike_both_ways(tiny_default_prior, run_cli, tmp_path):
-    """The command and the API share one pipeline: one truncated real video (no calibration) is detected and lifted
-    both ways with the same warnings (the truncated video's and the default camera's) and the same hypotheses."""
+    """The command and the API share one pipeline: one truncated real video is detected and lifted both ways with
+    the same warnings (the truncated video's, the calibration's image size) and the same hypotheses."""
     from media_helpers import truncated_copy
 
     video = truncated_copy(TAKE / "cam01.mp4", tmp_path / "cam01.mp4", 0.3)
+    cams = TAKE / "calib_pose2sim.toml"
     options = ["--samples", "3", "--stride", "5", "--formats", "npz", "--threads", "1", "--out", tmp_path / "out"]
-    code, _, err = run_cli("lift", video, *options, "-q")
+    code, _, err = run_cli("lift", video, "--cams", cams, *options, "-q")
     assert code == 0, err
     written = platypose.load_result(tmp_path / "out" / "cam01" / "cam01.npz")
-    result = platypose.lift(video, samples=3, stride=5, threads=1)
+    result = platypose.lift(video, cams, samples=3, stride=5, threads=1)
     warnings = result.meta["warnings"]
-    assert any("states 100 frames but only" in w for w in warnings)
-    assert any(w.startswith("no calibration: a level camera") for w in warnings)
+    assert any("states 100 frames but only" in w for w in warnings) and any("calibration says" in w for w in warnings)
     assert warnings == written.meta["warnings"] and f"warning: cam01: {warnings[0]}" in err
     assert result.hypotheses.shape == written.hypotheses.shape and result.num_frames < 10
     assert np.array_equal(result.hypotheses, written.hypotheses, equal_nan=True)
