@@ -19,16 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, local_euler
 from platypose.exporters.frames import Lead, frame_chunks
 from platypose.exporters.ik import (
     CHILDREN,
-    EULER_ORDERS,
     body_directions,
-    continuous_euler,
-    euler_to_matrix,
     fit_rotations,
     joint_steps,
-    local_euler,
     placed_offsets,
     refine_rotations,
     rest_offsets,

@@ -91,8 +91,8 @@ def parse_floor(text: str) -> Floor | str | None:
                 )
             return floor
     except ValueError as err:
-        raise InputError(f"floor {text!r}: {err}; use {FLOOR_SPECS}") from None
-    raise InputError(f"floor {text!r}: not understood; use {FLOOR_SPECS}")
+        raise InputError(f"floor {text!r}: {err}; use {FLOOR_SPECS}", option="floor") from None
+    raise InputError(f"floor {text!r}: not understood; use {FLOOR_SPECS}", option="floor")
 
 
 CALIBRATED_FLOOR = Floor((0.0, 0.0, 1.0), 0.0, "calibration")

@@ -19,31 +19,15 @@ import numpy as np
 import torch
 
 from platypose.lifting.camera import Camera
-from platypose.lifting.errors import InputError
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.root import presence
-from platypose.lifting.sampler import Anchor, SamplerConfig, SampleResult, cameras_and_rays, sample
+from platypose.lifting.sampling.placement import Anchor
+from platypose.lifting.sampling.sampler import SampleResult, cameras_and_rays, sample
+from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights
 from platypose.lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
 
 CHUNK_FRAMES = 1024  # input frames per chunk at most: a long stretch nobody is in does not fill memory
-
-
-@dataclass(frozen=True)
-class WindowSettings:
-    """Window length and overlap (prior frames) and the weight of the overlap anchors."""
-
-    window: int = 64
-    overlap: int = 16
-    anchor_weight: float = 100.0
-
-    def __post_init__(self) -> None:
-        if self.window < 2 or not 0 <= self.overlap <= self.window // 2:
-            raise InputError(
-                f"window must be >= 2 and overlap in 0..window/2, got {self.window} and {self.overlap}", option="window"
-            )
-        if self.anchor_weight < 0:
-            raise InputError(f"anchor weight must be >= 0, got {self.anchor_weight}")
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ import functools
 import io
 import time
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -24,9 +24,8 @@ from torch import nn
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.prior import MotionPrior, PriorBundle, load_prior
+from platypose.lifting.settings import DEVICES, RUNTIMES
 
-DEVICES = ("cpu", "cuda", "auto")
-RUNTIMES = ("auto", "float32", "bfloat16", "onnx")
 BFLOAT16_GAIN = 1.5  # auto picks bfloat16 when its matrix products are at least this many times faster
 
 
@@ -166,22 +165,3 @@ def load_for_runtime(
     """Load a prior (default: the shipped one) onto ``device`` (cpu, cuda, auto) with its network run by ``runtime``."""
     prior, _ = load_prior(path, resolve_device(device))
     return with_runtime(prior, runtime, threads)
-
-
-@dataclass(frozen=True)
-class PriorSettings:
-    """Which prior (``path``; None: the shipped one), on which ``device`` (cpu, cuda, auto), run by which ``runtime``."""
-
-    path: Path | None = None
-    device: str = "cpu"
-    runtime: str = "auto"
-
-    def __post_init__(self) -> None:
-        if self.device not in DEVICES:
-            raise InputError(f"unknown device {self.device!r}; choose {', '.join(DEVICES)}")
-        if self.runtime not in RUNTIMES:
-            raise InputError(f"unknown runtime {self.runtime!r}; choose {', '.join(RUNTIMES)}")
-
-    def load(self, threads: int | None = None) -> PriorBundle:
-        """The prior ready to sample (:func:`load_for_runtime`)."""
-        return load_for_runtime(self.path, self.device, self.runtime, threads)

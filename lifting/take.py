@@ -17,13 +17,12 @@ import numpy as np
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
-from platypose.lifting.lift import WindowSettings, lift_stream
+from platypose.lifting.lift import lift_stream
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.root import fill_gaps, triangulated_root
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.settings import ROOT_MODES, SamplerConfig, WindowSettings
 from platypose.lifting.triangulation import view_median_errors
 
-ROOT_MODES = ("auto", "triangulate", "solve")
 MIN_ROOT_COVERAGE = 0.5  # share of frames with a triangulated pelvis needed to use the path (gaps interpolated)
 REPROJECTION_WARNING_SHARE = 0.02  # of the image width: a view the median motion misses by more is suspect
 WELL_SEEN_SHARE = 0.25  # a view is judged by the persons it sees in at least this share of their frames

@@ -68,7 +68,7 @@ def blend_weights(plan: WindowPlan) -> np.ndarray:
     window takes every frame after them: it starts on the earlier window's path (the anchor) and
     continues it as one motion of the prior. Blending the two over the overlap instead would mix the
     earlier window's last frames, which are pulled back to the rays' own placement
-    (:func:`platypose.lifting.placement.continuation_ramp`), into the later window, and with one camera
+    (:func:`platypose.lifting.sampling.placement.continuation_ramp`), into the later window, and with one camera
     hypotheses then step at seams (docs/results.md, 2026-12-01).
     """
     weights = np.ones((plan.count, plan.length))

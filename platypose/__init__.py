@@ -23,8 +23,8 @@ _API = {
     "load_result": "platypose.api",
     "Prior": "platypose.api",
     "LiftResult": "platypose.exporters.result",
-    "SamplerConfig": "platypose.lifting.sampler_config",
-    "WindowSettings": "platypose.lifting.lift",
+    "SamplerConfig": "platypose.lifting.settings",
+    "WindowSettings": "platypose.lifting.settings",
     "InputError": "platypose.lifting.errors",
 }
 __all__ = ["__version__", *_API]

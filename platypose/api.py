@@ -1,13 +1,16 @@
 """The Python API: :func:`lift` one take, :func:`load_result` of an earlier lift, :class:`Prior` to load once.
 
-``platypose.lift`` runs the pipeline of ``platypose lift`` (:mod:`platypose.pipeline`) on one
+``platypose.lift`` runs the pipeline of ``platypose lift`` (:func:`platypose.take_pipeline.run_take`) on one
 take and returns the :class:`~platypose.exporters.result.LiftResult` in memory; nothing is
 written. docs/api.md shows it end to end.
 """
 
 from __future__ import annotations
 
-import time
+import dataclasses
+import math
+import numbers
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -16,10 +19,8 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
-from platypose.lifting.lift import WindowSettings
 from platypose.lifting.prior import PriorBundle
-from platypose.lifting.runtime import PriorSettings
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
 from platypose.pipeline import JobLog
 
 
@@ -31,14 +32,14 @@ class Prior:
     def load(path: str | Path | None = None, device: str = "cpu", runtime: str = "auto") -> PriorBundle:
         """The prior at ``path`` (None: the shipped one) on ``device`` (cpu, cuda, auto), its network run by
         ``runtime`` (auto, float32, bfloat16, onnx)."""
-        return PriorSettings(Path(path) if path is not None else None, device, runtime).load()
+        return PriorSettings(path, device, runtime).load()
 
 
 def load_result(path: str | Path) -> LiftResult:
     """The LiftResult of a ``.npz`` written by ``platypose lift`` (or by :func:`platypose.exporters.export`)."""
     from platypose.exporters.npz import read_npz
 
-    return read_npz(path)
+    return read_npz(_path("path", path))
 
 
 def lift(
@@ -48,11 +49,11 @@ def lift(
     prior: PriorBundle | str | Path | None = None,
     sampler: SamplerConfig | None = None,
     windows: WindowSettings | None = None,
-    persons: str = "all",
+    persons: str | int = "all",
     root: str = "auto",
     root_trajectory: str | Path | None = None,
-    floor: str = "auto",
-    sync: str | Path | Mapping[str, float] = "none",
+    floor: str | Sequence[float] | None = "auto",
+    sync: str | Path | Mapping[str, float] | None = "none",
     detector: str | Path | None = None,
     stride: int = 1,
     threads: int | None = None,
@@ -61,7 +62,8 @@ def lift(
     say: Callable[[str], None] | None = None,
     **sampler_fields: object,
 ) -> LiftResult:
-    """Lift the people of one take to 3D motion hypotheses, as ``platypose lift`` does for one input.
+    """Lift the people of one take to 3D motion hypotheses, as ``platypose lift`` does for one input (both run
+    :func:`platypose.take_pipeline.run_take`).
 
     ``views``: one path per camera, each a video (detected with ``detector``, default the
     bundled MoveNet) or precomputed keypoints (an OpenPose folder, our npz / CSV, MMPose
@@ -71,84 +73,67 @@ def lift(
     :class:`Prior` (load it once for many takes) or a checkpoint path (None: the shipped
     prior). ``sampler`` / ``windows``: settings objects; keyword arguments named after
     :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
-    ``persons``: all, largest or N; ``root``: auto, triangulate or solve;
-    ``root_trajectory``: a known pelvis path file. ``floor``: auto (the calibration's z = 0; without one,
-    one camera: estimated under a quick lift, then grounded on), z=H, nx,ny,nz,d or none, as ``--floor``.
-    ``sync``: how the views are put on one clock, as ``--sync``: none (the calibration's time offsets), auto
-    (each view's offset estimated from its keypoints, logged with its confidence), an offsets JSON file, or a mapping
-    ``{"cam01": 0.0, "cam02": 0.12}`` of seconds added to each view's frame times. ``stride``: detect
-    every N-th frame; ``threads``: the detector's threads. ``fps`` and ``image_size`` (height, width): for
-    keypoints without a video beside them (as ``--fps``, ``--image-size``). ``say`` receives the log's lines.
+    ``persons``: "all", "largest" or N (an int or its digits); ``root``: auto, triangulate or solve;
+    ``root_trajectory``: a known pelvis path file. ``floor``: "auto" (the calibration's z = 0; without one,
+    one camera: estimated under a quick lift, then grounded on), "z=H", "nx,ny,nz,d" or four numbers, "none" or
+    None, as ``--floor``. ``sync``: how the views are put on one clock, as ``--sync``: "none" or None (the
+    calibration's time offsets), "auto" (each view's offset estimated from its keypoints, logged with its
+    confidence), an offsets JSON file, or a mapping ``{"cam01": 0.0, "cam02": 0.12}`` of seconds added to each
+    view's frame times. ``stride``: detect every N-th frame (N >= 1); ``threads``: the detector's threads.
+    ``fps`` and ``image_size`` (height, width): for keypoints without a video beside them (as ``--fps``,
+    ``--image-size``). ``say`` receives the log's lines.
 
     Returns the LiftResult (hypotheses (P, N, T, 17, 3) world metres, median, 2D keypoints,
     cameras with their time offsets, ``meta`` with the arguments, the settings, the offsets used
-    (``meta["sync"]``) and the log's warnings); InputError for bad input, as the CLI.
+    (``meta["sync"]``) and the log's warnings, a truncated video's among them); InputError naming the argument
+    for a bad one, and for bad input, as the CLI.
     """
-    from platypose import __version__
     from platypose.detectors.sources import view_name
-    from platypose.detectors.take import take_keypoints
-    from platypose.lifting.floor import floor_for_lift, parse_floor
-    from platypose.lifting.sync_choice import check_choice, synchronise
-    from platypose.lifting.take import root_kinds, root_paths
-    from platypose.pipeline import lift_take, match_cameras, view_cameras
+    from platypose.take_pipeline import run_take, take_settings
 
-    sources = [Path(views)] if isinstance(views, (str, Path)) else [Path(v) for v in views]
-    if not sources:
-        raise InputError("lift: give at least one view (a video or keypoints)")
-    try:
-        sampler = replace(sampler or SamplerConfig(), **sampler_fields)
-    except (TypeError, ValueError) as err:  # an unknown field, or a value SamplerConfig refuses
-        raise InputError(f"sampler: {err}") from None
-    windows = windows or WindowSettings()
-    check_choice(sync)
-    log = _Log(say)
-    names = [view_name(s) for s in sources]
-    what = ", ".join(map(str, sources))
-    calibration = None if cams is None else _calibration(cams)
-    cameras = None if calibration is None else match_cameras(calibration, names, what, _described(cams))
-    standing = floor_for_lift(parse_floor(floor), None if calibration is None else calibration.meta)
-    started = time.perf_counter()
-    read = _ViewReader(detector, stride, threads, fps, image_size, log)
-    tracks = [read(source) for source in sources]
-    timings = {"keypoints_s": time.perf_counter() - started}
-    sizes = [t.image_size for t in tracks]
-    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, "cams")
-    synced = synchronise(
-        sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
+    sources = _sources(views)
+    take = take_settings(
+        persons=persons,
+        root=root,
+        root_trajectory=_path("root_trajectory", root_trajectory, optional=True),
+        floor=floor,
+        sync=sync,
+        sampler=_sampler(sampler, sampler_fields),
+        windows=_instance("windows", windows, WindowSettings) or WindowSettings(),
     )
-    cameras = synced.cameras
-    keypoints, times, track_ids = take_keypoints(tracks, cameras, persons, what)
-    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (persons {persons})")
-    given = None
-    if root_trajectory is not None:
-        from platypose.detectors.root_file import read_root_trajectory
-
-        given = list(read_root_trajectory(Path(root_trajectory), times, keypoints.shape[2]))
-    roots = root_paths(keypoints, times, cameras, root, given, say=log)
-    bundle = prior if isinstance(prior, PriorBundle) else Prior.load(prior)
-    started = time.perf_counter()
-    result = lift_take(bundle, keypoints, times, track_ids, cameras, roots, sampler, windows, log=log, floor=standing)
-    timings["lift_s"] = time.perf_counter() - started
+    read = _ViewReader(
+        _path("detector", detector, optional=True),
+        _count("stride", stride),
+        None if threads is None else _count("threads", threads),
+        None if fps is None else _positive("fps", fps),
+        _image_size(image_size),
+    )
+    if say is not None and not callable(say):
+        raise InputError(f"say must be a function taking a line of text, got {say!r}", option="say")
+    load_prior = _prior_loader(prior)
+    calibration = _calibration(cams)
     arguments = {
         "views": [str(v) for v in sources],
         "cams": _described(cams) if cams is not None else None,
-        "persons": persons,
-        "root": root,
-        "root_trajectory": str(root_trajectory) if root_trajectory is not None else None,
-        "floor": floor,
-        "sync": dict(sync) if isinstance(sync, Mapping) else str(sync),
-        "stride": stride,
-        "sampler": asdict(sampler),
-        "windows": asdict(windows),
+        "persons": take.persons,
+        "root": take.root,
+        "root_trajectory": str(take.root_trajectory) if take.root_trajectory is not None else None,
+        "floor": take.floor,
+        "sync": dict(take.sync) if isinstance(take.sync, Mapping) else str(take.sync),
+        "stride": read.stride,
+        "sampler": asdict(take.sampler),
+        "windows": asdict(take.windows),
     }
-    return result.with_meta(
-        version=__version__,
-        input=what,
+    return run_take(
+        [(view_name(s), s) for s in sources],
+        calibration,
+        take,
+        read,
+        load_prior,
+        _Log(say),
+        what=", ".join(map(str, sources)),
+        described=_described(cams),
         arguments=arguments,
-        sync=synced.record(),
-        root=root_kinds(roots, given is not None),
-        timings=timings,
-        warnings=log.warnings,
     )
 
 
@@ -165,46 +150,114 @@ class _Log(JobLog):
             self.say(message)
 
 
-def _calibration(cams: str | Path | Calibration | Sequence[Camera]) -> Calibration:
-    """A Calibration from a file path, a Calibration, or cameras."""
-    if isinstance(cams, Calibration):
+def _prior_loader(prior: object) -> Callable[[], PriorBundle]:
+    """The prior to lift with, loaded when the pipeline asks for it (once the inputs are read and checked)."""
+    if isinstance(prior, PriorBundle):
+        return lambda: prior
+    path = _path("prior", prior, optional=True)
+    return lambda: Prior.load(path)
+
+
+def _calibration(cams: object) -> Calibration | None:
+    """A Calibration from a file path, a Calibration, or cameras; None for None."""
+    if cams is None or isinstance(cams, Calibration):
         return cams
-    if isinstance(cams, (str, Path)):
+    if isinstance(cams, (str, os.PathLike)):
         from platypose.lifting.calibration import load_calibration
 
         return load_calibration(Path(cams))
-    return Calibration(tuple(cams))
+    if isinstance(cams, Sequence) and cams and all(isinstance(c, Camera) for c in cams):
+        return Calibration(tuple(cams))
+    raise InputError(
+        f"cams must be a calibration file, a Calibration or a list of cameras, got {cams!r}", option="cams"
+    )
 
 
 def _described(cams: object) -> str:
     """How an error names the calibration given."""
-    return str(cams) if isinstance(cams, (str, Path)) else "the cameras given"
+    return str(cams) if isinstance(cams, (str, os.PathLike)) else "the cameras given"
+
+
+def _sources(views: object) -> list[Path]:
+    """The views' paths: one path, or a sequence of them; InputError naming ``views`` otherwise."""
+    if isinstance(views, (str, os.PathLike)):
+        return [Path(views)]
+    if isinstance(views, Sequence) and views and all(isinstance(v, (str, os.PathLike)) for v in views):
+        return [Path(v) for v in views]
+    if isinstance(views, Sequence) and not views:
+        raise InputError("views: give at least one view (a video or keypoints)", option="views")
+    raise InputError(f"views must be a path or a list of paths (videos or keypoints), got {views!r}", option="views")
+
+
+def _path(name: str, value: object, optional: bool = False) -> Path | None:
+    """``value`` as a path; None when ``optional``; InputError naming ``name`` otherwise."""
+    if value is None and optional:
+        return None
+    if isinstance(value, (str, os.PathLike)) and str(value):
+        return Path(value)
+    raise InputError(f"{name} must be a path, got {value!r}", option=name)
+
+
+def _count(name: str, value: object) -> int:
+    """``value`` as an integer >= 1; InputError naming ``name`` otherwise."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= 1:
+        return int(value)
+    raise InputError(f"{name} must be an integer >= 1, got {value!r}", option=name)
+
+
+def _positive(name: str, value: object) -> float:
+    """``value`` as a positive finite number; InputError naming ``name`` otherwise."""
+    if isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value) and value > 0:
+        return float(value)
+    raise InputError(f"{name} must be a positive number, got {value!r}", option=name)
+
+
+def _image_size(value: object) -> tuple[int, int] | None:
+    """``(height, width)`` in pixels, or None; InputError naming ``image_size`` otherwise."""
+    if value is None:
+        return None
+    if isinstance(value, Sequence) and not isinstance(value, str) and len(value) == 2:
+        return _count("image_size", value[0]), _count("image_size", value[1])
+    raise InputError(f"image_size must be (height, width) in pixels, got {value!r}", option="image_size")
+
+
+def _instance(name: str, value: object, cls: type):
+    """``value`` if it is None or a ``cls``; InputError naming ``name`` otherwise."""
+    if value is None or isinstance(value, cls):
+        return value
+    raise InputError(f"{name} must be a {cls.__name__}, got {value!r}", option=name)
+
+
+def _sampler(sampler: object, fields: dict[str, object]) -> SamplerConfig:
+    """``sampler`` (default: SamplerConfig()) with ``fields`` replaced; InputError naming an unknown field."""
+    base = _instance("sampler", sampler, SamplerConfig) or SamplerConfig()
+    known = {f.name for f in dataclasses.fields(SamplerConfig)}
+    unknown = sorted(set(fields) - known)
+    if unknown:
+        raise InputError(
+            f"lift: unknown argument(s) {', '.join(unknown)} (not a SamplerConfig field)", option=unknown[0]
+        )
+    return replace(base, **fields)
 
 
 class _ViewReader:
     """The 2D tracks of one view: read when it holds keypoints, else detected (the detector loaded once)."""
 
-    def __init__(self, detector, stride: int, threads: int | None, fps, image_size, log: JobLog) -> None:
-        self.detector, self.stride, self.threads, self.log, self.model = detector, stride, threads, log, None
+    def __init__(self, detector: Path | None, stride: int, threads: int | None, fps, image_size) -> None:
+        self.detector, self.stride, self.threads, self.model = detector, stride, threads, None
         self.fps, self.image_size = fps, image_size
 
     def __call__(self, source: Path):
+        """(tracks, how they were obtained)."""
         from platypose.detectors.sources import is_keypoint_source, read_keypoints
 
-        started = time.perf_counter()
         if is_keypoint_source(source):
-            tracks, how = read_keypoints(source, fps=self.fps, image_size=self.image_size), "read"
-        else:
-            from platypose.detectors.contracts import load_detector
-            from platypose.detectors.pipeline import detect_video
+            return read_keypoints(source, fps=self.fps, image_size=self.image_size), "read"
+        from platypose.detectors.contracts import load_detector
+        from platypose.detectors.pipeline import detect_video
 
-            if not source.is_file():
-                raise InputError(f"{source}: no such video or keypoint file")
-            if self.model is None:
-                self.model = load_detector(self.detector, threads=self.threads)
-            tracks, how = detect_video(source, self.model, stride=self.stride), "detected"
-        self.log(
-            f"view {source.name}: {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, "
-            f"{time.perf_counter() - started:.1f} s"
-        )
-        return tracks
+        if not source.is_file():
+            raise InputError(f"{source}: no such video or keypoint file")
+        if self.model is None:
+            self.model = load_detector(self.detector, threads=self.threads)
+        return detect_video(source, self.model, stride=self.stride), "detected"

@@ -27,12 +27,11 @@ from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.floor import ESTIMATE, Floor, floor_under
-from platypose.lifting.lift import WindowSettings
 from platypose.lifting.plausibility import plausibility, plausibility_lines
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.rigid import rigid_person
 from platypose.lifting.root import presence
-from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.take import lift_persons, reprojection_report
 
 SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning

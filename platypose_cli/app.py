@@ -20,6 +20,21 @@ app = typer.Typer(
 )
 
 
+def _plain_switches() -> None:
+    """Show a switch in ``--help`` without a type: typer labels every option with one, ``--resume <bool>``."""
+    from typer.core import TyperOption
+
+    typed = TyperOption.display_type_rich
+
+    def display_type_rich(self, ctx):
+        return None if self.is_flag else typed(self, ctx)
+
+    TyperOption.display_type_rich = display_type_rich
+
+
+_plain_switches()
+
+
 def _version_callback(value: bool) -> None:
     if value:
         typer.echo(f"platypose {__version__}")

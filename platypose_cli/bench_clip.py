@@ -79,7 +79,7 @@ def lift_clip(
     from platypose.lifting.calibration.defaults import default_camera
     from platypose.lifting.lift import lift_tracks
     from platypose.lifting.root import presence
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import SamplerConfig
 
     started, cpu_started = time.perf_counter(), time.process_time()
     detector = load_detector(threads=threads)

@@ -16,8 +16,7 @@ from platypose.cli.options import settings_options
 from platypose.data import VIDEO_DIR
 
 if TYPE_CHECKING:
-    from platypose.lifting.runtime import PriorSettings
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import PriorSettings, SamplerConfig
 
 DEMO_VIDEO = VIDEO_DIR / "sports2d-demo" / "demo.mp4"
 
@@ -49,7 +48,7 @@ def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int, 
     """Time the sampler and the matmul reference; the ``sampler`` part of the report."""
     import statistics
 
-    from platypose.lifting.benchmark import matmul_probe, time_sampler
+    from platypose.lifting.offline.benchmark import matmul_probe, time_sampler
 
     probes = {name: matmul_probe(matmul_size, prior.device, name) for name in dict.fromkeys(("float32", runtime))}
     rates: dict[str, list[float]] = {name: [] for name in probes}

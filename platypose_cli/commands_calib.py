@@ -7,7 +7,8 @@ from pathlib import Path
 import typer
 
 from platypose.cli.app import app
-from platypose.cli.sync_option import SYNC_HELP
+from platypose.cli.options import field_option
+from platypose.lifting.settings import TakeSettings
 
 calib_app = typer.Typer(help="Convert camera calibrations to calib.json and check them.", no_args_is_help=True)
 app.add_typer(calib_app, name="calib")
@@ -109,7 +110,7 @@ def check(
         None, "--keypoints", help="Folder with one OpenPose JSON sub-folder per camera: report triangulation error."
     ),
     fps: float = typer.Option(None, "--fps", help="Frame rate of the keypoints when no video sits beside them."),
-    sync: str = typer.Option("none", "--sync", help=SYNC_HELP),
+    sync: str = field_option(TakeSettings, "sync"),
     world_up: str = typer.Option(None, "--world-up", help=WORLD_UP_HELP),
     units: str = typer.Option(None, "--units", help=UNITS_HELP),
     subject: str = typer.Option(None, "--subject", help=SUBJECT_HELP),

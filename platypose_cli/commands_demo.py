@@ -11,8 +11,7 @@ from platypose.cli.app import app
 from platypose.cli.options import as_json, settings_options
 
 if TYPE_CHECKING:
-    from platypose.lifting.runtime import PriorSettings
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import PriorSettings, SamplerConfig
 
 SOURCES = ("videos", "keypoints")
 
@@ -79,7 +78,7 @@ def demo(
     from platypose.cli.commands_lift import finish, lift_settings
     from platypose.cli.detection import DetectOptions
     from platypose.cli.lift_batch import run_batch
-    from platypose.lifting.lift import WindowSettings
+    from platypose.lifting.settings import WindowSettings
 
     take = demo_take()
     job = demo_job(take, source)

@@ -16,14 +16,13 @@ from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.errors import InputError
 
 if TYPE_CHECKING:
-    from platypose.lifting.runtime import PriorSettings
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import PriorSettings, SamplerConfig
 
 
 def floor_plane(text: str) -> tuple[float, float, float, float] | None:
     """The level floor ``--floor`` gives evaluation: auto is the motion's z = 0; InputError for a tilted plane."""
-    from platypose.lifting.evaluation import floor_height
     from platypose.lifting.floor import CALIBRATED_FLOOR, parse_floor
+    from platypose.lifting.offline.evaluation import floor_height
 
     floor = parse_floor(text)
     plane = CALIBRATED_FLOOR.plane if floor == "auto" else (None if floor is None else floor.plane)
@@ -63,8 +62,8 @@ def evaluate_command(
 
     from platypose.lifting.atomic import check_writable
     from platypose.lifting.camera_rigs import ring_cameras
-    from platypose.lifting.evaluation import evaluate, floor_height, format_header
     from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.offline.evaluation import evaluate, floor_height, format_header
     from platypose.lifting.timebase import resample
 
     if views is not None and views < 1:

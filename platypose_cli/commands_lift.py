@@ -9,13 +9,11 @@ import typer
 
 from platypose.cli.app import app
 from platypose.cli.detection import DetectOptions
-from platypose.cli.options import as_json, settings_options
-from platypose.cli.sync_option import SYNC_HELP
+from platypose.cli.options import as_json, field_option, settings_options
+from platypose.lifting.settings import TakeSettings
 
 if TYPE_CHECKING:
-    from platypose.lifting.lift import WindowSettings
-    from platypose.lifting.runtime import PriorSettings
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
 
 
 def lift_settings(
@@ -36,35 +34,25 @@ def lift_settings(
 ):
     """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
     from platypose.cli.lift_run import RunSettings
-    from platypose.detectors.tracking import persons_count
     from platypose.exporters.export import parse_formats
     from platypose.lifting.atomic import check_writable
-    from platypose.lifting.floor import parse_floor
     from platypose.lifting.runtime import resolve_device
-    from platypose.lifting.sync_choice import check_choice
-    from platypose.lifting.take import check_root_mode
+    from platypose.take_pipeline import take_settings
 
-    persons_count(persons)
+    take = take_settings(
+        persons=persons, root=root, root_trajectory=root_file, floor=floor, sync=sync, sampler=sampler, windows=windows
+    )
     resolve_device(prior.device)
-    parse_floor(floor)
-    check_root_mode(root)
-    check_choice(sync)
     check_writable(out, folder=True)
     return RunSettings(
         out=out,
         cams=cams,
         prior=prior,
         detect=detect,
-        sampler=sampler,
-        windows=windows,
+        take=take,
         formats=parse_formats(formats),
-        persons=persons,
-        root=root,
-        root_file=root_file,
         quiet=quiet,
         arguments=arguments,
-        sync=sync,
-        floor=floor,
     )
 
 
@@ -114,58 +102,85 @@ def lift(
         help="Videos, several views of one take (matched to --cams by name), folders (each video or sub-folder of "
         "views is one input) or globs. Optional with --keypoints.",
     ),
-    cams: Path | None = typer.Option(None, "--cams", help="Calibration (native JSON, Pose2Sim/anipose TOML, ...)."),
+    cams: Path | None = typer.Option(
+        None, "--cams", help="Calibration (native JSON, Pose2Sim/anipose TOML, ...).", rich_help_panel="Input"
+    ),
     keypoints: Path | None = typer.Option(
         None,
         "--keypoints",
         help="Precomputed 2D instead of detection: a file or OpenPose folder for one view, or a folder of per-view "
         "sub-folders/files named after the cameras (cam01_json for cam_01).",
+        rich_help_panel="Input",
     ),
-    detector: Path | None = typer.Option(None, "--detector", help="Pose model .onnx (default: bundled MoveNet)."),
-    detector_format: str | None = typer.Option(None, "--detector-format", help="Model contract (default: recognised)."),
-    person_detector: Path | None = typer.Option(None, "--person-detector", help="Person detector for top-down models."),
-    out: Path = typer.Option(Path("out"), "--out", help="Output folder: OUT/<name>/ per input, OUT/summary.json."),
+    detector: Path | None = typer.Option(
+        None, "--detector", help="Pose model .onnx (default: bundled MoveNet).", rich_help_panel="Input"
+    ),
+    detector_format: str | None = typer.Option(
+        None, "--detector-format", help="Model contract (default: recognised).", rich_help_panel="Input"
+    ),
+    person_detector: Path | None = typer.Option(
+        None, "--person-detector", help="Person detector for top-down models.", rich_help_panel="Input"
+    ),
+    out: Path = typer.Option(
+        Path("out"), "--out", help="Output folder: OUT/<name>/ per input, OUT/summary.json.", rich_help_panel="Output"
+    ),
     formats: str = typer.Option(
         "npz,csv,bvh,rrd",
         "--formats",
         help="Comma-separated: npz, csv, bvh, trc, c3d, angles, report, rrd (docs/outputs.md).",
+        rich_help_panel="Output",
     ),
-    persons: str = typer.Option("all", "--persons", help="Who to lift: all, largest, or N (the N largest)."),
-    root: str = typer.Option(
-        "auto", "--root", help="Root path: auto (triangulated with 2+ views, else solved), triangulate, solve."
+    persons: str = field_option(TakeSettings, "persons", "People"),
+    root: str = field_option(TakeSettings, "root", "People"),
+    root_trajectory: Path | None = field_option(TakeSettings, "root_trajectory", "People"),
+    sync: str = field_option(TakeSettings, "sync", "Input"),
+    fps: float | None = typer.Option(
+        None, "--fps", help="Frame rate of keypoints without a video beside them.", rich_help_panel="Input"
     ),
-    root_trajectory: Path | None = typer.Option(
-        None, "--root-trajectory", help="Known pelvis path: npz (frame_times, root) or CSV (time,x,y,z)."
+    image_size: str | None = typer.Option(
+        None, "--image-size", help="HEIGHTxWIDTH of keypoints without a video.", rich_help_panel="Input"
     ),
-    sync: str = typer.Option("none", "--sync", help=SYNC_HELP),
-    fps: float | None = typer.Option(None, "--fps", help="Frame rate of keypoints without a video beside them."),
-    image_size: str | None = typer.Option(None, "--image-size", help="HEIGHTxWIDTH of keypoints without a video."),
-    stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame."),
-    jobs: int = typer.Option(1, "--jobs", min=1, help="Inputs lifted in parallel processes."),
+    stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame.", rich_help_panel="Input"),
+    jobs: int = typer.Option(1, "--jobs", min=1, help="Inputs lifted in parallel processes.", rich_help_panel="Run"),
     executor: str = typer.Option(
-        "local", "--executor", help="local (this machine, --jobs processes) or ray (one Ray task per input)."
+        "local",
+        "--executor",
+        help="local (this machine, --jobs processes) or ray (one Ray task per input).",
+        rich_help_panel="Ray",
     ),
     ray_address: str | None = typer.Option(
-        None, "--ray-address", help="Ray: auto (the cluster of this node) or ray://HOST:10001 [a Ray on this machine]."
+        None,
+        "--ray-address",
+        help="Ray: auto (the cluster of this node) or ray://HOST:10001 (default: a Ray on this machine).",
+        rich_help_panel="Ray",
     ),
-    cpus_per_input: int = typer.Option(1, "--cpus-per-input", min=1, help="Ray: CPUs (and threads) of each task."),
+    cpus_per_input: int = typer.Option(
+        1, "--cpus-per-input", min=1, help="Ray: CPUs (and threads) of each task.", rich_help_panel="Ray"
+    ),
     collect: bool = typer.Option(
-        False, "--collect", help="Ray: workers send outputs to this machine, which writes --out [they write it]."
+        False,
+        "--collect",
+        help="Ray: workers send outputs to this machine, which writes --out (default: they write it).",
+        rich_help_panel="Ray",
     ),
     threads: int | None = typer.Option(
-        None, "--threads", min=1, help="torch and onnxruntime threads per input (default: cores / jobs)."
+        None,
+        "--threads",
+        min=1,
+        help="torch and onnxruntime threads per input (default: cores / jobs).",
+        rich_help_panel="Run",
     ),
     resume: bool = typer.Option(
-        False, "--resume", help="Skip inputs whose outputs are complete, and unchanged inputs that failed."
+        False,
+        "--resume",
+        help="Skip inputs whose outputs are complete, and unchanged inputs that failed.",
+        rich_help_panel="Output",
     ),
-    retry_failed: bool = typer.Option(False, "--retry-failed", help="With --resume: run failed inputs again."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
-    floor: str = typer.Option(
-        "auto",
-        "--floor",
-        help="auto (the calibration's z = 0; without one, one camera: estimated under a quick lift), z=H, "
-        "nx,ny,nz,d (the plane n.x + d = 0), or none. Grounds every hypothesis (docs/lift.md).",
+    retry_failed: bool = typer.Option(
+        False, "--retry-failed", help="With --resume: run failed inputs again.", rich_help_panel="Output"
     ),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars.", rich_help_panel="Output"),
+    floor: str = field_option(TakeSettings, "floor", "People"),
     prior: PriorSettings = None,
     sampler: SamplerConfig = None,
     windows: WindowSettings = None,

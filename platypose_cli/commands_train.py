@@ -5,32 +5,31 @@ from __future__ import annotations
 import json
 import sys
 import time
+from dataclasses import fields, replace
 from pathlib import Path
 
 import typer
 
 from platypose.cli.app import app
+from platypose.cli.options import settings_options
 from platypose.lifting.errors import InputError
+from platypose.lifting.settings import DistilConfig, TrainConfig
 
 
 @app.command("train")
+@settings_options("train", parameter="optimisation", given_only=True)
+@settings_options("distil", only=("calls",))
 def train(
     data: list[Path] = typer.Argument(..., help="Motion files or folders (BVH, ASF/AMC, npy, DeepMimic, npz, C3D)."),
     out: Path = typer.Option(..., "--out", help="Checkpoint to write (written periodically, atomically)."),
-    iterations: int = typer.Option(20000, help="Optimiser steps."),
-    batch_size: int = typer.Option(64, help="Windows per step."),
     layers: int = typer.Option(4, help="Transformer layers."),
     width: int = typer.Option(256, help="Token width."),
     heads: int = typer.Option(4, help="Attention heads."),
     ff_width: int = typer.Option(512, help="Feed-forward width."),
     max_frames: int = typer.Option(64, help="Longest window the prior handles."),
     fps: float = typer.Option(30.0, help="Frame rate the prior runs at; clips are resampled to it."),
-    learning_rate: float = typer.Option(3e-4, help="Peak learning rate (cosine decay)."),
-    bone_scale: float = typer.Option(0.15, help="Per-bone length augmentation (+-)."),
-    checkpoint_every: int = typer.Option(1000, help="Write the checkpoint every this many steps."),
     resume: bool = typer.Option(False, "--resume", help="Continue from the checkpoint at --out."),
     threads: int = typer.Option(0, help="Torch threads (0: torch's default)."),
-    seed: int = typer.Option(0, help="Random seed."),
     log_file: Path = typer.Option(None, help="Also append JSON lines of losses here."),
     distil_from: Path = typer.Option(
         None,
@@ -38,40 +37,31 @@ def train(
         help="Distil this prior into a student of --calls network calls (half its own), trained on its training "
         "clips among DATA; the architecture options do not apply.",
     ),
-    calls: int = typer.Option(4, help="With --distil-from: the student's network calls (half the teacher's)."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress output."),
+    optimisation: dict = None,
+    distil: DistilConfig = None,
 ) -> None:
     """Train a motion prior (x0-predicting transformer) on real 3D motion, or distil one into fewer calls."""
     from platypose.lifting.atomic import check_writable, same_file
-    from platypose.lifting.distillation import DistilConfig, distil_prior
     from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.offline.distillation import distil_prior
+    from platypose.lifting.offline.training import TrainingDiverged, train_prior
     from platypose.lifting.prior import PriorConfig, load_prior
-    from platypose.lifting.sampler import SamplerConfig, network_steps
-    from platypose.lifting.training import TrainConfig, TrainingDiverged, train_prior
+    from platypose.lifting.sampling.sampler import network_steps
+    from platypose.lifting.settings import SamplerConfig
 
     try:
         prior_config = PriorConfig(
             layers=layers, width=width, heads=heads, ff_width=ff_width, max_frames=max_frames, fps=fps
         )
-        config = TrainConfig(
-            iterations=iterations,
-            batch_size=batch_size,
-            learning_rate=learning_rate,
-            bone_scale=bone_scale,
-            checkpoint_every=checkpoint_every,
-            seed=seed,
-        )
-        distil = DistilConfig(
-            calls=calls,
-            iterations=iterations,
-            batch_size=batch_size,
-            learning_rate=learning_rate,
-            checkpoint_every=checkpoint_every,
-            validate_every=min(250, checkpoint_every),
-            seed=seed,
-        )
     except ValueError as err:
         raise InputError(f"train: {err}") from None
+    config = TrainConfig(**optimisation)
+    shared = {k: v for k, v in optimisation.items() if k in {f.name for f in fields(DistilConfig)}}
+    if "checkpoint_every" in shared:
+        shared["validate_every"] = min(distil.validate_every, shared["checkpoint_every"])
+    distil = replace(distil, **shared)
+    iterations = (config if distil_from is None else distil).iterations
     if threads < 0:
         raise InputError(f"train: --threads must be 0 (torch's default) or more, got {threads}")
     check_writable(out)

@@ -40,13 +40,10 @@ from platypose.cli.input_stamps import input_stamp
 from platypose.cli.lift_jobs import Job
 from platypose.cli.options import as_json, cli_message
 from platypose.cli.output_set import changed_files, digests
-from platypose.cli.sync_option import write_offsets
 from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.errors import InputError
-from platypose.lifting.lift import WindowSettings
-from platypose.lifting.runtime import PriorSettings
-from platypose.lifting.sampler import SamplerConfig
-from platypose.pipeline import JobLog, lift_take, match_cameras, view_cameras
+from platypose.lifting.settings import PriorSettings, TakeSettings
+from platypose.pipeline import JobLog
 
 MANIFEST = "lift.json"
 FAILURE = "failed.json"
@@ -61,16 +58,10 @@ class RunSettings:
     cams: Path | None = None
     prior: PriorSettings = field(default_factory=PriorSettings)
     detect: DetectOptions = field(default_factory=DetectOptions)
-    sampler: SamplerConfig = field(default_factory=SamplerConfig)
-    windows: WindowSettings = field(default_factory=WindowSettings)
+    take: TakeSettings = field(default_factory=TakeSettings)
     formats: tuple[str, ...] = ("npz", "csv", "bvh", "rrd")
-    persons: str = "all"
-    root: str = "auto"
-    root_file: Path | None = None
     quiet: bool = False
     arguments: dict = field(default_factory=dict)
-    sync: str = "none"
-    floor: str = "auto"
 
 
 _PRIORS: dict[PriorSettings, object] = {}
@@ -81,28 +72,6 @@ def _prior(settings: PriorSettings):
     if settings not in _PRIORS:
         _PRIORS[settings] = settings.load()
     return _PRIORS[settings]
-
-
-def calibrated_cameras(job: Job, cams: Path) -> tuple[list, dict]:
-    """The camera of ``cams`` matching each view by name (InputError, calibration mismatch, when one has none),
-    and the calibration's meta."""
-    from platypose.lifting.calibration import load_calibration
-
-    calibration = load_calibration(cams)
-    return match_cameras(calibration, [v.name for v in job.views], job.input, str(cams)), calibration.meta
-
-
-def root_paths(keypoints, times, cameras, settings: RunSettings, log: JobLog) -> list[np.ndarray | None]:
-    """Per person: the pelvis path of ``--root-trajectory`` (T, 3), a triangulated one, or None (solved)."""
-    from platypose.lifting.take import root_paths as decide_roots
-
-    given = None
-    if settings.root_file is not None:
-        from platypose.detectors.root_file import read_root_trajectory
-
-        log(f"root trajectory from {settings.root_file}")
-        given = list(read_root_trajectory(settings.root_file, times, keypoints.shape[2]))
-    return decide_roots(keypoints, times, cameras, settings.root, given, say=log)
 
 
 class _GroupBars:
@@ -144,78 +113,45 @@ class _LazyBar:
 
 
 def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
-    """The LiftResult of one job, its long arrays in files under ``staging``, and the videos of its cameras."""
-    from platypose import __version__
-    from platypose.detectors.take import take_keypoints
-    from platypose.detectors.view_agreement import disagreeing_views
+    """The LiftResult of one job (:func:`platypose.take_pipeline.run_take`), its long arrays in files under
+    ``staging``, and the videos of its cameras; offsets estimated by ``--sync auto`` are saved for reuse."""
     from platypose.exporters.frames import FrameArray
-    from platypose.lifting.floor import floor_for_lift, parse_floor
-    from platypose.lifting.sync_choice import synchronise
-    from platypose.lifting.take import root_kinds
+    from platypose.take_pipeline import run_take
 
-    timings: dict[str, float] = {}
-    started = time.perf_counter()
-    calibrated, calibration_meta = calibrated_cameras(job, settings.cams) if settings.cams is not None else (None, None)
-    floor = floor_for_lift(parse_floor(settings.floor), calibration_meta)
+    calibration = None
+    if settings.cams is not None:
+        from platypose.lifting.calibration import load_calibration
+
+        calibration = load_calibration(settings.cams)
     detection = Detection(settings.detect)
-    views = []
-    for view in job.views:
-        tracks, seconds, frames = detection.tracks(view.source, settings.out / job.name, settings.quiet)
-        how = "read" if frames is None else ("from the cache" if frames == 0 else f"detected in {frames} frames")
-        log(
-            f"view {view.name}: {view.source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), "
-            f"{how}, {seconds:.1f} s"
+
+    def read(source: Path):
+        tracks, _, frames = detection.tracks(source, settings.out / job.name, settings.quiet)
+        return tracks, "read" if frames is None else (
+            "from the cache" if frames == 0 else f"detected in {frames} frames"
         )
-        for note in tracks.notes:
-            log.warning(note)
-        views.append(tracks)
-    timings["keypoints_s"] = time.perf_counter() - started
-    names, sources = [v.name for v in job.views], [str(v.source) for v in job.views]
-    cameras = view_cameras(calibrated, [t.image_size for t in views], names, sources, job.input, log, "--cams")
-    keypoints_2d, frame_times = [t.keypoints for t in views], [t.frame_times for t in views]
-    synced = synchronise(settings.sync, keypoints_2d, frame_times, cameras, log, log.warning)
-    cameras = synced.cameras
-    if synced.confidence is not None:
-        write_offsets(settings.out / job.name / SYNC_FILE, synced)
-    keypoints, times, track_ids = take_keypoints(views, cameras, settings.persons, job.input)
-    swapped = disagreeing_views(keypoints, [c.name for c in cameras])
-    if swapped:
-        log.warning(swapped)
-    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (--persons {settings.persons})")
-    roots = root_paths(keypoints, times, cameras, settings, log)
-    prior = _prior(settings.prior)
-    started = time.perf_counter()
+
     bars = _GroupBars(settings.quiet)
     try:
-        result = lift_take(
-            prior,
-            keypoints,
-            times,
-            track_ids,
-            cameras,
-            roots,
-            settings.sampler,
-            settings.windows,
-            lambda shape, name: FrameArray.create(staging / f".{name}.npy", shape, np.float32),
-            bars.update,
+        result = run_take(
+            [(v.name, v.source) for v in job.views],
+            calibration,
+            settings.take,
+            read,
+            lambda: _prior(settings.prior),
             log,
-            floor,
+            what=job.input,
+            described=str(settings.cams),
+            cams_option="--cams",
+            arguments=settings.arguments,
+            arrays=lambda shape, name: FrameArray.create(staging / f".{name}.npy", shape, np.float32),
+            progress=bars.update,
         )
     finally:
         bars.close()
-    timings["lift_s"] = time.perf_counter() - started
-    meta = {
-        "version": __version__,
-        "input": job.input,
-        "arguments": settings.arguments,
-        **result.meta,
-        "sync": synced.record(),
-        "root": root_kinds(roots, settings.root_file is not None),
-        "timings": timings,
-        "warnings": log.warnings,
-    }
-    result = replace(result, meta=meta)
-    videos = {c.name: v.video for c, v in zip(cameras, job.views) if v.video is not None}
+    if "confidence" in result.meta["sync"]:
+        write_text_atomic(settings.out / job.name / SYNC_FILE, json.dumps(result.meta["sync"], indent=1) + "\n")
+    videos = {c.name: v.video for c, v in zip(result.cameras, job.views) if v.video is not None}
     return result, videos
 
 
@@ -323,20 +259,21 @@ def finished_outputs(folder: Path, formats, digest: str | None = None) -> tuple[
 
 def fingerprint(job: Job, settings: RunSettings) -> str:
     """A digest of the job's input files and the settings that decide whether it can succeed."""
-    sync_file = Path(settings.sync) if settings.sync not in ("auto", "none") else None
+    take = settings.take
+    sync_file = Path(take.sync) if take.sync not in ("auto", "none") else None
     files = [v.source for v in job.views] + [
-        p for p in (settings.cams, settings.root_file, settings.prior.path, sync_file) if p
+        p for p in (settings.cams, take.root_trajectory, settings.prior.path, sync_file) if p
     ]
     decisive = [
-        settings.sync,
+        take.sync,
         str(replace(settings.detect, threads=None)),
-        settings.persons,
-        settings.root,
-        settings.floor,
+        take.persons,
+        take.root,
+        take.floor,
         settings.prior.runtime,
         settings.prior.device,
-        as_json(settings.sampler),
-        as_json(settings.windows),
+        as_json(take.sampler),
+        as_json(take.windows),
         [input_stamp(Path(f)) for f in files],
     ]
     return hashlib.sha256(json.dumps(decisive, sort_keys=True, default=str).encode()).hexdigest()

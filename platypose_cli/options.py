@@ -1,16 +1,14 @@
-"""Command-line options shared by several commands, built from the library's settings dataclasses.
+"""Command-line options shared by several commands, built from the fields of the library's settings classes.
 
-One table per settings class names the flags of its fields (:data:`SAMPLER_FLAGS` for
-:class:`~platypose.lifting.sampler_config.SamplerConfig`, :data:`WINDOW_FLAGS` for
-:class:`~platypose.lifting.lift.WindowSettings`, :data:`PRIOR_FLAGS` for
-:class:`~platypose.lifting.runtime.PriorSettings`). A command decorated with
-``@settings_options("sampler")`` gets one typer option per row and receives the built
-settings object in its ``sampler`` parameter; an option not given takes the class's
-default (the one source of defaults; --help shows it), unless the command sets its own (``defaults=``).
+Every field of a settings class in :mod:`platypose.lifting.settings` made with ``setting(..., option=True)``
+is an option: ``--field-name`` (a switch ``--name/--no-name``), plus its ``also`` spellings, with the
+field's help. A command decorated with ``@settings_options("sampler")`` gets one typer option per such
+field of :data:`SETTINGS`'s class and receives the built settings object in its ``sampler`` parameter; an
+option not given takes the class's default (the one source of defaults; --help shows it), unless the
+command sets its own (``defaults=``).
 
-To add an option: add the field to the dataclass (its check in ``__post_init__``, its
-message naming the field, not a flag) and a row to its table here; every command using
-the group has it, and tests/test_cli_options.py checks the row against the class.
+To add an option: add the field to the class with ``option=True`` (its check in ``__post_init__``, its
+message naming the field, not a flag); every command using the group has it.
 """
 
 from __future__ import annotations
@@ -18,92 +16,62 @@ from __future__ import annotations
 import functools
 import inspect
 import re
+import typing
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import typer
 
+from platypose.lifting import settings as library
 from platypose.lifting.errors import InputError
+
+SETTINGS = {  # each group of options and its settings class
+    "sampler": library.SamplerConfig,
+    "windows": library.WindowSettings,
+    "prior": library.PriorSettings,
+    "train": library.TrainConfig,
+    "distil": library.DistilConfig,
+}
+PANELS = {"windows": "Sampler", "prior": "Sampler"}  # groups shown in another group's help panel
+RENAMED = {("prior", "path"): "--prior"}  # fields whose flag is not their name
+FLAG_SPELLINGS = {"detector format": "--detector-format", "person detector": "--person-detector"}
 
 
 @dataclass(frozen=True)
 class Flag:
     """A settings field (``field``, of type ``type``) as a command-line option spelled ``names`` (the first is
-    documented; the others are older spellings kept as aliases)."""
+    documented; the others are older spellings kept as aliases), with its ``help``, ``default`` and ``panel``."""
 
     field: str
     type: object
     names: tuple[str, ...]
     help: str
-
-
-SAMPLER_FLAGS = (
-    Flag("samples", int, ("--samples",), "Hypotheses per person."),
-    Flag("steps", int, ("--steps",), "Diffusion steps kept, of the prior's 50 (T)."),
-    Flag("skip", int, ("--skip",), "Noisiest kept steps skipped (S)."),
-    Flag("guidance_iters", int, ("--guidance-iters", "--k"), "Guidance steps per diffusion step, at most (k)."),
-    Flag("energy_scale", float, ("--energy-scale", "--lambda"), "Initial guidance step (lambda)."),
-    Flag("eta", float, ("--eta",), "DDIM eta: 0 deterministic re-noising, 1 fresh noise."),
-    Flag("solver", str, ("--solver",), "Re-noising between network calls: ddim or dpm2m (DPM-Solver++(2M))."),
-    Flag("temperature", float, ("--temperature",), "Scale of the initial noise (1: the prior as trained)."),
-    Flag("robust", str, ("--robust",), "Reprojection loss: l2 or geman-mcclure."),
-    Flag("size_prior", bool, ("--size-prior/--no-size-prior",), "Place each prediction as a person of adult size."),
-    Flag("size_spread", float, ("--size-spread",), "Log-normal spread of the hypotheses' sizes (0: all typical)."),
-    Flag("noise_fit", bool, ("--noise-fit/--no-noise-fit",), "Follow the 2D only as far as its jitter allows."),
-    Flag("noise_spread", bool, ("--noise-spread/--no-noise-spread",), "2+ views: spread hypotheses by the 2D noise."),
-    Flag("bone_weight", float, ("--bone-weight",), "Constant bone lengths over time (0: off)."),
-    Flag("symmetry_weight", float, ("--symmetry-weight",), "Left/right bone symmetry (0: off)."),
-    Flag(
-        "depth_smoothness", float, ("--depth-smoothness",), "One view: smoothness of every joint's depth path (0: off)."
-    ),
-    Flag("seed", int, ("--seed",), "Random seed of the sampler."),
-)
-WINDOW_FLAGS = (
-    Flag("window", int, ("--window",), "Window length in prior frames (capped by the prior)."),
-    Flag("overlap", int, ("--overlap",), "Frames shared by consecutive windows."),
-)
-PRIOR_FLAGS = (
-    Flag("path", Path, ("--prior",), "Motion prior checkpoint (default: the shipped one)."),
-    Flag("device", str, ("--device",), "Sampler device: cpu, cuda or auto (cuda when available)."),
-    Flag(
-        "runtime",
-        str,
-        ("--runtime",),
-        "Denoiser runtime: auto (bfloat16 where this CPU runs it fast, else float32), float32, bfloat16 or onnx.",
-    ),
-)
-SETTINGS = {  # the settings class of each table, imported when a command runs (torch stays out of --help)
-    "sampler": ("platypose.lifting.sampler_config", "SamplerConfig", SAMPLER_FLAGS),
-    "windows": ("platypose.lifting.lift", "WindowSettings", WINDOW_FLAGS),
-    "prior": ("platypose.lifting.runtime", "PriorSettings", PRIOR_FLAGS),
-}
-FLAG_SPELLINGS = {"detector format": "--detector-format", "person detector": "--person-detector"}
-
-
-def settings_class(group: str) -> type:
-    """The settings dataclass of ``group`` (a key of :data:`SETTINGS`)."""
-    import importlib
-
-    module, name, _ = SETTINGS[group]
-    return getattr(importlib.import_module(module), name)
+    default: object
+    panel: str
 
 
 @functools.cache
-def declared_defaults(group: str) -> dict[str, object]:
-    """The defaults ``group``'s class declares, read from its source without importing it (the sampler's module
-    imports torch, which would make ``platypose --help`` take seconds); literal defaults only."""
-    import ast
-    import importlib.util
+def flags(group: str) -> tuple[Flag, ...]:
+    """The options of ``group``'s settings class, one per field made with ``option=True``."""
+    cls = SETTINGS[group]
+    hints = typing.get_type_hints(cls)
+    made = []
+    for f in library.option_fields(cls):
+        kind = next((a for a in typing.get_args(hints[f.name]) if a is not type(None)), hints[f.name])
+        name = RENAMED.get((group, f.name), "--" + f.name.replace("_", "-"))
+        names = (f"{name}/--no-{name[2:]}",) if kind is bool else (name, *(f"--{a}" for a in f.metadata["also"]))
+        panel = f.metadata["panel"] or PANELS.get(group, group.title())
+        made.append(Flag(f.name, kind, names, f.metadata["help"], f.default, panel))
+    return tuple(made)
 
-    module, name, _ = SETTINGS[group]
-    tree = ast.parse(Path(importlib.util.find_spec(module).origin).read_text(encoding="utf-8"))
-    (body,) = [node.body for node in tree.body if isinstance(node, ast.ClassDef) and node.name == name]
-    return {
-        node.target.id: ast.literal_eval(node.value)
-        for node in body
-        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and node.value is not None
-    }
+
+def field_option(cls: type, name: str, panel: str | None = None):
+    """A typer option ``--name`` for field ``name`` of settings class ``cls``, with the field's default and help."""
+    field = cls.__dataclass_fields__[name]
+    return typer.Option(
+        field.default, "--" + name.replace("_", "-"), help=field.metadata["help"], rich_help_panel=panel
+    )
 
 
 def settings_options(
@@ -113,18 +81,17 @@ def settings_options(
     only: Sequence[str] | None = None,
     exclude: Sequence[str] = (),
     defaults: Mapping[str, object] | None = None,
+    given_only: bool = False,
 ) -> Callable[[Callable], Callable]:
     """Give a typer command one option per row of ``group``'s table (``only`` those fields, or all but
     ``exclude``) and call it with ``group=SettingsClass(**values given)``; a value the class refuses is an
     InputError. An option left out takes the class's default, or this command's ``defaults``. The command
-    receives the object in ``parameter`` (default: the group's name).
+    receives the object in ``parameter`` (default: the group's name); ``given_only``: the dict of the values given
+    instead (for a command that builds one of two classes from them).
     """
-    _, _, flags = SETTINGS[group]
-    chosen = [f for f in flags if (only is None or f.field in only) and f.field not in exclude]
+    chosen = [f for f in flags(group) if (only is None or f.field in only) and f.field not in exclude]
     defaults = dict(defaults or {})
-    label = group.replace("_", " ")
     parameter = parameter or group
-    shown = declared_defaults(group)
 
     def decorate(command: Callable) -> Callable:
         signature = inspect.signature(command)
@@ -139,8 +106,8 @@ def settings_options(
                     defaults.get(f.field),
                     *f.names,
                     help=f.help,
-                    show_default=f.field in defaults or _shown(shown.get(f.field), f.names),
-                    rich_help_panel=label.title(),
+                    show_default=f.field in defaults or _shown(f.default, f.names),
+                    rich_help_panel=f.panel,
                 ),
                 annotation=f.type if f.field in defaults else f.type | None,
             )
@@ -155,12 +122,8 @@ def settings_options(
         @functools.wraps(command)
         def wrapper(**values):
             given = {f.field: values.pop(f.field) for f in chosen}
-            try:
-                built = settings_class(group)(**{k: v for k, v in given.items() if v is not None})
-            except InputError:
-                raise
-            except ValueError as err:
-                raise InputError(f"{label}: {err}") from None
+            given = {k: v for k, v in given.items() if v is not None}
+            built = given if given_only else SETTINGS[group](**given)
             return command(**values, **{parameter: built})
 
         wrapper.__signature__ = signature.replace(parameters=kept + added)

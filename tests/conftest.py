@@ -30,8 +30,9 @@ def tiny_prior(real_clips, tmp_path_factory):
     """A small prior trained in seconds on real clips (16-frame windows, 30 fps)."""
     import torch
 
+    from platypose.lifting.offline.training import train_prior
     from platypose.lifting.prior import PriorConfig, load_prior
-    from platypose.lifting.training import TrainConfig, train_prior
+    from platypose.lifting.settings import TrainConfig
 
     path = tmp_path_factory.mktemp("prior") / "tiny.pt"
     torch.manual_seed(0)

@@ -98,3 +98,38 @@ def two_person_result(data_dir: Path) -> LiftResult:
         energy=np.concatenate([ra.energy, rb.energy]),
         meta=ra.meta,
     )
+
+
+def read_entities(path: Path, store: str = "recording") -> dict[str, dict[str, list]]:
+    """A rerun recording read back: per entity path: column name -> values, static rows under 'static:<column>', time-sorted otherwise."""
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(path)
+    entry = (reader.recordings() if store == "recording" else reader.blueprints())[0]
+    out: dict[str, dict[str, list]] = {}
+    for chunk in reader.stream(store=entry).to_chunks():
+        batch = chunk.to_record_batch()
+        cols = out.setdefault(chunk.entity_path, {})
+        for name in batch.schema.names:
+            if name.startswith("rerun.controls"):
+                continue
+            column = batch.column(name)
+            if pa.types.is_timestamp(column.type) or pa.types.is_duration(column.type):
+                column = column.cast(pa.int64())
+            key = f"static:{name}" if chunk.is_static else name
+            if name.endswith(":blob"):  # one blob per row, as bytes
+                values = [row.values.flatten().to_numpy(zero_copy_only=False).tobytes() for row in column]
+            else:
+                values = column.to_pylist()
+            cols.setdefault(key, []).extend(values)
+    return out
+
+
+def largest_bone_turn(joints: np.ndarray) -> float:
+    """Largest angle (degrees) any bone of joints (T, 17, 3) turns between consecutive frames."""
+    from platypose.lifting.skeleton import BONES
+
+    bones = np.stack([joints[:, c] - joints[:, p] for c, p in BONES], axis=1)
+    bones /= np.linalg.norm(bones, axis=-1, keepdims=True)
+    return float(np.degrees(np.arccos(np.clip(np.sum(bones[1:] * bones[:-1], -1), -1, 1))).max())

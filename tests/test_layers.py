@@ -10,9 +10,16 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 FORBIDDEN = {
-    "lifting": ("platypose.detectors", "platypose.exporters", "platypose.media", "platypose.cli", "platypose.pipeline"),
-    "detectors": ("platypose.exporters", "platypose.cli", "platypose.pipeline"),
-    "exporters": ("platypose.detectors", "platypose.cli", "platypose.pipeline"),
+    "lifting": (
+        "platypose.detectors",
+        "platypose.exporters",
+        "platypose.media",
+        "platypose.cli",
+        "platypose.pipeline",
+        "platypose.take_pipeline",
+    ),
+    "detectors": ("platypose.exporters", "platypose.cli", "platypose.pipeline", "platypose.take_pipeline"),
+    "exporters": ("platypose.detectors", "platypose.cli", "platypose.pipeline", "platypose.take_pipeline"),
 }
 
 
@@ -42,3 +49,40 @@ def test_no_import_goes_up_or_across(folder: str) -> None:
 def test_media_imports_only_lifting() -> None:
     ours = [n for n in imported_modules(REPO / "platypose" / "media.py") if n.startswith("platypose")]
     assert ours and all(n.startswith("platypose.lifting") for n in ours)
+
+
+OFFLINE_COMMANDS = {"commands_train.py", "commands_eval.py", "commands_bench.py"}  # train, eval, bench
+
+
+def test_the_lift_path_never_imports_offline() -> None:
+    """Training, distillation, evaluation and benchmarks (lifting/offline/) are imported only by each other and by
+    the commands that run them: nothing a lift runs (lifting's other modules, detectors, exporters, the pipeline,
+    the API, the lift command) loads them."""
+    folders = ("lifting", "detectors", "exporters", "platypose", "platypose_cli")
+    files = [
+        path
+        for folder in folders
+        for path in sorted((REPO / folder).rglob("*.py"))
+        if "offline" not in path.relative_to(REPO).parts and path.name not in OFFLINE_COMMANDS
+    ]
+    offenders = [
+        f"{path.relative_to(REPO)}: {name}"
+        for path in files
+        for name in imported_modules(path)
+        if name.startswith("platypose.lifting.offline")
+    ]
+    assert len(files) > 100 and offenders == []
+
+
+def test_the_sampler_imports_no_take_level_module() -> None:
+    """lifting/sampling/ (Algorithm 1) imports the base of lifting, never the take around it (windows, roots,
+    rigid people, sync) nor offline."""
+    take_level = ("lift", "take", "windows", "root", "rigid", "rigid_shape", "sync", "sync_choice", "plausibility")
+    forbidden = tuple(f"platypose.lifting.{m}" for m in take_level)
+    offenders = [
+        f"{path.relative_to(REPO)}: {name}"
+        for path in sorted((REPO / "lifting" / "sampling").rglob("*.py"))
+        for name in imported_modules(path)
+        if name in forbidden or name.startswith("platypose.lifting.offline")
+    ]
+    assert offenders == []

@@ -69,7 +69,7 @@ def lift_track(prior, keypoints, times, image_size, seed: int = 0):
     """Hypotheses (N, T, 17, 3) of one track (T, 17, 3) with the default camera, 50 hypotheses."""
     from platypose.lifting.calibration.defaults import default_camera
     from platypose.lifting.lift import lift_tracks
-    from platypose.lifting.sampler import SamplerConfig
+    from platypose.lifting.settings import SamplerConfig
 
     camera = default_camera("stride", *image_size)
     return lift_tracks(

@@ -1,0 +1,1 @@
+"""What runs apart from a lift: training and distilling priors, evaluation, benchmarks."""

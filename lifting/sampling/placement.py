@@ -1,0 +1,103 @@
+"""Where each new network prediction stands in the world: known root path, or the rays' closed-form placement.
+
+The prior predicts motion up to a shift; every diffusion step's prediction is placed before
+guidance moves it (:meth:`lifting.guidance.GuidedProblem.solve_offset`):
+
+- size prior (:func:`typical_size`): one view cannot tell a small near person from a tall far
+  one, so each prediction is brought to an adult size (each hypothesis its own) before the rays
+  place it (:func:`lifting.translation.solve_translation`);
+- depth limit (:func:`limit_depth`, one view): roots far nearer or farther than their window's
+  median hypothesis come back along their rays;
+- continuation (:class:`Anchor`, :func:`continuation_ramp`): a window that continues the one
+  before starts on it and returns to the rays' own placement by its end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from platypose.lifting.sampling.energy import bone_lengths_torch
+from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
+
+DEPTH_RANGE = 1.5  # one view: a root over this many times nearer or farther than the median hypothesis is moved back
+SIZE_LIMITS = (0.5, 2.0)  # the size prior never scales a prediction by more than this
+
+
+@dataclass(frozen=True)
+class Anchor:
+    """Known joints for some frames of each hypothesis (window continuation).
+
+    ``joints`` (B, N, F, 17, 3) world metres; ``mask`` (B, F) is 1 where a frame is
+    anchored, 0 elsewhere, and frame 0 must be anchored. Anchored frames are in-painted
+    (their features replace the prediction's at every step, so the network continues
+    them) and held by an energy of ``weight`` per squared metre.
+    """
+
+    joints: torch.Tensor
+    mask: torch.Tensor
+    weight: float = 100.0
+
+
+def continuation_ramp(mask: torch.Tensor) -> torch.Tensor:
+    """Weights ``(B, F)``: 1 over each row's anchored first frames, then falling linearly to 0 at the last frame.
+
+    Blending the continued placement (weight 1) into the rays' own placement with
+    these weights joins a window to the one before without letting the placement
+    drift from window to window (with one camera, windows that only continue their
+    predecessor drift, e.g. towards the camera).
+    """
+    F = mask.shape[-1]
+    frames = torch.arange(F, dtype=mask.dtype, device=mask.device)
+    last_anchored = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+    return ((F - 1 - frames) / (F - 1 - last_anchored).clamp(min=1)).clamp(0, 1)
+
+
+def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) -> torch.Tensor:
+    """Offsets ``(B, N, F, 3)`` of poses ``local`` ``(B, N, F, 17, 3)`` that start on the ``anchor``'s first
+    pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`)."""
+    continued = anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
+    ramp = continuation_ramp(anchor.mask)[:, None, :, None]
+    return ramp * continued + (1 - ramp) * offset
+
+
+def typical_size(joints: torch.Tensor, factors: torch.Tensor | None = None) -> torch.Tensor:
+    """Scale the poses ``(B, N, F, 17, 3)`` about their pelvis to adult size.
+
+    Size is the sum of limb and trunk lengths (median over frames). Without ``factors``
+    one scale per window (median over its hypotheses) brings the window to typical size
+    and keeps the hypotheses' relative sizes; with ``factors`` ``(N,)`` hypothesis n is
+    brought to typical x ``factors[n]``. Scales are clamped to ``SIZE_LIMITS``.
+    """
+    lengths = bone_lengths_torch(joints)[..., list(SIZE_BONES)].sum(-1)  # (B, N, F)
+    typical = sum(TYPICAL_BONE_LENGTHS[b] for b in SIZE_BONES)
+    if factors is None:
+        size = lengths.flatten(1).median(dim=-1).values[:, None]  # (B, 1)
+        target = torch.full_like(size, typical)
+    else:
+        size = lengths.median(dim=-1).values  # (B, N)
+        target = typical * factors.to(lengths)[None]
+    scale = (target / size.clamp(min=1e-3)).clamp(*SIZE_LIMITS)
+    root = joints[..., :1, :]
+    return root + scale[..., None, None, None] * (joints - root)
+
+
+def limit_depth(roots: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor) -> torch.Tensor:
+    """Move roots ``(B, N, F, 3)`` (world) along their camera rays to within ``DEPTH_RANGE`` times the
+    median depth of the N hypotheses of their window and frame (camera ``rotation`` (3, 3), ``translation`` (3,)).
+
+    A root too near is put at ``median / DEPTH_RANGE`` on its own ray; one (nearly) beside or behind
+    the camera (depth under ``median / DEPTH_RANGE**2``) has no usable ray and takes the median ray
+    of the hypotheses instead, so a root is never thrown far sideways.
+    """
+    center = -translation @ rotation  # camera centre in the world
+    ray = roots - center
+    depth = ray @ rotation[2]  # (B, N, F)
+    median = depth.median(dim=1, keepdim=True).values.clamp(min=1e-3)  # (B, 1, F)
+    limited = torch.minimum(torch.maximum(depth, median / DEPTH_RANGE), median * DEPTH_RANGE)
+    median_ray = ray.median(dim=1, keepdim=True).values  # (B, 1, F, 3), componentwise
+    median_ray = median_ray / (median_ray @ rotation[2]).clamp(min=1e-6)[..., None]  # at unit depth
+    usable = (depth > median / DEPTH_RANGE**2)[..., None]
+    unit_ray = torch.where(usable, ray / depth.clamp(min=1e-6)[..., None], median_ray)
+    return torch.where((limited != depth)[..., None], center + unit_ray * limited[..., None], roots)

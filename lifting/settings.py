@@ -1,0 +1,374 @@
+"""Every settings class of the library, with each field's help beside it, checked once (no torch, numpy or cv2).
+
+A field made with :func:`setting` carries its help; ``option=True`` makes it a command-line option of every
+command using its class (``platypose.cli.options`` builds the flags from these fields, ``--`` and the field name
+with dashes, plus the ``also`` spellings). Every check raises
+:class:`~platypose.lifting.errors.InputError` with ``option`` set to the field's name, and the message names
+the field as it is spelled here (the CLI puts the flag in its place). Values are checked by their declared
+type first: a Python ``int`` where an integer is asked, any real number where a float is (stored as
+``float``), ``True``/``False`` for switches, a path (``str`` or ``Path``) where a path is.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import numbers
+import os
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from platypose.lifting.errors import InputError
+
+ROBUST_LOSSES = ("l2", "geman-mcclure")
+STEP_RULES = ("backtrack", "paper")
+DIRECTIONS = ("gauss-newton", "gradient")
+SOLVERS = ("ddim", "dpm2m")
+MAX_SAMPLES = 5000  # hypotheses per person: beyond this the arrays outgrow any machine for a minute of video
+DEVICES = ("cpu", "cuda", "auto")
+RUNTIMES = ("auto", "float32", "bfloat16", "onnx")
+ROOT_MODES = ("auto", "triangulate", "solve")
+
+
+def setting(default, help: str, *, option: bool = False, also: tuple[str, ...] = (), panel: str | None = None):
+    """A dataclass field with its ``help``; ``option``: a command-line option (spelled ``--field-name`` and
+    ``also`` older spellings), shown in the help panel ``panel`` (default: its class's)."""
+    meta = {"help": help, "option": option, "also": also, "panel": panel}
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def option_fields(cls: type) -> list[dataclasses.Field]:
+    """The fields of settings class ``cls`` that are command-line options."""
+    return [f for f in dataclasses.fields(cls) if f.metadata.get("option")]
+
+
+@functools.cache
+def _hints(cls: type) -> dict[str, object]:
+    return typing.get_type_hints(cls)
+
+
+def _checked(name: str, value: object, hint: object) -> object:
+    """``value`` as field ``name`` of type ``hint`` stores it; InputError naming the field otherwise."""
+    args = typing.get_args(hint)
+    if type(None) in args:
+        if value is None:
+            return None
+        (hint,) = [a for a in args if a is not type(None)]
+        args = typing.get_args(hint)
+    if hint is bool:
+        ok = isinstance(value, bool)
+        want = "True or False"
+    elif hint is int:
+        ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+        value, want = (int(value) if ok else value), "an integer"
+    elif hint is float:
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+        value, want = (float(value) if ok else value), "a finite number"
+    elif hint is str:
+        ok, want = isinstance(value, str), "a string"
+    elif hint is Path:
+        ok, want = isinstance(value, (str, os.PathLike)), "a path"
+        value = Path(value) if ok else value
+    elif typing.get_origin(hint) is tuple:
+        want = f"{len(args)} numbers"
+        ok = isinstance(value, (tuple, list)) and len(value) == len(args)
+        items = [_checked(name, v, float) for v in value] if ok else []
+        value = tuple(items) if ok else value
+    else:
+        return value
+    if not ok:
+        raise InputError(f"{name} must be {want}, got {value!r}", option=name)
+    return value
+
+
+def check_types(settings: object) -> None:
+    """Check every field of the dataclass ``settings`` against its declared type, storing the normalised value."""
+    hints = _hints(type(settings))
+    for f in dataclasses.fields(settings):
+        object.__setattr__(settings, f.name, _checked(f.name, getattr(settings, f.name), hints[f.name]))
+
+
+def require(checks: list[tuple[bool, str, str]]) -> None:
+    """Raise InputError(message, option=field) for the first ``(ok, field, message)`` that is not ok."""
+    for ok, name, message in checks:
+        if not ok:
+            raise InputError(message, option=name)
+
+
+@dataclass(frozen=True)
+class SamplerConfig:
+    """Every knob of the sampler; defaults follow the paper (T=10, S=2, k=10) except where noted.
+
+    Each field's help says what it does; the longer story of the guidance, placement, floor and
+    noise options is in the modules that use them (:mod:`platypose.lifting.sampling.guidance`,
+    :mod:`platypose.lifting.sampling.views`, :mod:`platypose.lifting.sampling.grounding`), and what they trade is in docs/prior.md.
+    """
+
+    samples: int = setting(50, "Hypotheses per person.", option=True)
+    steps: int = setting(10, "Diffusion steps kept, of the prior's 50 (T).", option=True)
+    skip: int = setting(2, "Noisiest kept steps skipped (S).", option=True)
+    eta: float = setting(0.0, "DDIM eta: 0 deterministic re-noising, 1 fresh noise.", option=True)
+    guidance_iters: int = setting(10, "Guidance steps per diffusion step, at most (k).", option=True, also=("k",))
+    guidance_tol: float = setting(1e-3, "Guidance stops once every hypothesis gains less than this share.")
+    energy_scale: float = setting(1.0, "Initial guidance step (lambda).", option=True, also=("lambda",))
+    decay: float = setting(0.1, "Factor cutting the guidance step when a step fails.")
+    grow: float = setting(2.0, "Factor growing the guidance step after an accepted one (backtrack).")
+    step_rule: str = setting("backtrack", "backtrack (reject steps raising the energy) or paper (keep every step).")
+    direction: str = setting("gauss-newton", "Guidance direction: gauss-newton or gradient.")
+    damping: float = setting(0.1, "Gauss-Newton damping.")
+    robust: str = setting("l2", "Reprojection loss: l2 or geman-mcclure.", option=True, panel="Experimental")
+    robust_scale: float = setting(0.05, "Scale of the robust loss (normalised image units).")
+    translation_smoothness: float = setting(100.0, "Coupling of per-frame root offsets (0: independent frames).")
+    size_prior: bool = setting(True, "Place each prediction as a person of adult size.", option=True)
+    size_spread: float = setting(0.1, "Log-normal spread of the hypotheses' sizes (0: all typical).", option=True)
+    noise_fit: bool = setting(True, "Follow the 2D only as far as its jitter allows.", option=True)
+    noise_spread: bool = setting(True, "2+ views: spread hypotheses by the 2D noise.", option=True)
+    bone_weight: float = setting(0.0, "Constant bone lengths over time (0: off).", option=True, panel="Experimental")
+    symmetry_weight: float = setting(0.0, "Left/right bone symmetry (0: off).", option=True, panel="Experimental")
+    depth_smoothness: float = setting(10.0, "One view: smoothness of every joint's depth path (0: off).", option=True)
+    floor: tuple[float, float, float, float] | None = setting(None, "Floor plane (nx, ny, nz, d); None: no floor.")
+    floor_weight: float = setting(1.0, "Weight per squared metre of a joint below the floor.")
+    contact_weight: float = setting(0.1, "Weight holding stance ankles on the floor.")
+    slide_weight: float = setting(1.0, "Weight against stance ankles sliding along the floor.")
+    support_spread: float = setting(0.03, "Spread (m) of the stance ankles' heights above the floor.")
+    solver: str = setting(
+        "ddim", "Re-noising between network calls: ddim or dpm2m (DPM-Solver++(2M)).", option=True, panel="Experimental"
+    )
+    temperature: float = setting(
+        1.0, "Scale of the initial noise (1: the prior as trained).", option=True, panel="Experimental"
+    )
+    seed: int = setting(0, "Random seed of the sampler.", option=True)
+
+    def __post_init__(self) -> None:
+        check_types(self)
+        require(
+            [
+                (self.samples >= 1, "samples", f"samples must be at least 1, got {self.samples}"),
+                (self.samples <= MAX_SAMPLES, "samples", f"samples must be at most {MAX_SAMPLES}, got {self.samples}"),
+                (0 <= self.seed < 2**63, "seed", f"seed must be in 0..2**63-1, got {self.seed}"),
+                (1 <= self.steps <= 50, "steps", f"steps must be in 1..50, got {self.steps}"),
+                (0 <= self.skip < self.steps, "skip", f"skip must be in 0..{self.steps - 1}, got {self.skip}"),
+                (0 <= self.eta <= 1, "eta", f"eta must be in [0, 1], got {self.eta}"),
+                (self.guidance_iters >= 0, "guidance_iters", f"guidance_iters must be >= 0, got {self.guidance_iters}"),
+                (self.guidance_tol >= 0, "guidance_tol", f"guidance_tol must be >= 0, got {self.guidance_tol}"),
+                (self.energy_scale > 0, "energy_scale", f"energy_scale must be positive, got {self.energy_scale}"),
+                (0 < self.decay < 1, "decay", f"decay must be in (0, 1), got {self.decay}"),
+                (self.grow >= 1, "grow", f"grow must be >= 1, got {self.grow}"),
+                (self.direction in DIRECTIONS, "direction", _choose("direction", self.direction, DIRECTIONS)),
+                (self.damping > 0, "damping", f"damping must be positive, got {self.damping}"),
+                (self.step_rule in STEP_RULES, "step_rule", _choose("step_rule", self.step_rule, STEP_RULES)),
+                (self.robust in ROBUST_LOSSES, "robust", _choose("robust", self.robust, ROBUST_LOSSES)),
+                (self.robust_scale > 0, "robust_scale", f"robust_scale must be positive, got {self.robust_scale}"),
+                (self.translation_smoothness >= 0, "translation_smoothness", "translation_smoothness must be >= 0"),
+                (
+                    0 <= self.size_spread <= 0.5,
+                    "size_spread",
+                    f"size_spread must be in [0, 0.5], got {self.size_spread}",
+                ),
+                (self.bone_weight >= 0, "bone_weight", f"bone_weight must be >= 0, got {self.bone_weight}"),
+                (
+                    self.symmetry_weight >= 0,
+                    "symmetry_weight",
+                    f"symmetry_weight must be >= 0, got {self.symmetry_weight}",
+                ),
+                (self.depth_smoothness >= 0, "depth_smoothness", "depth_smoothness must be >= 0"),
+                (
+                    min(self.floor_weight, self.contact_weight, self.slide_weight) >= 0,
+                    "floor_weight",
+                    "floor weights must be >= 0",
+                ),
+                (0 <= self.support_spread <= 0.2, "support_spread", "support_spread must be in [0, 0.2] m"),
+                (self.solver in SOLVERS, "solver", _choose("solver", self.solver, SOLVERS)),
+                (self.solver == "ddim" or self.eta == 0, "eta", "the dpm2m solver is deterministic: eta must be 0"),
+                (0 < self.temperature <= 2, "temperature", f"temperature must be in (0, 2], got {self.temperature}"),
+            ]
+        )
+
+
+def _choose(name: str, value: str, choices: tuple[str, ...]) -> str:
+    return f"unknown {name} {value!r}; choose {', '.join(choices)}"
+
+
+@dataclass(frozen=True)
+class WindowSettings:
+    """How a track is cut into windows of the prior: their length, overlap and the weight of the overlap anchors."""
+
+    window: int = setting(64, "Window length in prior frames (capped by the prior).", option=True)
+    overlap: int = setting(16, "Frames shared by consecutive windows.", option=True)
+    anchor_weight: float = setting(100.0, "Weight holding a window's overlap on the window before.")
+
+    def __post_init__(self) -> None:
+        check_types(self)
+        require(
+            [
+                (self.window >= 2, "window", f"window must be >= 2, got {self.window}"),
+                (
+                    0 <= self.overlap <= self.window // 2,
+                    "overlap",
+                    f"overlap must be in 0..window/2, got {self.overlap}",
+                ),
+                (self.anchor_weight >= 0, "anchor_weight", f"anchor_weight must be >= 0, got {self.anchor_weight}"),
+            ]
+        )
+
+
+@dataclass(frozen=True)
+class PriorSettings:
+    """Which prior, on which device, run by which runtime (:meth:`load` loads it)."""
+
+    path: Path | None = setting(None, "Motion prior checkpoint (default: the shipped one).", option=True)
+    device: str = setting("cpu", "Sampler device: cpu, cuda or auto (cuda when available).", option=True)
+    runtime: str = setting(
+        "auto",
+        "Denoiser runtime: auto (bfloat16 where this CPU runs it fast, else float32), float32, bfloat16 or onnx.",
+        option=True,
+    )
+
+    def __post_init__(self) -> None:
+        check_types(self)
+        require(
+            [
+                (self.device in DEVICES, "device", _choose("device", self.device, DEVICES)),
+                (self.runtime in RUNTIMES, "runtime", _choose("runtime", self.runtime, RUNTIMES)),
+            ]
+        )
+
+    def load(self, threads: int | None = None):
+        """The prior ready to sample (:func:`platypose.lifting.runtime.load_for_runtime`)."""
+        from platypose.lifting.runtime import load_for_runtime
+
+        return load_for_runtime(self.path, self.device, self.runtime, threads)
+
+
+@dataclass(frozen=True)
+class TakeSettings:
+    """How one take is lifted besides its inputs and prior: who, their roots, the floor, the clock, the sampler.
+
+    Natural Python values are accepted and stored in the command's spelling: ``persons`` 2 as "2", ``floor``
+    None as "none" and four numbers as "nx,ny,nz,d", ``sync`` None as "none".
+    """
+
+    persons: str = setting("all", "Who to lift: all, largest, or N (the N largest).")
+    root: str = setting("auto", "Root path: auto (triangulated with 2+ views, else solved), triangulate, solve.")
+    root_trajectory: Path | None = setting(None, "Known pelvis path: npz (frame_times, root) or CSV (time,x,y,z).")
+    floor: str = setting(
+        "auto",
+        "auto (the calibration's z = 0; without one, one camera: estimated under a quick lift), z=H, "
+        "nx,ny,nz,d (the plane n.x + d = 0), or none. Grounds every hypothesis (docs/lift.md).",
+    )
+    sync: object = setting(
+        "none",
+        "Camera synchronisation: auto (estimate each view's time offset from the keypoints' motion, "
+        "refined by reprojection), none (use the calibration's time_offset_s), or an offsets.json "
+        '({"cam01": 0.0, "cam02": 0.12}, seconds to add to each view\'s frame times).',
+    )
+    sampler: SamplerConfig = setting(SamplerConfig(), "The sampler's settings.")
+    windows: WindowSettings = setting(WindowSettings(), "How tracks are cut into windows.")
+
+    def __post_init__(self) -> None:
+        persons, floor, sync = self.persons, self.floor, self.sync
+        if isinstance(persons, numbers.Integral) and not isinstance(persons, bool):
+            persons = str(persons) if persons > 0 else persons
+        if floor is None:
+            floor = "none"
+        elif isinstance(floor, (tuple, list)) and all(isinstance(v, numbers.Real) for v in floor):
+            floor = ",".join(repr(float(v)) for v in floor)
+        sync = "none" if sync is None else str(sync) if isinstance(sync, os.PathLike) else sync
+        for name, value in (("persons", persons), ("floor", floor), ("sync", sync)):
+            object.__setattr__(self, name, value)
+        check_types(self)  # the persons choice itself is the detectors' (platypose.take_pipeline.take_settings)
+        require([(self.root in ROOT_MODES, "root", f"root must be one of {', '.join(ROOT_MODES)}, got {self.root!r}")])
+        from platypose.lifting.floor import parse_floor
+        from platypose.lifting.sync_choice import check_choice
+
+        parse_floor(self.floor)
+        if isinstance(self.sync, Mapping):
+            object.__setattr__(self, "sync", dict(self.sync))
+        elif not isinstance(self.sync, str):
+            raise InputError(f"sync must be auto, none, an offsets file or a mapping, got {self.sync!r}", option="sync")
+        check_choice(self.sync)
+        for name, cls in (("sampler", SamplerConfig), ("windows", WindowSettings)):
+            if not isinstance(getattr(self, name), cls):
+                raise InputError(f"{name} must be a {cls.__name__}, got {getattr(self, name)!r}", option=name)
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Optimisation and augmentation settings of training a prior."""
+
+    iterations: int = setting(20000, "Optimiser steps.", option=True)
+    batch_size: int = setting(64, "Windows per step.", option=True)
+    learning_rate: float = setting(3e-4, "Peak learning rate (cosine decay).", option=True)
+    weight_decay: float = setting(1e-4, "AdamW weight decay.")
+    validation_fraction: float = setting(0.15, "Share of the clips held out for validation.")
+    time_scale: tuple[float, float] = setting((0.8, 1.25), "Range of the playback speed augmentation.")
+    bone_scale: float = setting(0.15, "Per-bone length augmentation (+-).", option=True)
+    global_scale: float = setting(0.10, "Whole-body size augmentation (+-).")
+    mirror_probability: float = setting(0.5, "Probability of a left/right mirrored window.")
+    checkpoint_every: int = setting(1000, "Write the checkpoint every this many steps.", option=True)
+    validate_every: int = setting(250, "Validate every this many steps.")
+    seed: int = setting(0, "Random seed.", option=True)
+
+    def __post_init__(self) -> None:
+        check_types(self)
+        require(
+            [
+                *_at_least_one(self, ("iterations", "batch_size", "checkpoint_every", "validate_every")),
+                (
+                    0 < self.learning_rate < 1,
+                    "learning_rate",
+                    f"learning_rate must be in (0, 1), got {self.learning_rate}",
+                ),
+                (self.weight_decay >= 0, "weight_decay", f"weight_decay must be >= 0, got {self.weight_decay}"),
+                (0 <= self.bone_scale < 1, "bone_scale", f"bone_scale must be in [0, 1), got {self.bone_scale}"),
+                (
+                    0 <= self.global_scale < 1,
+                    "global_scale",
+                    f"global_scale must be in [0, 1), got {self.global_scale}",
+                ),
+                (0 <= self.validation_fraction < 1, "validation_fraction", "validation_fraction must be in [0, 1)"),
+                (0 < self.time_scale[0] <= self.time_scale[1], "time_scale", "time_scale must be positive and ordered"),
+                (0 <= self.mirror_probability <= 1, "mirror_probability", "mirror_probability must be in [0, 1]"),
+                (0 <= self.seed < 2**63, "seed", f"seed must be in [0, 2**63), got {self.seed}"),
+            ]
+        )
+
+
+@dataclass(frozen=True)
+class DistilConfig:
+    """Settings of one halving: the ``calls`` the student makes (half the teacher's), optimisation, checkpoints.
+
+    ``start_share`` is the share of first-call rows drawn as the sampler starts them (the noise alone, no
+    signal), the rest are noised training windows like every other call's.
+    """
+
+    calls: int = setting(4, "With --distil-from: the student's network calls (half the teacher's).", option=True)
+    iterations: int = setting(4000, "Optimiser steps.")
+    batch_size: int = setting(64, "Windows per step.")
+    learning_rate: float = setting(1e-4, "Peak learning rate (cosine decay).")
+    start_share: float = setting(0.5, "Share of first-call rows started from noise alone.")
+    checkpoint_every: int = setting(250, "Write the checkpoint every this many steps.")
+    validate_every: int = setting(250, "Validate every this many steps.")
+    seed: int = setting(0, "Random seed.")
+
+    def __post_init__(self) -> None:
+        check_types(self)
+        require(
+            [
+                *_at_least_one(self, ("calls", "iterations", "batch_size", "checkpoint_every", "validate_every")),
+                (
+                    0 < self.learning_rate < 1,
+                    "learning_rate",
+                    f"learning_rate must be in (0, 1), got {self.learning_rate}",
+                ),
+                (0 <= self.start_share <= 1, "start_share", f"start_share must be in [0, 1], got {self.start_share}"),
+                (0 <= self.seed < 2**63, "seed", f"seed must be in [0, 2**63), got {self.seed}"),
+            ]
+        )
+
+
+def _at_least_one(settings: object, names: tuple[str, ...]) -> list[tuple[bool, str, str]]:
+    return [(getattr(settings, n) >= 1, n, f"{n} must be at least 1, got {getattr(settings, n)}") for n in names]

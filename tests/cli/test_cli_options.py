@@ -1,0 +1,95 @@
+"""Options of lift, eval, bench and demo come from the library's settings classes: one table row per field."""
+
+import subprocess
+import sys
+import typing
+
+import pytest
+
+from platypose.cli.options import SETTINGS, cli_message, flags
+from platypose.lifting.errors import InputError
+
+
+@pytest.mark.parametrize("group", sorted(SETTINGS))
+def test_every_flag_is_a_field_of_its_class_with_its_type_default_and_help(group):
+    cls = SETTINGS[group]
+    hints = typing.get_type_hints(cls)
+    made = flags(group)
+    assert made
+    for flag in made:
+        field = cls.__dataclass_fields__[flag.field]
+        assert flag.type in (hints[flag.field], *typing.get_args(hints[flag.field])), flag.field
+        assert flag.default == field.default and flag.help == field.metadata["help"] and flag.help
+        assert all(n.startswith("--") for n in flag.names)
+
+
+@pytest.mark.parametrize("command", [[], ["lift"]])  # every command registers on import: lift builds the most
+def test_help_imports_no_torch_numpy_or_cv2(command):
+    """``python -X importtime -m platypose ... --help`` lists every module it imports."""
+    done = subprocess.run(
+        [sys.executable, "-X", "importtime", "-m", "platypose", *command, "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and "Usage" in done.stdout, done.stderr[-500:]
+    imported = {line.split("|")[-1].strip().split(".")[0] for line in done.stderr.splitlines() if "|" in line}
+    assert "typer" in imported and not imported & {"torch", "numpy", "cv2", "scipy", "av"}, command
+
+
+def test_help_shows_switches_without_a_type_and_options_in_panels(run_cli):
+    code, out, _ = run_cli("lift", "--help")
+    assert code == 0 and "<bool>" not in out
+    for panel in ("Input", "Output", "People", "Sampler", "Ray", "Experimental"):
+        assert f"─ {panel} " in out, panel
+    assert out.index("─ Experimental ") > out.index("--samples") and "--temperature" in out.split("─ Experimental ")[1]
+
+
+def test_lift_eval_and_bench_spell_the_shared_options_alike(run_cli):
+    for command in ("lift", "eval", "bench"):
+        code, out, _ = run_cli(command, "--help")
+        assert code == 0
+        for flag in ("--guidance-iters", "--seed", "--prior", "--device", "--runtime", "--robust"):
+            assert flag in out, (command, flag)
+
+
+def test_library_errors_name_fields_and_the_cli_names_flags():
+    err = InputError("persons must be 'all', 'largest' or a positive number, got 'x'", option="persons")
+    assert str(err).startswith("persons must") and cli_message(err).startswith("--persons must")
+    err = InputError("model.onnx: unknown detector format 'x'; known: movenet", option="detector format")
+    assert cli_message(err) == "model.onnx: unknown --detector-format 'x'; known: movenet"
+    assert cli_message(InputError("unknown device 'tpu'")) == "unknown device 'tpu'"
+    err = InputError(
+        "/data/subject/h36m.json: several subjects; give subject, one with extrinsics: S1", option="subject"
+    )
+    assert cli_message(err) == "/data/subject/h36m.json: several subjects; give --subject, one with extrinsics: S1"
+    err = InputError("device cuda: this torch build sees no CUDA GPU (choose cpu or auto)", option="device")
+    assert cli_message(err).startswith("--device cuda: ")
+
+
+def test_old_eval_spellings_still_work(run_cli, prior_file, data_dir):
+    code, _, err = run_cli(
+        "eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", prior_file, "--k", "-1"
+    )
+    assert code == 2 and "--guidance-iters must be >= 0" in err
+    code, _, err = run_cli(
+        "eval", data_dir / "motion/deepmimic/humanoid3d_walk.txt", "--prior", prior_file, "--lambda", "0"
+    )
+    assert code == 2 and "--energy-scale must be positive" in err
+
+
+def test_lift_md_tables_every_option_of_lift():
+    """docs/lift.md's option table (right after the quick start) names every flag ``platypose lift`` takes."""
+    from pathlib import Path
+
+    import typer
+
+    from platypose.cli.app import _register, app
+
+    _register()
+    lift = typer.main.get_command(app).commands["lift"]
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "lift.md").read_text(encoding="utf-8")
+    table = doc.split("## Options", 1)[1].split("\n## ", 1)[0]
+    flags = [o.split("/")[0] for p in lift.params for o in p.opts if o.startswith("--")]
+    assert len(flags) > 40 and [f for f in flags if f"`{f}" not in table] == []
+    assert doc.index("## Quick start") < doc.index("## Options") < doc.index("## What is one input")

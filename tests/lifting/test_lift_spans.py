@@ -1,0 +1,100 @@
+"""Each person is lifted only where present: spans, rounds, and the numbers of persons present throughout."""
+
+import numpy as np
+import pytest
+
+from platypose.lifting import lift as lift_module
+from platypose.lifting.lift import lift_stream, lift_tracks, person_spans, prior_clock, resample_keypoints
+from platypose.lifting.root import presence
+from platypose.lifting.sampling.placement import Anchor
+from platypose.lifting.sampling.sampler import cameras_and_rays, sample
+from platypose.lifting.settings import SamplerConfig, WindowSettings
+from platypose.lifting.timebase import interpolate
+from platypose.lifting.windows import continuation_anchor, cut, plan_windows, stitch
+
+
+@pytest.fixture(scope="module")
+def sports_demo(data_dir):
+    """Real MoveNet tracks of the Sports2D demo (C=1, T=230, P=2): the man is lost for 1.5 s while he jumps down,
+    the woman walks in after 1.3 s and out before the end; the demo's default camera."""
+    from platypose.detectors.cache import read_detections
+    from platypose.detectors.keypoints import to_our_joints
+    from platypose.detectors.tracking import track_detections
+    from platypose.lifting.calibration.defaults import default_camera
+
+    _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
+    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
+    return tracks.keypoints[None], tracks.frame_times, default_camera("demo", *tracks.image_size)
+
+
+def _whole_clip_reference(prior, camera, keypoints, times, config, settings):
+    """Every person over every window of the whole clip, all persons in one batch (the lift before spans)."""
+    clock = prior_clock(times, prior.fps)
+    length = min(settings.window, prior.config.max_frames)
+    plan = plan_windows(len(clock), length, min(settings.overlap, length // 2))
+    resampled = np.moveaxis(resample_keypoints(np.moveaxis(keypoints, 1, 0), times, clock), 0, 1)  # (C, T', P, ..)
+    windows = cut(np.moveaxis(resampled, 2, 1), plan, axis=2)  # (W, C, P, F, 17, 3)
+    joints, previous = [], None
+    for kp in windows:
+        obs, rays = cameras_and_rays([camera], kp[..., :2], kp[..., 2])
+        anchor = None
+        if previous is not None:
+            held, mask = continuation_anchor(previous, plan)
+            anchor = Anchor(torch_tensor(held), torch_tensor(np.repeat(mask[None], kp.shape[1], 0)))
+        result = sample(prior, obs, rays, config, plan.length, None, anchor)
+        previous = result.fitted
+        joints.append(np.moveaxis(np.asarray(result.joints, np.float32), 2, 0))  # (F, P, N, 17, 3)
+    return np.moveaxis(interpolate(stitch(np.stack(joints), plan), clock, times), 0, 2).astype(np.float32)
+
+
+def torch_tensor(values):
+    import torch
+
+    return torch.as_tensor(values, dtype=torch.float32)
+
+
+def test_persons_present_throughout_lift_as_before(tiny_prior, data_dir):
+    """Both persons of the balancing take are seen in every frame: spans are the whole clip, the two persons go
+    through every window together, and the hypotheses are those of the whole-clip lift bit for bit."""
+    from platypose.detectors.sources import read_keypoints
+    from platypose.lifting.calibration import load_calibration
+
+    take = data_dir / "video/pose2sim-balancing"
+    camera = load_calibration(take / "calib_pose2sim.toml").cameras[0]
+    view = read_keypoints(take / "openpose-body25b/cam01_json", fps=60.0, image_size=(1080, 1920))
+    keypoints, times = view.keypoints[None], view.frame_times  # (1, 100, 2, 17, 3)
+    assert keypoints.shape[2] == 2 and presence(keypoints, times).all()
+    config, settings = SamplerConfig(samples=3), WindowSettings(window=16, overlap=4)
+    out = lift_tracks(tiny_prior, [camera], keypoints, times, config, settings)
+    expected = _whole_clip_reference(tiny_prior, camera, keypoints, times, config, settings)
+    assert out.hypotheses.shape == (2, 3, 100, 17, 3) and np.isfinite(out.hypotheses).all()
+    assert np.array_equal(out.hypotheses, expected)
+
+
+def test_each_person_is_sampled_only_where_present(tiny_prior, sports_demo, monkeypatch):
+    """The network sees each person only over its spans; absent frames come out NaN, present ones finite; the
+    two persons share network calls where both are there; chunks cover every frame once, in order."""
+    keypoints, times, camera = sports_demo
+    calls: list[tuple[int, int]] = []  # (windows in the batch, frames)
+    original = lift_module.sample
+
+    def recording(prior, obs, rays, config, frames, *rest):
+        calls.append((obs.keypoints.shape[1], frames))
+        return original(prior, obs, rays, config, frames, *rest)
+
+    monkeypatch.setattr(lift_module, "sample", recording)
+    settings = WindowSettings(window=16, overlap=4)
+    chunks = list(lift_stream(tiny_prior, [camera], keypoints, times, SamplerConfig(samples=2), settings))
+    assert [c.start for c in chunks] == np.cumsum([0] + [c.hypotheses.shape[2] for c in chunks[:-1]]).tolist()
+    hypotheses = np.concatenate([c.hypotheses for c in chunks], axis=2)  # (P, N, T, 17, 3)
+    present = presence(keypoints, times)
+    assert present.sum(1).tolist() == [181, 160]  # the man lost for 45 frames, the woman there for 160
+    finite = np.isfinite(hypotheses).all(axis=(1, 3, 4))
+    assert np.array_equal(finite, present)
+    spans = person_spans(keypoints, times, prior_clock(times, tiny_prior.fps), 16, 4)
+    assert [(s.person, s.frames.start, s.frames.stop) for s in spans] == [(0, 0, 123), (0, 168, 226), (1, 38, 198)]
+    sampled = sum(b * f for b, f in calls)
+    assert sampled == sum(s.plan.count * s.plan.length for s in spans)
+    whole_clip = 2 * plan_windows(len(prior_clock(times, tiny_prior.fps)), 16, 4).padded_total
+    assert sampled < whole_clip, (sampled, whole_clip)
+    assert max(b for b, _ in calls) == 2  # both persons in one network batch where their windows coincide
