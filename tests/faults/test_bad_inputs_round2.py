@@ -13,7 +13,7 @@ from platypose.cli.lift_jobs import discover_jobs, keypoints_job
 from platypose.cli.safe_names import safe_name
 from platypose.lifting.errors import InputError
 
-CALIB = Path(__file__).parent / "data/calib"
+CALIB = Path(__file__).parents[1] / "data/calib"
 
 
 def _listing(folder):
@@ -216,7 +216,7 @@ def test_resume_fingerprint_sees_runtime_and_keypoints_copied_with_old_times(dat
 
     from platypose.cli.lift_jobs import keypoints_job
     from platypose.cli.lift_run import RunSettings, fingerprint
-    from platypose.lifting.runtime import PriorSettings
+    from platypose.lifting.settings import PriorSettings
 
     folder = tmp_path / "cam01_json"
     shutil.copytree(data_dir / "video/pose2sim-balancing/openpose-body25b/cam01_json", folder)
