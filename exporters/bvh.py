@@ -33,12 +33,15 @@ from platypose.exporters.ik import (
     refine_rotations,
     rest_offsets,
 )
+from platypose.exporters.twist import limit_twists
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.motion_io.kinematics import forward_kinematics
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
 
 CM_PER_M = 100.0
 DECIMALS = 6
+# Largest roll of a single-child bone about itself between two frames, degrees (:mod:`exporters.twist`).
+MAX_TWIST_STEP = 25.0
 
 _LEFT, _RIGHT, _UP, _FORWARD = (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, 0, 1)
 # End sites of the leaf joints: direction and length as a fraction of the leaf's own bone.
@@ -170,7 +173,9 @@ def motion_channels(
     positions = to_bvh_axes(joints)
     first, hinges = fit_rotations(positions, offsets, None if before is None else before.hinges)
     rot, root = refine_rotations(first, positions, offsets)
-    euler = continuous_euler(local_euler(rot), None if before is None else before.values[3:].reshape(NUM_JOINTS, 3))
+    previous = None if before is None else before.values[3:].reshape(NUM_JOINTS, 3)
+    rot = limit_twists(rot, offsets, MAX_TWIST_STEP, None if previous is None else euler_to_matrix(previous[None])[0])
+    euler = continuous_euler(local_euler(rot), previous)
     values = np.round(np.concatenate([root, euler.reshape(len(joints), -1)], axis=1), DECIMALS)
     return values, rot, Carry(values[-1], hinges)
 
