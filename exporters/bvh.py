@@ -7,7 +7,7 @@ upright facing +Z (our -y) with the arms out sideways (T-pose); its bone
 lengths and the shape of pelvis and thorax are fitted once over the motion
 (:func:`exporters.ik.rest_offsets`). The root has ``Xposition Yposition
 Zposition`` then its rotation channels; every joint's rotation channels are in
-its own Euler order (:data:`exporters.ik.EULER_ORDERS`), continuous in time.
+its own Euler order (:data:`exporters.euler.EULER_ORDERS`), continuous in time.
 
 Rotations are fitted by :mod:`exporters.ik`.
 """
@@ -19,16 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, local_euler
 from platypose.exporters.frames import Lead, frame_chunks
 from platypose.exporters.ik import (
     CHILDREN,
-    EULER_ORDERS,
     body_directions,
-    continuous_euler,
-    euler_to_matrix,
     fit_rotations,
     joint_steps,
-    local_euler,
     placed_offsets,
     refine_rotations,
     rest_offsets,
@@ -41,7 +38,7 @@ from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, 
 CM_PER_M = 100.0
 DECIMALS = 6
 # Largest roll of a single-child bone about itself between two frames, degrees (:mod:`exporters.twist`).
-MAX_TWIST_STEP = 25.0
+MAX_TWIST_STEP = 10.0
 
 _LEFT, _RIGHT, _UP, _FORWARD = (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, 0, 1)
 # End sites of the leaf joints: direction and length as a fraction of the leaf's own bone.
@@ -154,11 +151,13 @@ def fit_skeleton(joints: np.ndarray | Lead, present: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Carry:
-    """What the next chunk of frames continues from: the last frame's channel values (54,) and the
-    limbs' hinge state (4, 2, 3) after it (:func:`exporters.ik.fit_rotations`)."""
+    """What the next chunk of frames continues from: the last frame's channel values (54,), the
+    limbs' hinge state (4, 2, 3) after it (:func:`exporters.ik.fit_rotations`) and its local
+    rotations (17, 3, 3) (:func:`exporters.twist.limit_twists`)."""
 
     values: np.ndarray
     hinges: np.ndarray
+    local: np.ndarray
 
 
 def motion_channels(
@@ -173,11 +172,10 @@ def motion_channels(
     positions = to_bvh_axes(joints)
     first, hinges = fit_rotations(positions, offsets, None if before is None else before.hinges)
     rot, root = refine_rotations(first, positions, offsets)
-    previous = None if before is None else before.values[3:].reshape(NUM_JOINTS, 3)
-    rot = limit_twists(rot, offsets, MAX_TWIST_STEP, None if previous is None else euler_to_matrix(previous[None])[0])
-    euler = continuous_euler(local_euler(rot), previous)
+    rot, local = limit_twists(rot, offsets, MAX_TWIST_STEP, None if before is None else before.local)
+    euler = continuous_euler(local_euler(rot), None if before is None else before.values[3:].reshape(NUM_JOINTS, 3))
     values = np.round(np.concatenate([root, euler.reshape(len(joints), -1)], axis=1), DECIMALS)
-    return values, rot, Carry(values[-1], hinges)
+    return values, rot, Carry(values[-1], hinges, local)
 
 
 def channels_to_positions(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:

@@ -13,8 +13,8 @@ put each joint:
   offsets onto the observed ones (least squares, Kabsch);
 - spine and neck: aimed at their child, rolled with the lateral axis (hips and
   shoulders for the spine, the thorax for the neck);
-- thighs, shins, upper arms and forearms: aimed at their child, rolled about
-  the limb's hinge axis, so knees and elbows bend about one axis. The axis is
+- thighs and upper arms: aimed at their child, rolled about the limb's hinge
+  axis, so knees and elbows bend about one axis. The axis is
   carried from frame to frame with the upper bone and turns about it towards
   the normal of the hip-knee-ankle or shoulder-elbow-wrist plane where the limb
   is bent (signed as flexion where it bends past 60 degrees, else as the
@@ -22,24 +22,20 @@ put each joint:
   any angle) and towards the parent's axis swung onto the bone where it is
   straight (its plane is noise), by at most :data:`_MAX_TURN` per frame: no
   roll can pop, whatever the plane does;
+- shins and forearms: the smallest swing from the upper bone onto theirs (a
+  bend about the hinge where the limb's plane holds it, and never ill defined);
 - wrists, ankles and head (no child to define them) keep their parent's rotation.
 
 Then :func:`refine_rotations` solves all bone directions of each frame at
 once by damped Gauss-Newton on the squared distances of the forward-kinematics
-joints to the observed ones (the roll about each bone is left as set).
-
-Local rotations are written as Euler angles in a per-joint order
-(:data:`EULER_ORDERS`) chosen so that gimbal lock falls on a rotation the joint
-does not make (a bone's twist, or the root pitching to horizontal), and
-:func:`continuous_euler` picks, frame after frame, the equivalent angles
-nearest the previous frame's, so channels never wrap by 360 degrees. Forward
+joints to the observed ones (the roll about each bone is left as set), and
+:func:`exporters.twist.limit_twists` keeps each roll continuous in time. Forward
 kinematics is the importers' (:func:`platypose.lifting.motion_io.kinematics.forward_kinematics`).
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -75,12 +71,6 @@ LIMBS: dict[int, tuple[int, int, tuple[int, int, int]]] = {
 _LOWER = {lower: (upper, end, axis) for upper, (lower, end, axis) in LIMBS.items()}
 _LEGS = (_J("right_hip"), _J("left_hip"))
 _LIMB_ORDER = tuple(LIMBS)
-
-# Intrinsic Euler order of each joint's local rotation (the BVH channel order). The middle axis is
-# the one where gimbal lock sits at 90 degrees: the bone's own axis (twist) for limbs and trunk,
-# the pitch for the root (whose heading turns freely).
-_LEG, _ARM = "ZYX", "ZXY"
-EULER_ORDERS: tuple[str, ...] = ("YXZ", _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG, _LEG) + (_ARM,) * 6
 
 # A limb's plane is defined between these sines of its bend (15-37 degrees). Its normal takes the
 # carried axis's sign where they are within 73 degrees of parallel or opposite (cosine 0.3), else the
@@ -245,7 +235,6 @@ def fit_rotations(
     T = positions.shape[0]
     rot = np.zeros((T, NUM_JOINTS, 3, 3))
     fitted = np.zeros((T, NUM_JOINTS, 3))
-    hinge: dict[int, np.ndarray] = {}
     state = np.zeros((len(LIMBS), 2, 3))
     x_axis = np.array([1.0, 0.0, 0.0])
     for j in range(NUM_JOINTS):
@@ -282,9 +271,8 @@ def fit_rotations(
                 None if before is None else before[k],
             )
             state[k] = upper[-1], local[-1]
-            hinge[j] = _apply(rot[:, p], local)
             rest = two_vector_frame(offsets[lower], rest_axis)
-            rot[:, j] = two_vector_frame(positions[:, lower] - fitted[:, j], hinge[j]) @ rest.T
+            rot[:, j] = two_vector_frame(positions[:, lower] - fitted[:, j], _apply(rot[:, p], local)) @ rest.T
         elif j in _LOWER:  # the smallest swing from the upper bone onto the lower: no roll of its own
             upper, end, _ = _LOWER[j]
             along = _unit(_apply(rot[:, p], offsets[end]))
@@ -394,45 +382,3 @@ def joint_steps(global_rot: np.ndarray) -> np.ndarray:
     local = local_rotations(global_rot)
     rel = np.swapaxes(local[:-1], -1, -2) @ local[1:]
     return np.degrees(np.arccos(np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)))
-
-
-def local_euler(global_rot: np.ndarray) -> np.ndarray:
-    """Local Euler angles (T, 17, 3) in degrees, each joint in its :data:`EULER_ORDERS` order."""
-    local = local_rotations(global_rot)
-    out = np.zeros(global_rot.shape[:2] + (3,))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # gimbal lock: angles still reproduce the matrix
-        for j, order in enumerate(EULER_ORDERS):
-            out[:, j] = Rotation.from_matrix(local[:, j]).as_euler(order, degrees=True)
-    return out
-
-
-def continuous_euler(angles: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
-    """Euler angles (T, J, 3) degrees re-expressed frame by frame as the equivalent angles nearest the previous.
-
-    Each Tait-Bryan rotation has two angle triples, ``(a, b, c)`` and ``(a + 180, 180 - b, c + 180)``,
-    and each angle is defined modulo 360: the one closest to the frame before is kept (``previous``
-    (J, 3) is the frame before the first, e.g. the last of the previous chunk).
-    """
-    alt = angles + np.array([180.0, 0.0, 180.0])
-    alt[..., 1] = 180.0 - angles[..., 1]
-    out = np.empty_like(angles)
-    prev = previous
-    for t in range(len(angles)):
-        if prev is None:
-            out[t] = angles[t]
-        else:
-            a = prev + (angles[t] - prev + 180.0) % 360.0 - 180.0
-            b = prev + (alt[t] - prev + 180.0) % 360.0 - 180.0
-            keep = np.abs(a - prev).sum(-1) <= np.abs(b - prev).sum(-1)
-            out[t] = np.where(keep[:, None], a, b)
-        prev = out[t]
-    return out
-
-
-def euler_to_matrix(euler: np.ndarray) -> np.ndarray:
-    """Local rotation matrices (T, 17, 3, 3) from Euler degrees (T, 17, 3) in each joint's :data:`EULER_ORDERS`."""
-    out = np.zeros(euler.shape[:2] + (3, 3))
-    for j, order in enumerate(EULER_ORDERS):
-        out[:, j] = Rotation.from_euler(order, euler[:, j], degrees=True).as_matrix()
-    return out

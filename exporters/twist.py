@@ -58,8 +58,9 @@ def swing_twist(delta: np.ndarray, axes: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def limit_twists(
     global_rot: np.ndarray, offsets: np.ndarray, max_turn: float, before: np.ndarray | None = None
-) -> np.ndarray:
-    """Global rotations (T, 17, 3, 3) whose single-child joints roll by at most ``max_turn`` degrees per frame.
+) -> tuple[np.ndarray, np.ndarray]:
+    """Global rotations (T, 17, 3, 3) whose single-child joints roll by at most ``max_turn`` degrees per frame,
+    and the last frame's local rotations (17, 3, 3), which the next chunk continues from.
 
     ``global_rot`` are the picked rotations, ``offsets`` (17, 3) the rest offsets (a joint's bone runs along
     its child's offset), ``before`` (17, 3, 3) the local rotations of the frame before the first (a previous
@@ -90,4 +91,4 @@ def limit_twists(
             local[level] = picked
             out[t, level] = out[t, parents] @ picked
         previous = local
-    return out
+    return out, previous

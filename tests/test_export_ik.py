@@ -11,17 +11,14 @@ from test_export_bvh import _largest_bone_turn
 
 from platypose.exporters import frames
 from platypose.exporters.bvh import fit_skeleton, motion_channels, to_bvh_axes, write_bvh
+from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, local_euler
 from platypose.exporters.ik import (
     CHILDREN,
-    EULER_ORDERS,
     LIMBS,
-    continuous_euler,
-    euler_to_matrix,
     fit_rotations,
     hinge_alignment,
     joint_steps,
     kabsch,
-    local_euler,
     refine_rotations,
     rotation_between,
     two_vector_frame,
