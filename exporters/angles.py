@@ -36,7 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.exporters.frames import frame_chunks
+from platypose.exporters.frames import Lead, frame_chunks
+from platypose.exporters.gaps import fill_frames, fill_plan
 from platypose.exporters.result import LiftResult
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.skeleton import JOINT_INDEX as J
@@ -131,18 +132,19 @@ def joint_angles(joints: np.ndarray) -> np.ndarray:
 def person_angle_series(result: LiftResult, p: int) -> np.ndarray:
     """Angles of person ``p`` per frame, (T, A, 4): the median motion's, then the hypotheses' 5/50/95 % quantiles.
 
-    NaN where the person is absent.
+    Frames where the person is absent are filled by the rule of :mod:`exporters.gaps` (the angles of the filled
+    joints); all NaN for a person never present.
     """
     T, A = result.num_frames, len(ANGLE_NAMES)
     out = np.full((T, A, len(SERIES_COLUMNS)), np.nan)
     present = result.present()[p]
+    if not present.any():
+        return out
+    plan = fill_plan(present, result.frame_times)
     for t in frame_chunks(T):
-        on = np.flatnonzero(present[t])
-        if len(on):
-            rows = t.start + on
-            out[rows, :, 0] = joint_angles(np.asarray(result.median[p, t], np.float64)[on])
-            hyp = joint_angles(np.asarray(result.hypotheses[p, :, t], np.float64)[:, on])  # (N, t_on, A)
-            out[rows, :, 1:] = np.moveaxis(np.quantile(hyp, QUANTILES, axis=0), 0, -1)
+        out[t, :, 0] = joint_angles(fill_frames(Lead(result.median, p), plan, t).astype(np.float64))
+        hyp = joint_angles(fill_frames(Lead(result.hypotheses, p), plan, t, axis=1).astype(np.float64))
+        out[t, :, 1:] = np.moveaxis(np.quantile(hyp, QUANTILES, axis=0), 0, -1)
     return out
 
 
@@ -153,15 +155,19 @@ def angle_series(result: LiftResult) -> dict[int, np.ndarray]:
 
 
 def write_angles_csv(result: LiftResult, series: dict[int, np.ndarray], path: Path | str) -> Path:
-    """Write ``person,frame,time_s,angle,median_deg,q05_deg,q50_deg,q95_deg`` rows (present frames) atomically."""
+    """Write ``person,frame,time_s,angle,median_deg,q05_deg,q50_deg,q95_deg,filled`` rows atomically.
+
+    Every frame of each person in ``series``; ``filled`` is 1 where the person is absent (:mod:`exporters.gaps`).
+    """
     path = Path(path)
+    present = result.present()
     with atomic_open(path, "w", encoding="ascii", newline="\n") as f:
-        f.write("person,frame,time_s,angle,median_deg,q05_deg,q50_deg,q95_deg\n")
+        f.write("person,frame,time_s,angle,median_deg,q05_deg,q50_deg,q95_deg,filled\n")
         for p, values in series.items():
             track = int(result.track_ids[p])
             for t in np.flatnonzero(np.isfinite(values[:, 0, 0])):
-                time = repr(float(result.frame_times[t]))
+                time, flag = repr(float(result.frame_times[t])), int(not present[p, t])
                 for a, name in enumerate(ANGLE_NAMES):
                     numbers = ",".join(f"{v:.3f}" for v in values[t, a])
-                    f.write(f"{track},{t},{time},{name},{numbers}\n")
+                    f.write(f"{track},{t},{time},{name},{numbers},{flag}\n")
     return path

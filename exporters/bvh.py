@@ -21,6 +21,7 @@ import numpy as np
 
 from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, local_euler
 from platypose.exporters.frames import Lead, frame_chunks
+from platypose.exporters.gaps import fill_frames, fill_plan
 from platypose.exporters.ik import (
     CHILDREN,
     body_directions,
@@ -98,15 +99,6 @@ def end_site_offsets(offsets: np.ndarray) -> dict[int, np.ndarray]:
         j: np.asarray(direction, dtype=np.float64) * fraction * np.linalg.norm(offsets[j])
         for j, (direction, fraction) in END_SITES.items()
     }
-
-
-def nearest_present(present: np.ndarray) -> np.ndarray:
-    """For each frame of ``present`` (T,) bool, the nearest present frame (the earlier one on ties), (T,)."""
-    idx = np.flatnonzero(present)
-    frames = np.arange(len(present))
-    after = np.clip(np.searchsorted(idx, frames), 0, len(idx) - 1)
-    before = np.clip(after - 1, 0, len(idx) - 1)
-    return np.where(np.abs(idx[before] - frames) <= np.abs(idx[after] - frames), idx[before], idx[after])
 
 
 def _channel_names(j: int) -> str:
@@ -195,17 +187,18 @@ def _head_bone(joints: np.ndarray) -> np.ndarray:
     return joints[:, _HEAD] - joints[:, _NECK]
 
 
-def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit:
+def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str, frame_times: np.ndarray | None = None) -> BvhFit:
     """Fit and write world joints (T, 17, 3) metres at ``fps`` to ``path`` atomically; return the fit error.
 
-    Absent (NaN) frames hold the nearest present pose; the fit error is measured on present frames.
-    ``joints`` is read a chunk of frames at a time (it may be a view of a file, see :mod:`exporters.frames`).
+    Absent (NaN) frames are filled by the gap rule of :mod:`exporters.gaps` (interpolated in ``frame_times``,
+    default ``frame / fps``, held at the ends); the fit error is measured on present frames. ``joints`` is
+    read a chunk of frames at a time (it may be a view of a file, see :mod:`exporters.frames`).
     """
     T = len(joints)
     present = np.concatenate([np.isfinite(joints[t]).all(axis=(1, 2)) for t in frame_chunks(T)])
     if not present.any():
         raise ValueError(f"{path}: no frame to write, the person is absent throughout")
-    pick = nearest_present(present)  # absent frames hold the nearest present pose
+    plan = fill_plan(present, np.arange(T) / fps if frame_times is None else frame_times)
     offsets = fit_skeleton(joints, present)
     rigid = np.array([np.linalg.norm(offsets[child]) for child, _ in BONES]) / CM_PER_M
     header = _hierarchy(offsets) + ["MOTION", f"Frames: {T}", f"Frame Time: {1.0 / fps:.12g}"]
@@ -214,7 +207,7 @@ def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str) -> BvhFit
     with atomic_open(path, "w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(header) + "\n")
         for t in frame_chunks(T):
-            filled = np.asarray(joints[pick[t]], dtype=np.float64)
+            filled = np.asarray(fill_frames(joints, plan, t), dtype=np.float64)
             values, rot, carry = motion_channels(filled, offsets, carry)
             np.savetxt(f, values, fmt=f"%.{DECIMALS}f", delimiter=" ")
             on = present[t]
