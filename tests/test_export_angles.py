@@ -85,12 +85,14 @@ def result(data_dir):
     return two_person_result(data_dir)
 
 
-def test_series_are_continuous_bands_ordered_and_absent_frames_empty(result):
+def test_series_are_continuous_bands_ordered_and_absent_frames_held(result):
     series = angle_series(result)
     assert sorted(series) == [0, 1]
     for p, values in series.items():
         on = result.present()[p]
-        assert np.isnan(values[~on]).all() and np.isfinite(values[on]).all()
+        assert np.isfinite(values).all()
+        first = np.flatnonzero(on)[0]
+        np.testing.assert_array_equal(values[:first], np.broadcast_to(values[first], values[:first].shape))
         v = values[on]
         assert (v[..., 1] <= v[..., 2] + 1e-9).all() and (v[..., 2] <= v[..., 3] + 1e-9).all()
         # real climbing at 120 fps: no angle of the median moves more than a few degrees per frame
@@ -103,14 +105,25 @@ def test_csv_reads_back(result, tmp_path):
     path = write_angles_csv(result, series, tmp_path / "clip_angles.csv")
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    assert list(rows[0]) == ["person", "frame", "time_s", "angle", "median_deg", "q05_deg", "q50_deg", "q95_deg"]
-    assert len(rows) == result.present().sum() * len(ANGLE_NAMES)
+    assert list(rows[0]) == [
+        "person",
+        "frame",
+        "time_s",
+        "angle",
+        "median_deg",
+        "q05_deg",
+        "q50_deg",
+        "q95_deg",
+        "filled",
+    ]
+    assert len(rows) == result.present().size * len(ANGLE_NAMES)
     row = next(r for r in rows if r["person"] == "7" and r["frame"] == "12" and r["angle"] == "left_knee_flexion")
     want = series[1][12, ANGLE_NAMES.index("left_knee_flexion")]
     got = [float(row[k]) for k in ("median_deg", "q05_deg", "q50_deg", "q95_deg")]
     np.testing.assert_allclose(got, want, atol=5e-4)
     assert float(row["time_s"]) == result.frame_times[12]
-    assert not any(r["person"] == "7" and int(r["frame"]) < 5 for r in rows)  # absent frames left out
+    held = {r["filled"] for r in rows if r["person"] == "7" and int(r["frame"]) < 5}
+    assert held == {"1"} and {r["filled"] for r in rows if r["person"] == "0"} == {"0"}
 
 
 def test_report_ankle_heights_stand_on_the_lifts_floor():

@@ -114,3 +114,19 @@ def test_real_lifts_turn_no_joint_far_where_their_bones_hold(name, tmp_path):
     offsets = fit_skeleton(joints, present)
     back = channels_to_positions(values, offsets)
     assert np.abs(back[present] - joints[present]).max() < 0.001
+
+
+def test_the_roof_mans_gap_is_a_glide_not_a_jump(tmp_path):
+    """sports2d: the man on the roof is undetected in frames 123-167 and seen again 6 m away. The BVH used to
+    hold his pose and jump 5.9 m in one frame (knees turning 163 degrees); now his root glides across the gap,
+    never stepping further than the median does between two present frames, and no joint turns over 45 degrees
+    inside it."""
+    joints = np.load(LIFTS / "sports2d_demo_medians.npy").astype(np.float64)[0]
+    write_bvh(joints, 30.0, tmp_path / "roof.bvh")
+    values, steps = _file_steps(tmp_path / "roof.bvh")
+    root = values[:, :3] / 100.0
+    jumps = np.linalg.norm(np.diff(root, axis=0), axis=1)
+    own = np.nanmax(np.linalg.norm(np.diff(joints[:, 0], axis=0), axis=1))
+    assert np.linalg.norm(joints[168, 0] - joints[122, 0]) > 5.0
+    assert jumps.max() <= own + 0.001, (jumps.max(), own)
+    assert steps[122:168].max() <= 45.0
