@@ -20,7 +20,7 @@ from platypose.lifting.atomic import atomic_path
 from platypose.lifting.skeleton import JOINT_INDEX
 
 LEG_ANGLES = ("right_hip_flexion", "left_hip_flexion", "right_knee_flexion", "left_knee_flexion")
-UPPER_ANGLES = ("trunk_flexion", "right_shoulder_flexion", "left_shoulder_flexion", "right_elbow_flexion")
+UPPER_ANGLES = ("trunk_flexion", "right_shoulder_elevation", "left_shoulder_elevation", "right_elbow_flexion")
 _COLOURS = ("tab:red", "tab:blue", "tab:orange", "tab:cyan")
 MAX_ROWS = 8  # persons drawn (the longest present first)
 
