@@ -14,10 +14,10 @@ from platypose.exporters.npz import write_npz
 from platypose.exporters.result import LiftResult
 from platypose.lifting.errors import InputError
 
-FORMATS = ("npz", "csv", "bvh", "trc", "c3d", "angles", "report", "rrd")
+FORMATS = ("npz", "csv", "bvh", "trc", "c3d", "angles", "mot", "report", "rrd")
 BVH_MODES = ("median", "all")
 # Formats holding every frame, absent ones filled by the rule of exporters.gaps (listed in <name>_gaps.json).
-FILLED_FORMATS = ("csv", "bvh", "trc", "c3d", "angles")
+FILLED_FORMATS = ("csv", "bvh", "trc", "c3d", "angles", "mot")
 
 
 def parse_formats(text: str | Iterable[str]) -> tuple[str, ...]:
@@ -102,12 +102,17 @@ def export(
 ) -> list[Path]:
     """Write ``formats`` of ``result`` as ``out_dir/name*``; return the paths written. Each file is atomic.
 
-    The BVH fit error goes into ``meta["bvh_fit_error"]`` of the npz written in the same call.
+    The BVH fit error goes into ``meta["bvh_fit_error"]`` and OpenSim's IK fit into ``meta["opensim_ik"]`` of the
+    npz written in the same call.
     """
     formats = parse_formats(formats)
     if bvh not in BVH_MODES:
         raise InputError(f"bvh must be one of {', '.join(BVH_MODES)}, got {bvh!r}", option="bvh")
     out_dir = Path(out_dir)
+    if "mot" in formats:
+        from platypose.exporters.mot import load_opensim
+
+        load_opensim()  # the one-line error before anything is written
     if "rrd" in formats:
         from platypose.exporters.rrd import check_videos
 
@@ -119,6 +124,13 @@ def export(
         paths, errors = _write_bvhs(result, out_dir, name, bvh)
         written += paths
         result = result.with_meta(bvh_fit_error=errors)
+    if "mot" in formats:
+        from platypose.exporters.mot import write_mots
+
+        say(f"{name}: OpenSim scaling and inverse kinematics")
+        paths, fits = write_mots(result, out_dir, name, say)
+        written += paths
+        result = result.with_meta(opensim_ik=fits)
     if "npz" in formats:
         say(f"{name}: npz")
         written.append(write_npz(result, out_dir / f"{name}.npz"))
