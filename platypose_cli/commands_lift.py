@@ -126,7 +126,7 @@ def lift(
     formats: str = typer.Option(
         "npz,csv,bvh,rrd",
         "--formats",
-        help="Comma-separated: npz, csv, bvh, trc, c3d, angles, report, rrd (docs/outputs.md).",
+        help="Comma-separated: npz, csv, bvh, trc, c3d, angles, mot (OpenSim IK), report, rrd (docs/outputs.md).",
     ),
     persons: str = typer.Option("all", "--persons", help="Who to lift: all, largest, or N (the N largest)."),
     root: str = typer.Option(
