@@ -208,7 +208,8 @@ def person_angle_series(result: LiftResult, p: int) -> np.ndarray:
 
     Frames where the person is absent are filled by the rule of :mod:`exporters.gaps` (the angles of the filled
     joints); all NaN for a person never present. Every series (the median's, each hypothesis's before its
-    quantiles are taken) is continuous in time (:func:`continue_angles`).
+    quantiles are taken) is continuous in time (:func:`continue_angles`); a hypothesis's angle counts the turns
+    nearest the median's (within 180 degrees of it) before the quantiles are taken.
     """
     T, A = result.num_frames, len(ANGLE_NAMES)
     out = np.full((T, A, len(SERIES_COLUMNS)), np.nan)
@@ -222,8 +223,9 @@ def person_angle_series(result: LiftResult, p: int) -> np.ndarray:
         median = continue_angles(raw, None if median is None else median[-1])
         raw = joint_angles(fill_frames(Lead(result.hypotheses, p), plan, t, axis=1).astype(np.float64))
         hyp = continue_angles(raw, None if hyp is None else hyp[:, -1])  # (N, t, A)
+        near = median + (hyp - median + 180.0) % 360.0 - 180.0  # each turn count nearest the median's
         out[t, :, 0] = median
-        out[t, :, 1:] = np.moveaxis(np.quantile(hyp, QUANTILES, axis=0), 0, -1)
+        out[t, :, 1:] = np.moveaxis(np.quantile(near, QUANTILES, axis=0), 0, -1)
     return out
 
 
