@@ -40,6 +40,8 @@ CM_PER_M = 100.0
 DECIMALS = 6
 # Largest roll of a single-child bone about itself between two frames, degrees (:mod:`exporters.twist`).
 MAX_TWIST_STEP = 10.0
+# A frame step where no bone of the positions turns further than this is "calm" (BvhFit.calm_step_deg).
+CALM_TURN_DEG = 30.0
 
 _LEFT, _RIGHT, _UP, _FORWARD = (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, 0, 1)
 # End sites of the leaf joints: direction and length as a fraction of the leaf's own bone.
@@ -59,7 +61,9 @@ class BvhFit:
 
     ``mean_m``, ``max_m``: distance of the file's joints to the fitted positions (metres);
     ``head_deg``: largest angle between the file's neck-to-head bone and the positions' one;
-    ``step_deg``: largest frame-to-frame change of any joint's local rotation;
+    ``step_deg``: largest frame-to-frame change of any joint's local rotation; ``calm_step_deg``: the same
+    between present frames where no bone of the positions turns over :data:`CALM_TURN_DEG` (the
+    motion's own flips excluded);
     ``stretch_m``: largest difference between a bone's length in a frame of the positions and
     its length in the file (the motion's own non-rigidity, which no rigid skeleton can follow).
     """
@@ -68,6 +72,7 @@ class BvhFit:
     max_m: float
     head_deg: float = 0.0
     step_deg: float = 0.0
+    calm_step_deg: float = 0.0
     stretch_m: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
@@ -77,6 +82,7 @@ class BvhFit:
             "max_m": self.max_m,
             "head_deg": self.head_deg,
             "step_deg": self.step_deg,
+            "calm_step_deg": self.calm_step_deg,
             "stretch_m": self.stretch_m,
         }
 
@@ -182,6 +188,12 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
+def _bone_turns(joints: np.ndarray) -> np.ndarray:
+    """Largest angle (T - 1,) in degrees by which any bone of joints (T, 17, 3) turns between consecutive frames."""
+    bones = np.stack([joints[:, child] - joints[:, parent] for child, parent in BONES], axis=1)
+    return _angle_deg(bones[1:], bones[:-1]).max(axis=1, initial=0.0)
+
+
 def _head_bone(joints: np.ndarray) -> np.ndarray:
     """Neck-to-head vectors (T, 3) of joints (T, 17, 3)."""
     return joints[:, _HEAD] - joints[:, _NECK]
@@ -202,8 +214,8 @@ def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str, frame_tim
     offsets = fit_skeleton(joints, present)
     rigid = np.array([np.linalg.norm(offsets[child]) for child, _ in BONES]) / CM_PER_M
     header = _hierarchy(offsets) + ["MOTION", f"Frames: {T}", f"Frame Time: {1.0 / fps:.12g}"]
-    total, count, largest, head, step, stretch = 0.0, 0, 0.0, 0.0, 0.0, 0.0
-    carry, last_rot = None, None
+    total, count, largest, head, step, calm, stretch = 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0.0
+    carry, last = None, None  # the chunk before's last rotations (1, 17, 3, 3), positions and presence
     with atomic_open(path, "w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(header) + "\n")
         for t in frame_chunks(T):
@@ -215,11 +227,21 @@ def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str, frame_tim
             error = np.linalg.norm(back[on] - filled[on], axis=-1)
             total, count, largest = total + error.sum(), count + error.size, max(largest, error.max(initial=0.0))
             head = max(head, _angle_deg(_head_bone(back), _head_bone(filled))[on].max(initial=0.0))
-            step = max(
-                step, float(joint_steps(rot if last_rot is None else np.concatenate([last_rot, rot])).max(initial=0.0))
+            rots, seen, ons = (
+                (rot, filled, on)
+                if last is None
+                else (np.concatenate([last[0], rot]), np.concatenate([last[1], filled]), np.concatenate([last[2], on]))
             )
+            steps = joint_steps(rots).max(axis=1, initial=0.0)
+            quiet = ons[1:] & ons[:-1] & (_bone_turns(seen) <= CALM_TURN_DEG)
+            step, calm = max(step, float(steps.max(initial=0.0))), max(calm, float(steps[quiet].max(initial=0.0)))
             stretch = max(stretch, float(np.abs(bone_lengths(filled[on]) - rigid).max(initial=0.0)))
-            last_rot = rot[-1:]
+            last = (rot[-1:], filled[-1:], on[-1:])
     return BvhFit(
-        mean_m=float(total / count), max_m=float(largest), head_deg=float(head), step_deg=step, stretch_m=stretch
+        mean_m=float(total / count),
+        max_m=float(largest),
+        head_deg=float(head),
+        step_deg=step,
+        calm_step_deg=calm,
+        stretch_m=stretch,
     )

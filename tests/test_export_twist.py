@@ -111,6 +111,7 @@ def test_real_lifts_turn_no_joint_far_where_their_bones_hold(name, tmp_path):
     worst = steps.max(axis=1)
     over = np.flatnonzero(calm & (worst > 45.0))
     assert list(over) == ([131] if name == "sports2d walker" else []), (over, worst[over])
+    assert fit.calm_step_deg == pytest.approx(worst[calm].max(), abs=0.01)  # what meta.bvh_fit_error says
     offsets = fit_skeleton(joints, present)
     back = channels_to_positions(values, offsets)
     assert np.abs(back[present] - joints[present]).max() < 0.001
