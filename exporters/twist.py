@@ -20,20 +20,7 @@ from platypose.lifting.rotations import rotation_between, rotvec_matrices
 from platypose.lifting.skeleton import NUM_JOINTS, PARENTS
 
 _CHILDREN = tuple(tuple(c for c in range(NUM_JOINTS) if PARENTS[c] == j) for j in range(NUM_JOINTS))
-_PARENTS = np.asarray(PARENTS)
 _SINGLE = tuple(j for j in range(NUM_JOINTS) if len(_CHILDREN[j]) == 1)
-
-
-def _depth(j: int) -> int:
-    """Number of bones from the root to joint ``j``."""
-    return 0 if PARENTS[j] < 0 else 1 + _depth(PARENTS[j])
-
-
-# Joints below the root, grouped by depth: a group's parents are all set before it.
-_LEVELS = tuple(
-    np.array([j for j in range(1, NUM_JOINTS) if _depth(j) == d])
-    for d in range(1, 1 + max(map(_depth, range(NUM_JOINTS))))
-)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -56,6 +43,35 @@ def swing_twist(delta: np.ndarray, axes: np.ndarray) -> tuple[np.ndarray, np.nda
     return swing, np.arctan2(sin, cos)
 
 
+def _chain(steps: np.ndarray) -> np.ndarray:
+    """Running products (T, 3, 3) ``steps[t] @ ... @ steps[0]`` of matrices ``steps`` (T, 3, 3), in log2(T) batches."""
+    out = steps.copy()
+    k = 1
+    while k < len(out):
+        out[k:] = out[k:] @ out[:-k]  # the right side is computed from the old values first
+        k *= 2
+    return out
+
+
+def _limited_local(picked: np.ndarray, axis: np.ndarray, limit: float, before: np.ndarray | None) -> np.ndarray:
+    """One joint's local rotations (T, 3, 3) with the roll about unit ``axis`` turning by at most ``limit``
+    radians per frame, from its picked ones (T, 3, 3) and the limited one of the frame before (3, 3) or None.
+
+    The frame with no roll of its own is carried from frame to frame by the smallest rotation of the bone
+    (a running product, :func:`_chain`); the roll about it follows the pick's, clamped, frame by frame.
+    """
+    direction = picked @ axis  # (T, 3), unchanged by any roll
+    start = picked[:1] if before is None else rotation_between(before @ axis, direction[:1]) @ before[None]
+    swings = rotation_between(direction[:-1], direction[1:])
+    carried = _chain(np.concatenate([start, swings]))
+    _, wanted = swing_twist(np.swapaxes(carried, -1, -2) @ picked, np.broadcast_to(axis, direction.shape))
+    roll, rolls = 0.0, []
+    for target in wanted.tolist():  # plain floats: one small step per frame
+        roll += min(max((target - roll + np.pi) % (2 * np.pi) - np.pi, -limit), limit)
+        rolls.append(roll)
+    return carried @ rotvec_matrices(axis * np.array(rolls)[:, None])
+
+
 def limit_twists(
     global_rot: np.ndarray, offsets: np.ndarray, max_turn: float, before: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -65,30 +81,19 @@ def limit_twists(
     ``global_rot`` are the picked rotations, ``offsets`` (17, 3) the rest offsets (a joint's bone runs along
     its child's offset), ``before`` (17, 3, 3) the local rotations of the frame before the first (a previous
     chunk's last), or None to take the first frame's as they are. Joints with several children or none keep
-    their local rotation; leaves follow their parent.
+    their local rotation; leaves follow their parent. Joint by joint down the tree, all frames at once.
     """
-    T = len(global_rot)
     out = global_rot.copy()
-    axes = np.zeros((NUM_JOINTS, 3))
-    single = np.zeros(NUM_JOINTS, dtype=bool)
-    for j in _SINGLE:
-        axes[j], single[j] = _unit(offsets[_CHILDREN[j][0]]), True
+    local = np.broadcast_to(np.eye(3), global_rot.shape).copy()
+    local[:, 0] = global_rot[:, 0]
     limit = np.radians(max_turn)
-    previous = before
-    for t in range(T):
-        local = np.broadcast_to(np.eye(3), (NUM_JOINTS, 3, 3)).copy()
-        local[0] = out[t, 0]
-        for level in _LEVELS:
-            parents = _PARENTS[level]
-            picked = np.swapaxes(out[t, parents], -1, -2) @ global_rot[t, level]
-            ones = single[level]
-            if previous is not None and ones.any():
-                js, a = level[ones], axes[level[ones]]
-                swing, turn = swing_twist(np.swapaxes(previous[js], -1, -2) @ picked[ones], a)
-                picked[ones] = previous[js] @ swing @ rotvec_matrices(a * np.clip(turn, -limit, limit)[:, None])
-            leaves = np.array([not _CHILDREN[j] for j in level])
-            picked[leaves] = np.eye(3)
-            local[level] = picked
-            out[t, level] = out[t, parents] @ picked
-        previous = local
-    return out, previous
+    for j in range(1, NUM_JOINTS):  # parents come before their children
+        p = PARENTS[j]
+        if j in _SINGLE:
+            picked = np.swapaxes(out[:, p], -1, -2) @ global_rot[:, j]
+            axis = _unit(offsets[_CHILDREN[j][0]])
+            local[:, j] = _limited_local(picked, axis, limit, None if before is None else before[j])
+        elif _CHILDREN[j]:
+            local[:, j] = np.swapaxes(out[:, p], -1, -2) @ global_rot[:, j]
+        out[:, j] = out[:, p] @ local[:, j]
+    return out, local[-1]
