@@ -6,7 +6,7 @@ joint of ours is a joint of the model, and each marker sits on a joint centre, n
 as our TRC writes it (:data:`exporters.markers.MARKER_NAMES`): ``Neck`` is where our
 neck joint is (the head's pivot), not the base of the neck. Joints: the pelvis is free
 (6 coordinates), lumbar, neck, hips and shoulders are ball joints (3 each), knees and
-elbows pins (flexion positive). Axes are OpenSim's (X forward, Y up, Z right), lengths
+elbows pins (flexion positive, held by IK within -20 to 170 degrees). Axes are OpenSim's (X forward, Y up, Z right), lengths
 the median adult of our lifts, masses a 70 kg adult's segment fractions.
 
 Scaling scales each body by the distances of its markers (:data:`MEASUREMENTS`), as
@@ -93,6 +93,7 @@ def _joint(osim: Any, name: str, kind: str, parent: Any, location: tuple, child:
         joint.upd_coordinates(0).setName(f"{name}_flexion")
         joint.upd_coordinates(0).setRangeMin(math.radians(-20.0))
         joint.upd_coordinates(0).setRangeMax(math.radians(170.0))
+        joint.upd_coordinates(0).set_clamped(True)  # IK keeps a hinge within -20 to 170 degrees
         return joint
     transform = osim.SpatialTransform()
     for k, (suffix, axis) in enumerate(_BALL_AXES):
