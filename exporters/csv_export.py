@@ -2,7 +2,8 @@
 
 Numbers are written with the shortest text that reads back to the same float32
 (positions) or float64 (times), so the CSV holds the same numbers as the npz.
-Frames where a person is absent are left out.
+Every frame of a person seen at least once is written; frames where the person
+is absent are filled by the rule of :mod:`exporters.gaps` and have ``filled`` 1.
 """
 
 from __future__ import annotations
@@ -14,16 +15,17 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from platypose.exporters.frames import frame_chunks
+from platypose.exporters.frames import Lead, frame_chunks
+from platypose.exporters.gaps import FillPlan, fill_frames, fill_plan
 from platypose.exporters.result import LiftResult
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
 
-LONG_COLUMNS = ("person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m")
+LONG_COLUMNS = ("person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m", "filled")
 STATISTICS = ("median", "q05", "q95")
-SUMMARY_COLUMNS = ("person", "frame", "time_s", "joint") + tuple(
-    f"{label}_{axis}_m" for label in STATISTICS for axis in "xyz"
-)
+SUMMARY_COLUMNS = (
+    ("person", "frame", "time_s", "joint") + tuple(f"{label}_{axis}_m" for label in STATISTICS for axis in "xyz")
+) + ("filled",)
 
 
 def _write_tables(tables: Iterable[pa.Table], columns: Sequence[str], path: Path) -> Path:
@@ -41,29 +43,34 @@ def _joint_column(count: int) -> pa.DictionaryArray:
     return pa.DictionaryArray.from_arrays(indices, pa.array(JOINT_NAMES))
 
 
+def _plans(result: LiftResult) -> dict[int, FillPlan]:
+    """The gap-filling plan of each person index seen in at least one frame."""
+    present = result.present()
+    return {p: fill_plan(present[p], result.frame_times) for p in range(result.num_persons) if present[p].any()}
+
+
 def long_tables(result: LiftResult) -> Iterator[pa.Table]:
-    """Rows ``person, hypothesis, frame, time_s, joint, x_m, y_m, z_m`` over present frames, a chunk at a time.
+    """Rows ``person, hypothesis, frame, time_s, joint, x_m, y_m, z_m, filled`` over all frames, a chunk at a time.
 
     Rows are ordered by person, hypothesis, frame and joint.
     """
-    present = result.present()
-    for p, track in enumerate(result.track_ids):
+    for p, plan in _plans(result).items():
+        track = result.track_ids[p]
         for n in range(result.num_hypotheses):
             for t in frame_chunks(result.num_frames):
-                t_idx = t.start + np.flatnonzero(present[p, t])
-                if len(t_idx) == 0:
-                    continue
-                xyz = result.hypotheses[p, n, t][t_idx - t.start].reshape(-1, 3)
+                xyz = fill_frames(Lead(result.hypotheses, p, n), plan, t).reshape(-1, 3)
+                frames = np.arange(t.start, t.stop)
                 yield pa.table(
                     {
                         "person": np.full(len(xyz), track),
                         "hypothesis": np.full(len(xyz), n),
-                        "frame": np.repeat(t_idx, NUM_JOINTS),
-                        "time_s": np.repeat(result.frame_times[t_idx], NUM_JOINTS),
-                        "joint": _joint_column(len(t_idx)),
+                        "frame": np.repeat(frames, NUM_JOINTS),
+                        "time_s": np.repeat(result.frame_times[t], NUM_JOINTS),
+                        "joint": _joint_column(len(frames)),
                         "x_m": xyz[:, 0],
                         "y_m": xyz[:, 1],
                         "z_m": xyz[:, 2],
+                        "filled": np.repeat(~plan.present[t], NUM_JOINTS).astype(np.int8),
                     }
                 )
 
@@ -75,25 +82,23 @@ def summary_arrays(hypotheses: np.ndarray, median: np.ndarray) -> dict[str, np.n
 
 
 def summary_tables(result: LiftResult) -> Iterator[pa.Table]:
-    """Rows ``person, frame, time_s, joint, median_{x,y,z}_m, q05_..., q95_...`` over present frames, in chunks."""
-    present = result.present()
-    for p, track in enumerate(result.track_ids):
+    """Rows ``person, frame, time_s, joint, median_{x,y,z}_m, q05_..., q95_..., filled`` over all frames, in chunks."""
+    for p, plan in _plans(result).items():
         for t in frame_chunks(result.num_frames):
-            on = np.flatnonzero(present[p, t])
-            if len(on) == 0:
-                continue
-            t_idx = t.start + on
-            stats = summary_arrays(result.hypotheses[p, :, t][:, on], result.median[p, t][on])
+            frames = np.arange(t.start, t.stop)
+            hyp = fill_frames(Lead(result.hypotheses, p), plan, t, axis=1)
+            stats = summary_arrays(hyp, fill_frames(Lead(result.median, p), plan, t))
             columns: dict[str, object] = {
-                "person": np.full(len(on) * NUM_JOINTS, track),
-                "frame": np.repeat(t_idx, NUM_JOINTS),
-                "time_s": np.repeat(result.frame_times[t_idx], NUM_JOINTS),
-                "joint": _joint_column(len(on)),
+                "person": np.full(len(frames) * NUM_JOINTS, result.track_ids[p]),
+                "frame": np.repeat(frames, NUM_JOINTS),
+                "time_s": np.repeat(result.frame_times[t], NUM_JOINTS),
+                "joint": _joint_column(len(frames)),
             }
             for label in STATISTICS:
                 values = stats[label].reshape(-1, 3)
                 for axis, name in enumerate("xyz"):
                     columns[f"{label}_{name}_m"] = values[:, axis]
+            columns["filled"] = np.repeat(~plan.present[t], NUM_JOINTS).astype(np.int8)
             yield pa.table(columns)
 
 

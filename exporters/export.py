@@ -14,8 +14,10 @@ from platypose.exporters.npz import write_npz
 from platypose.exporters.result import LiftResult
 from platypose.lifting.errors import InputError
 
-FORMATS = ("npz", "csv", "bvh", "trc", "c3d", "angles", "report", "rrd")
+FORMATS = ("npz", "csv", "bvh", "trc", "c3d", "angles", "mot", "report", "rrd")
 BVH_MODES = ("median", "all")
+# Formats holding every frame, absent ones filled by the rule of exporters.gaps (listed in <name>_gaps.json).
+FILLED_FORMATS = ("csv", "bvh", "trc", "c3d", "angles", "mot")
 
 
 def parse_formats(text: str | Iterable[str]) -> tuple[str, ...]:
@@ -37,13 +39,15 @@ def _write_bvhs(result: LiftResult, out_dir: Path, name: str, mode: str) -> tupl
         if not present[p].any():
             continue
         path = out_dir / f"{name}_p{track}.bvh"
-        errors[f"p{track}"] = {"median": write_bvh(Lead(result.median, p), result.fps, path).as_dict()}
+        errors[f"p{track}"] = {
+            "median": write_bvh(Lead(result.median, p), result.fps, path, result.frame_times).as_dict()
+        }
         paths.append(path)
         if mode == "all":
             fits = []
             for n in range(result.num_hypotheses):
                 hyp_path = out_dir / f"{name}_p{track}_h{n:03d}.bvh"
-                fits.append(write_bvh(Lead(result.hypotheses, p, n), result.fps, hyp_path))
+                fits.append(write_bvh(Lead(result.hypotheses, p, n), result.fps, hyp_path, result.frame_times))
                 paths.append(hyp_path)
             errors[f"p{track}"]["hypotheses"] = {
                 "mean_m": float(np.mean([f.mean_m for f in fits])),
@@ -52,29 +56,38 @@ def _write_bvhs(result: LiftResult, out_dir: Path, name: str, mode: str) -> tupl
     return paths, errors
 
 
-def _write_markers(
-    result: LiftResult, out_dir: Path, name: str, formats: tuple[str, ...], say: Callable[[str], None]
-) -> list[Path]:
-    """TRC and/or C3D files per person (the median motion, gaps filled) and the gaps sidecar ``<name>_gaps.json``."""
+def _write_markers(result: LiftResult, out_dir: Path, name: str, formats: tuple[str, ...]) -> list[Path]:
+    """TRC and/or C3D files per person: the median motion, gaps filled by the rule of :mod:`exporters.gaps`."""
     from platypose.exporters.c3d_export import write_c3d
-    from platypose.exporters.markers import describe_gaps, fill_gaps, gaps_sidecar, read_frames
+    from platypose.exporters.gaps import fill_frames, fill_plan
+    from platypose.exporters.markers import read_frames
     from platypose.exporters.trc import write_trc
 
     paths: list[Path] = []
-    gaps: dict[str, list] = {}
+    present = result.present()
     for p, track in enumerate(result.track_ids):
-        joints = read_frames(Lead(result.median, p))
-        present = np.isfinite(joints).all(axis=(1, 2))
-        if not present.any():
+        if not present[p].any():
             continue
-        filled, gaps[f"p{track}"] = fill_gaps(joints, result.frame_times)
-        say(f"{name}: person {track} markers: {describe_gaps(gaps[f'p{track}'])}")
+        joints = read_frames(Lead(result.median, p))
+        filled = fill_frames(joints, fill_plan(present[p], result.frame_times), slice(None))
         if "trc" in formats:
             paths.append(write_trc(filled, result.frame_times, result.fps, out_dir / f"{name}_p{track}.trc"))
         if "c3d" in formats:
-            paths.append(write_c3d(filled, present, result.fps, out_dir / f"{name}_p{track}.c3d"))
-    paths.append(gaps_sidecar(out_dir / f"{name}_gaps.json", gaps))
+            paths.append(write_c3d(filled, present[p], result.fps, out_dir / f"{name}_p{track}.c3d"))
     return paths
+
+
+def _write_gaps(result: LiftResult, out_dir: Path, name: str, say: Callable[[str], None]) -> Path:
+    """The gaps sidecar ``<name>_gaps.json`` (every person's filled frames), each person's gaps logged."""
+    from platypose.exporters.gaps import describe_gaps, fill_plan, find_gaps, gaps_sidecar
+
+    gaps = {}
+    for p, on in enumerate(result.present()):
+        if on.any():
+            track = int(result.track_ids[p])
+            gaps[f"p{track}"] = find_gaps(fill_plan(on, result.frame_times), result.frame_times)
+            say(f"{name}: person {track} gaps: {describe_gaps(gaps[f'p{track}'])}")
+    return gaps_sidecar(out_dir / f"{name}_gaps.json", gaps)
 
 
 def export(
@@ -89,12 +102,17 @@ def export(
 ) -> list[Path]:
     """Write ``formats`` of ``result`` as ``out_dir/name*``; return the paths written. Each file is atomic.
 
-    The BVH fit error goes into ``meta["bvh_fit_error"]`` of the npz written in the same call.
+    The BVH fit error goes into ``meta["bvh_fit_error"]`` and OpenSim's IK fit into ``meta["opensim_ik"]`` of the
+    npz written in the same call.
     """
     formats = parse_formats(formats)
     if bvh not in BVH_MODES:
         raise InputError(f"bvh must be one of {', '.join(BVH_MODES)}, got {bvh!r}", option="bvh")
     out_dir = Path(out_dir)
+    if "mot" in formats:
+        from platypose.exporters.mot import load_opensim
+
+        load_opensim()  # the one-line error before anything is written
     if "rrd" in formats:
         from platypose.exporters.rrd import check_videos
 
@@ -106,6 +124,13 @@ def export(
         paths, errors = _write_bvhs(result, out_dir, name, bvh)
         written += paths
         result = result.with_meta(bvh_fit_error=errors)
+    if "mot" in formats:
+        from platypose.exporters.mot import write_mots
+
+        say(f"{name}: OpenSim scaling and inverse kinematics")
+        paths, fits = write_mots(result, out_dir, name, say)
+        written += paths
+        result = result.with_meta(opensim_ik=fits)
     if "npz" in formats:
         say(f"{name}: npz")
         written.append(write_npz(result, out_dir / f"{name}.npz"))
@@ -115,7 +140,7 @@ def export(
         written.append(write_summary_csv(result, out_dir / f"{name}_summary.csv"))
     if "trc" in formats or "c3d" in formats:
         say(f"{name}: {' and '.join(f.upper() for f in formats if f in ('trc', 'c3d'))} markers")
-        written += _write_markers(result, out_dir, name, formats, say)
+        written += _write_markers(result, out_dir, name, formats)
     if "angles" in formats or "report" in formats:
         from platypose.exporters.angles import angle_series, write_angles_csv
 
@@ -128,6 +153,8 @@ def export(
 
             say(f"{name}: report picture")
             written.append(write_report(result, series, name, out_dir / f"{name}_report.png"))
+    if set(formats) & set(FILLED_FORMATS):
+        written.append(_write_gaps(result, out_dir, name, say))
     if "rrd" in formats:
         from platypose.exporters.rrd import write_rrd
 

@@ -13,8 +13,8 @@ put each joint:
   offsets onto the observed ones (least squares, Kabsch);
 - spine and neck: aimed at their child, rolled with the lateral axis (hips and
   shoulders for the spine, the thorax for the neck);
-- thighs, shins, upper arms and forearms: aimed at their child, rolled about
-  the limb's hinge axis, so knees and elbows bend about one axis. The axis is
+- thighs and upper arms: aimed at their child, rolled about the limb's hinge
+  axis, so knees and elbows bend about one axis. The axis is
   carried from frame to frame with the upper bone and turns about it towards
   the normal of the hip-knee-ankle or shoulder-elbow-wrist plane where the limb
   is bent (signed as flexion where it bends past 60 degrees, else as the
@@ -22,13 +22,15 @@ put each joint:
   any angle) and towards the parent's axis swung onto the bone where it is
   straight (its plane is noise), by at most :data:`_MAX_TURN` per frame: no
   roll can pop, whatever the plane does;
+- shins and forearms: the smallest swing from the upper bone onto theirs (a
+  bend about the hinge where the limb's plane holds it, and never ill defined);
 - wrists, ankles and head (no child to define them) keep their parent's rotation.
 
 Then :func:`refine_rotations` solves all bone directions of each frame at
 once by damped Gauss-Newton on the squared distances of the forward-kinematics
-joints to the observed ones (the roll about each bone is left as set).
-
-The Euler angles of the local rotations are :mod:`exporters.euler`'s. Forward
+joints to the observed ones (the roll about each bone is left as set), and
+:func:`exporters.twist.limit_twists` keeps each roll continuous in time. The Euler angles of the local
+rotations are :mod:`exporters.euler`'s. Forward
 kinematics is the importers' (:func:`platypose.lifting.motion_io.kinematics.forward_kinematics`).
 """
 
@@ -81,8 +83,8 @@ _SIGN_FROM_CARRIED, _MAX_TURN = 0.3, np.radians(15.0)
 # A limb bent past 60 degrees (cosine 0.5) is flexed whatever its axis did before: no knee or elbow
 # hyperextends that far, so its normal takes the sign of flexion.
 _FOLD_COS = 0.5
-# Weights of the vectors fitted to a rigid body: left, right and midline child, and the parent.
-_BODY_WEIGHTS = np.array([1.0, 1.0, 0.5, 1.0])
+# Weights of the vectors fitted to a rigid body: left, right and midline child.
+_BODY_WEIGHTS = np.array([1.0, 1.0, 0.5])
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -234,22 +236,16 @@ def fit_rotations(
     T = positions.shape[0]
     rot = np.zeros((T, NUM_JOINTS, 3, 3))
     fitted = np.zeros((T, NUM_JOINTS, 3))
-    hinge: dict[int, np.ndarray] = {}
     state = np.zeros((len(LIMBS), 2, 3))
     x_axis = np.array([1.0, 0.0, 0.0])
     for j in range(NUM_JOINTS):
         p = PARENTS[j]
         fitted[:, j] = positions[:, j] if p < 0 else fitted[:, p] + _apply(rot[:, p], offsets[j])
         kids = CHILDREN[j]
-        if j in BODIES:  # its children and, for the thorax, the way back to the spine
+        if j in BODIES:  # its own children only: the spine below bends against a rigid lift's thorax
             kids = BODIES[j]
             rest, seen = offsets[list(kids)], positions[:, list(kids)] - fitted[:, j, None]
-            weights = _BODY_WEIGHTS[:3]
-            if p >= 0:
-                rest = np.concatenate([rest, -offsets[j][None]])
-                seen = np.concatenate([seen, (positions[:, p] - fitted[:, j])[:, None]], axis=1)
-                weights = _BODY_WEIGHTS
-            rot[:, j] = kabsch(rest, seen, weights)
+            rot[:, j] = kabsch(rest, seen, _BODY_WEIGHTS)
         elif j == _SPINE:  # aimed at the thorax, rolled with the hips' and shoulders' lateral axes
             left, right, _ = BODIES[_J("thorax")]
             lateral = _unit(positions[:, left] - positions[:, right]) + _apply(rot[:, p], x_axis)
@@ -276,13 +272,12 @@ def fit_rotations(
                 None if before is None else before[k],
             )
             state[k] = upper[-1], local[-1]
-            hinge[j] = _apply(rot[:, p], local)
             rest = two_vector_frame(offsets[lower], rest_axis)
-            rot[:, j] = two_vector_frame(positions[:, lower] - fitted[:, j], hinge[j]) @ rest.T
-        elif j in _LOWER:
-            upper, end, axis = _LOWER[j]
-            rest = two_vector_frame(offsets[end], np.asarray(axis, dtype=np.float64))
-            rot[:, j] = two_vector_frame(positions[:, end] - fitted[:, j], hinge[upper]) @ rest.T
+            rot[:, j] = two_vector_frame(positions[:, lower] - fitted[:, j], _apply(rot[:, p], local)) @ rest.T
+        elif j in _LOWER:  # the smallest swing from the upper bone onto the lower: no roll of its own
+            upper, end, _ = _LOWER[j]
+            along = _unit(_apply(rot[:, p], offsets[end]))
+            rot[:, j] = rotation_between(along, _unit(positions[:, end] - fitted[:, j])) @ rot[:, p]
         else:  # leaves: wrists, ankles, head
             rot[:, j] = rot[:, p]
     return rot, state
@@ -318,8 +313,8 @@ def refine_rotations(
     joint in place, so nothing pins it and the iterations let it drift (100-140 degree twists between
     frames): each such joint is finally turned from its given rotation by the smallest rotation onto its
     refined bone direction, keeping the given twist. ``damping`` is relative to the squared bone scale. 8
-    iterations match a rigid lift to within millimetres where 4 left the thorax decimetres off (its first fit
-    also aims at the spine, which a rigid lift's trunk bends against; docs/results.md).
+    iterations match a rigid lift to within millimetres where 4 left the thorax decimetres off when its first
+    fit also aimed at the spine (docs/results.md).
     Finally the neck is turned so that the neck-to-head bone points exactly as in ``positions``.
     """
     given, rot = rot, rot.copy()

@@ -20,7 +20,7 @@ from platypose.lifting.atomic import atomic_path
 from platypose.lifting.skeleton import JOINT_INDEX
 
 LEG_ANGLES = ("right_hip_flexion", "left_hip_flexion", "right_knee_flexion", "left_knee_flexion")
-UPPER_ANGLES = ("trunk_flexion", "right_shoulder_flexion", "left_shoulder_flexion", "right_elbow_flexion")
+UPPER_ANGLES = ("trunk_flexion", "right_shoulder_elevation", "left_shoulder_elevation", "right_elbow_flexion")
 _COLOURS = ("tab:red", "tab:blue", "tab:orange", "tab:cyan")
 MAX_ROWS = 8  # persons drawn (the longest present first)
 
@@ -75,14 +75,18 @@ def write_report(result: LiftResult, series: dict[int, np.ndarray], name: str, p
     cams = _camera_centres(result)
     title = f"{name}: {result.num_persons} person(s), {result.num_hypotheses} hypotheses, "
     title += f"{result.num_frames} frames at {result.fps:g} fps, {len(result.cameras)} camera(s)"
-    fig.suptitle(title + "  (lines: median motion; bands: 5-95 % of the hypotheses)", fontsize=11)
+    fig.suptitle(
+        title + "  (lines: median motion; bands: 5-95 % of the hypotheses; angles unwrapped over time, shoulders after"
+        " ISB: elevation from hanging, docs/outputs.md)",
+        fontsize=11,
+    )
     for row, p in enumerate(persons):
         track = int(result.track_ids[p])
         s = series[p]
         _plot_angles(axes[row, 0], times, s, LEG_ANGLES)
         axes[row, 0].set_title(f"person {track}: hips and knees", fontsize=10)
         _plot_angles(axes[row, 1], times, s, UPPER_ANGLES)
-        axes[row, 1].set_title(f"person {track}: trunk, shoulders, elbow", fontsize=10)
+        axes[row, 1].set_title(f"person {track}: trunk, shoulder elevation (ISB), elbow", fontsize=10)
         ax = axes[row, 2]
         pelvis = _track(result, p, "pelvis")
         ax.plot(pelvis[:, 0], pelvis[:, 1], color="tab:green", linewidth=1.5, label="pelvis")

@@ -206,7 +206,7 @@ def output_patterns(name: str) -> list[str]:
     fixed = [
         f"{stem}{end}" for end in (".npz", ".csv", "_summary.csv", ".rrd", "_gaps.json", "_angles.csv", "_report.png")
     ]
-    return fixed + [f"{stem}_p*.bvh", f"{stem}_p*.trc", f"{stem}_p*.c3d"]
+    return fixed + [f"{stem}_p*.{ext}" for ext in ("bvh", "trc", "c3d", "mot", "osim")]
 
 
 def remove_stale_outputs(folder: Path, name: str, written: list[Path]) -> list[str]:

@@ -31,7 +31,17 @@ bpy.ops.import_anim.bvh(
 scene = bpy.context.scene
 arm = [o for o in scene.objects if o.type == "ARMATURE"][0]
 fps = scene.render.fps / scene.render.fps_base
-print("blender", bpy.app.version_string, "fps", fps, "frames", scene.frame_start, scene.frame_end)
+print(
+    "blender",
+    bpy.app.version_string,
+    "fps",
+    fps,
+    "frames",
+    scene.frame_start,
+    scene.frame_end,
+    "bones",
+    len(arm.data.bones),
+)
 with np.load(npz, allow_pickle=False) as f:
     med = f["median"][person].astype(np.float64)
     names = [str(n) for n in f["joint_names"]]

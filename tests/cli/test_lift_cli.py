@@ -78,6 +78,7 @@ def test_four_views_match_triangulation_and_one_view_spreads(
     assert sorted(Path(p).name for p in summary["inputs"][0]["outputs"]) == [
         "openpose-body25b.csv",
         "openpose-body25b.npz",
+        "openpose-body25b_gaps.json",
         "openpose-body25b_summary.csv",
     ]
 

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import csv
+from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 from export_helpers import two_person_result
 
-from platypose.exporters.angles import ANGLE_NAMES, angle_series, joint_angles, write_angles_csv
+from platypose.exporters.angles import ANGLE_NAMES, angle_series, continue_angles, joint_angles, write_angles_csv
 from platypose.exporters.report import ankle_heights, write_report
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
@@ -59,18 +60,26 @@ def test_signs_and_sides():
     a = angles_of(pose)
     assert a["right_knee_flexion"] == pytest.approx(90)
     assert a["left_knee_flexion"] == pytest.approx(0, abs=1e-9)
-    assert a["left_shoulder_flexion"] == pytest.approx(90)
-    assert a["right_shoulder_flexion"] == pytest.approx(0, abs=1e-9)
+    assert a["left_shoulder_plane"] == pytest.approx(90) and a["left_shoulder_elevation"] == pytest.approx(90)
+    assert a["right_shoulder_elevation"] == pytest.approx(0, abs=1e-9)
+    assert a["right_shoulder_rotation"] == pytest.approx(0, abs=1e-6)  # forearm forward, arm hanging
     assert a["left_elbow_flexion"] == pytest.approx(0, abs=1e-6)
     assert a["right_elbow_flexion"] == pytest.approx(90)
     assert a["left_hip_abduction"] == pytest.approx(np.degrees(0.5))
     assert a["right_hip_abduction"] == pytest.approx(0, abs=1e-9)
-    # an arm raised overhead and past it stays on one branch (no wrap at 180)
-    for degrees, expected in ((170, 170), (200, 200)):
-        up = standing()
-        r = np.radians(degrees)
-        up[J["left_elbow"]] = up[J["left_shoulder"]] + 0.27 * np.array([0, -np.sin(r), -np.cos(r)])
-        assert angles_of(up)["left_shoulder_flexion"] == pytest.approx(expected)
+    inward = standing()
+    inward[J["right_wrist"]] = inward[J["right_elbow"]] + [0.26, 0, 0]  # right forearm across the body
+    assert angles_of(inward)["right_shoulder_rotation"] == pytest.approx(90)
+    # the arm raised sideways, then forwards: plane 0 then 90, elevation the angle from hanging
+    for plane, elevation in ((0, 60), (0, 120), (90, 170), (45, 90)):
+        raised = standing()
+        e, q = np.radians(elevation), np.radians(plane)
+        direction = np.array([np.sin(e) * np.cos(q), -np.sin(e) * np.sin(q), -np.cos(e)])
+        raised[J["left_elbow"]] = raised[J["left_shoulder"]] + 0.27 * direction
+        raised[J["left_wrist"]] = raised[J["left_elbow"]] + 0.26 * direction
+        got = angles_of(raised)
+        assert got["left_shoulder_plane"] == pytest.approx(plane, abs=1e-6)
+        assert got["left_shoulder_elevation"] == pytest.approx(elevation)
     lean = standing()
     tilt = np.radians(30)
     for name, height in (("spine", 0.24), ("thorax", 0.48)):
@@ -85,17 +94,53 @@ def result(data_dir):
     return two_person_result(data_dir)
 
 
-def test_series_are_continuous_bands_ordered_and_absent_frames_empty(result):
+def test_abduction_through_90_degrees_reads_no_flip():
+    """The issue's case: an arm held out sideways at 86-91 degrees of abduction, wobbling a few degrees
+    forwards and backwards, read frame by frame. The old sagittal-plane flexion jumped between +87 and -99;
+    plane of elevation, elevation and rotation now move by a few degrees per frame."""
+    rng = np.random.default_rng(3)
+    T = 60
+    elevation = np.radians(88.0 + 3.0 * np.sin(np.linspace(0, 6, T)))
+    plane = np.radians(4.0 * rng.normal(size=T))
+    poses = np.repeat(standing()[None], T, axis=0)
+    d = np.stack([-np.sin(elevation) * np.cos(plane), -np.sin(elevation) * np.sin(plane), -np.cos(elevation)], -1)
+    poses[:, J["right_elbow"]] = poses[:, J["right_shoulder"]] + 0.27 * d
+    poses[:, J["right_wrist"]] = poses[:, J["right_elbow"]] + 0.26 * np.array([0, -1.0, 0])  # forearm forward
+    series = continue_angles(joint_angles(poses))
+    for name in ("right_shoulder_plane", "right_shoulder_elevation", "right_shoulder_rotation"):
+        assert np.abs(np.diff(series[:, ANGLE_NAMES.index(name)])).max() < 20, name
+
+
+def test_a_hanging_arm_holds_its_plane_and_angles_never_wrap():
+    """An arm swinging forwards and backwards through hanging (walking): ISB's plane of elevation would jump
+    between +90 and -90 each time; it holds while the arm hangs. A trunk turning past the range's end
+    continues (unwrapped) instead of jumping by 360."""
+    T = 80
+    swing = np.radians(25.0 * np.sin(np.linspace(0, 4 * np.pi, T)))
+    poses = np.repeat(standing()[None], T, axis=0)
+    d = np.stack([0 * swing, -np.sin(swing), -np.cos(swing)], -1)
+    poses[:, J["left_elbow"]] = poses[:, J["left_shoulder"]] + 0.27 * d
+    poses[:, J["left_wrist"]] = poses[:, J["left_elbow"]] + 0.26 * d
+    series = continue_angles(joint_angles(poses))
+    assert np.abs(np.diff(series[:, ANGLE_NAMES.index("left_shoulder_plane")])).max() < 45
+    raw = np.array([[170.0], [-175.0], [-160.0]]) * np.ones((1, len(ANGLE_NAMES)))
+    np.testing.assert_allclose(continue_angles(raw)[:, 0], [170.0, 185.0, 200.0])
+
+
+def test_series_are_continuous_bands_ordered_and_absent_frames_held(result):
     series = angle_series(result)
     assert sorted(series) == [0, 1]
     for p, values in series.items():
         on = result.present()[p]
-        assert np.isnan(values[~on]).all() and np.isfinite(values[on]).all()
+        assert np.isfinite(values).all()
+        first = np.flatnonzero(on)[0]
+        np.testing.assert_array_equal(values[:first], np.broadcast_to(values[first], values[:first].shape))
         v = values[on]
         assert (v[..., 1] <= v[..., 2] + 1e-9).all() and (v[..., 2] <= v[..., 3] + 1e-9).all()
         # real climbing at 120 fps: no angle of the median moves more than a few degrees per frame
         assert np.abs(np.diff(v[..., 0], axis=0)).max() < 15
-        np.testing.assert_allclose(v[..., 0], joint_angles(np.asarray(result.median[p][on], np.float64)))
+    values = series[0]  # no gap: the median's angles of each frame, made continuous
+    np.testing.assert_allclose(values[..., 0], continue_angles(joint_angles(np.asarray(result.median[0], np.float64))))
 
 
 def test_csv_reads_back(result, tmp_path):
@@ -103,14 +148,25 @@ def test_csv_reads_back(result, tmp_path):
     path = write_angles_csv(result, series, tmp_path / "clip_angles.csv")
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    assert list(rows[0]) == ["person", "frame", "time_s", "angle", "median_deg", "q05_deg", "q50_deg", "q95_deg"]
-    assert len(rows) == result.present().sum() * len(ANGLE_NAMES)
+    assert list(rows[0]) == [
+        "person",
+        "frame",
+        "time_s",
+        "angle",
+        "median_deg",
+        "q05_deg",
+        "q50_deg",
+        "q95_deg",
+        "filled",
+    ]
+    assert len(rows) == result.present().size * len(ANGLE_NAMES)
     row = next(r for r in rows if r["person"] == "7" and r["frame"] == "12" and r["angle"] == "left_knee_flexion")
     want = series[1][12, ANGLE_NAMES.index("left_knee_flexion")]
     got = [float(row[k]) for k in ("median_deg", "q05_deg", "q50_deg", "q95_deg")]
     np.testing.assert_allclose(got, want, atol=5e-4)
     assert float(row["time_s"]) == result.frame_times[12]
-    assert not any(r["person"] == "7" and int(r["frame"]) < 5 for r in rows)  # absent frames left out
+    held = {r["filled"] for r in rows if r["person"] == "7" and int(r["frame"]) < 5}
+    assert held == {"1"} and {r["filled"] for r in rows if r["person"] == "0"} == {"0"}
 
 
 def test_report_ankle_heights_stand_on_the_lifts_floor():
@@ -136,3 +192,31 @@ def test_report_picture(result, tmp_path):
     hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
     assert ((hsv[..., 1] > 100) & (hsv[..., 2] > 100)).mean() > 0.01
     assert sorted(p.name for p in tmp_path.iterdir()) == ["clip_report.png"]
+
+
+@pytest.mark.parametrize(
+    "file, person",
+    [
+        ("pose2sim_cam01_pelvis_median.npy", None),
+        ("pose2sim_cam01_median.npy", None),
+        ("pose2sim_4views_median.npy", None),
+        ("sports2d_demo_medians.npy", 0),
+        ("sports2d_demo_medians.npy", 1),
+    ],
+)
+def test_real_lifts_angles_step_only_with_the_arm(file, person):
+    """Real lifts (tests/data/lifts, gaps filled): no angle of a side steps over 45 degrees between frames where
+    that side's upper arm turns under 10 (the old angles stepped up to 353 degrees on sports2d)."""
+    from platypose.exporters.gaps import fill_frames, fill_plan
+
+    joints = np.load(Path(__file__).parent / "data" / "lifts" / file).astype(np.float64)
+    joints = joints if person is None else joints[person]
+    present = np.isfinite(joints).all(axis=(1, 2))
+    joints = fill_frames(joints, fill_plan(present, np.arange(len(joints))), slice(None))
+    steps = np.abs(np.diff(continue_angles(joint_angles(joints)), axis=0))
+    for side in ("right", "left"):
+        arm = joints[:, J[f"{side}_elbow"]] - joints[:, J[f"{side}_shoulder"]]
+        arm /= np.linalg.norm(arm, axis=-1, keepdims=True)
+        calm = np.degrees(np.arccos(np.clip(np.sum(arm[1:] * arm[:-1], axis=-1), -1.0, 1.0))) < 10
+        columns = [k for k, name in enumerate(ANGLE_NAMES) if name.startswith(side)]
+        assert steps[np.ix_(calm, columns)].max() <= 45.0, side

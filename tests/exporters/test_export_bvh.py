@@ -158,7 +158,9 @@ def test_bvh_imports_upright_and_facing_forward(climb, tmp_path):
     assert (np.sum(facing_of(world) * facing_of(joints), axis=-1) > 0.999).all()
 
 
-def test_absent_frames_hold_the_nearest_pose(climb, tmp_path):
+def test_absent_frames_follow_the_gap_rule(climb, tmp_path):
+    """Absent frames at the start hold the first present pose; inside, the joints glide linearly in time from
+    the last present frame to the next (exporters.gaps), so the root never jumps."""
     joints, fps = climb
     gappy = joints[:40].copy()
     gappy[:3] = np.nan
@@ -167,7 +169,9 @@ def test_absent_frames_hold_the_nearest_pose(climb, tmp_path):
     world = blender_world(parse_positions(tmp_path / "gap.bvh")[0])
     assert len(world) == 40 and np.isfinite(world).all()
     np.testing.assert_allclose(world[0], world[3], atol=1e-9)
-    np.testing.assert_allclose(world[22], world[19], atol=1e-9)
+    weights = (np.arange(20, 25) - 19) / 6.0
+    glide = gappy[19, 0] + weights[:, None] * (gappy[25, 0] - gappy[19, 0])
+    np.testing.assert_allclose(world[20:25, 0], glide, atol=1e-5)
     assert fit.mean_m < 0.01
     with pytest.raises(ValueError, match="absent throughout"):
         write_bvh(np.full((5, 17, 3), np.nan), fps, tmp_path / "none.bvh")

@@ -52,7 +52,7 @@ def test_small_chunks_from_disk_write_the_same_files(whole, tmp_path, monkeypatc
     assert isinstance(chunked.hypotheses, FrameArray) and np.array_equal(chunked.present(), result.present())
     out = tmp_path / "out"
     written = export(chunked, out, "clip", FORMATS, bvh="all", rrd_video="none")
-    assert len(written) == 18
+    assert len(written) == 19
     for path in written:
         if path.suffix in (".csv", ".bvh"):
             assert path.read_bytes() == (folder / path.name).read_bytes(), path.name

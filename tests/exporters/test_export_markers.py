@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import json
 
@@ -113,3 +114,31 @@ def test_gaps_are_listed_in_the_sidecar_and_the_log(files):
     ]
     assert any("person 7" in line and "0-4 held, 12-15 interpolated" in line for line in lines)
     assert any("person 0" in line and "no gap" in line for line in lines)
+
+
+def test_every_format_fills_a_gap_the_same_way(result, tmp_path):
+    """Person 7's interior gap (frames 12-15) in the TRC, the summary CSV, the BVH and the angles: the same
+    interpolated joints (BVH within its fit), marked filled in every table."""
+    from bvh import Bvh
+
+    from platypose.exporters.angles import ANGLE_NAMES, joint_angles
+    from platypose.exporters.bvh import from_bvh_axes
+
+    export(result, tmp_path, "clip", ["csv", "bvh", "trc", "angles"])
+    want = expected_filled(result, 1)  # TRC axes
+    _, trc = read_trc(tmp_path / "clip_p7.trc")
+    np.testing.assert_allclose(trc[:, 2:].reshape(-1, 17, 3), want, atol=1e-6)
+    with open(tmp_path / "clip_summary.csv", newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["person"] == "7" and r["joint"] == "head"]
+    assert [r["filled"] for r in rows[10:17]] == ["0", "0", "1", "1", "1", "1", "0"]
+    csv_head = np.array([[float(r[f"median_{a}_m"]) for a in "xyz"] for r in rows])
+    np.testing.assert_allclose(opensim_axes(csv_head), want[:, 10], atol=1e-6)
+    frames = np.array(Bvh((tmp_path / "clip_p7.bvh").read_text()).frames, dtype=np.float64)
+    root = from_bvh_axes(frames[:, :3])
+    np.testing.assert_allclose(opensim_axes(root[12:16]), want[12:16, 0], atol=0.02)
+    with open(tmp_path / "clip_angles.csv", newline="") as f:
+        knee = [r for r in csv.DictReader(f) if r["person"] == "7" and r["angle"] == "left_knee_flexion"]
+    filled = expected_filled(result, 1)[..., [2, 0, 1]]  # back to our axes
+    k = ANGLE_NAMES.index("left_knee_flexion")
+    np.testing.assert_allclose([float(r["median_deg"]) for r in knee], joint_angles(filled)[:, k], atol=2e-3)
+    assert [r["filled"] for r in knee[11:17]] == ["0", "1", "1", "1", "1", "0"]

@@ -86,28 +86,36 @@ def test_long_csv_holds_the_npz_numbers(result, tmp_path):
     path = write_long_csv(result, tmp_path / "clip.csv")
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
-    assert rows[0] == ["person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m"]
+    assert rows[0] == ["person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m", "filled"]
     body = rows[1:]
-    # person 0: 6 x 30 frames, person 7: 6 x 25 present frames, 17 joints each
-    assert len(body) == (6 * 30 + 6 * 25) * 17
+    # both persons: 6 hypotheses x 30 frames x 17 joints; person 7's absent frames 0-4 held, filled 1
+    assert len(body) == 2 * 6 * 30 * 17
+    present = result.present()
     for row in body[:: len(body) // 97]:
         p = {0: 0, 7: 1}[int(row[0])]
         n, t, j = int(row[1]), int(row[2]), JOINT_NAMES.index(row[4])
         assert float(row[3]) == result.frame_times[t]
-        assert np.array_equal(np.float32([float(v) for v in row[5:8]]), result.hypotheses[p, n, t, j])
-    assert not any(r[0] == "7" and int(r[2]) < 5 for r in body)
+        assert row[8] == str(int(not present[p, t]))
+        if present[p, t]:
+            assert np.array_equal(np.float32([float(v) for v in row[5:8]]), result.hypotheses[p, n, t, j])
+    held = [r for r in body if r[0] == "7" and r[1] == "2" and int(r[2]) < 5 and r[4] == "head"]
+    assert [r[8] for r in held] == ["1"] * 5
+    assert all(np.array_equal(np.float32([float(v) for v in r[5:8]]), result.hypotheses[1, 2, 5, 10]) for r in held)
 
 
 def test_summary_csv_has_median_and_quantiles(result, tmp_path):
     path = write_summary_csv(result, tmp_path / "clip_summary.csv")
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == (30 + 25) * 17
+    assert len(rows) == 2 * 30 * 17
     assert list(rows[0]) == ["person", "frame", "time_s", "joint"] + [
         f"{s}_{a}_m" for s in ("median", "q05", "q95") for a in "xyz"
-    ]
+    ] + ["filled"]
+    present = result.present()
     for row in rows[::53]:
         p, t, j = {0: 0, 7: 1}[int(row["person"])], int(row["frame"]), JOINT_NAMES.index(row["joint"])
+        assert row["filled"] == str(int(not present[p, t]))
+        t = max(t, 5) if p == 1 else t  # person 7's frames 0-4 hold frame 5
         hyp = result.hypotheses[p, :, t, j]
         assert np.float32(row["median_y_m"]) == result.median[p, t, j, 1]
         assert float(row["q05_x_m"]) == pytest.approx(np.quantile(hyp[:, 0], 0.05), abs=1e-6)
