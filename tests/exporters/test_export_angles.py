@@ -209,7 +209,7 @@ def test_real_lifts_angles_step_only_with_the_arm(file, person):
     that side's upper arm turns under 10 (the old angles stepped up to 353 degrees on sports2d)."""
     from platypose.exporters.gaps import fill_frames, fill_plan
 
-    joints = np.load(Path(__file__).parent / "data" / "lifts" / file).astype(np.float64)
+    joints = np.load(Path(__file__).parents[1] / "data" / "lifts" / file).astype(np.float64)
     joints = joints if person is None else joints[person]
     present = np.isfinite(joints).all(axis=(1, 2))
     joints = fill_frames(joints, fill_plan(present, np.arange(len(joints))), slice(None))
