@@ -151,7 +151,10 @@ def test_given_root_trajectory_npz_and_csv(run_cli, data_dir, tmp_path, prior_fi
 def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir, tmp_path, prior_file) -> None:
     """``--depth-smoothness``: with one view the hypotheses' depth paths accelerate less with it than without
     (0); a negative value is a one-line error. Without the floor: grounding holds stance ankles where they stand,
-    unsmoothed (tests/lifting/sampling/test_grounding.py)."""
+    unsmoothed (tests/lifting/sampling/test_grounding.py). One view's limbs are rebuilt at adult lengths after
+    smoothing (lifting/anthropometry.py), which scales the tiny test prior's short limbs, and their joints'
+    accelerations with them, smoothed or not: the smoothed paths keep at most 80 % of the unsmoothed ones'
+    (about 75 %; 70 % before the rebuild)."""
     from platypose.exporters.npz import read_npz
 
     keypoints = str(data_dir / TAKE / "openpose-body25b" / "cam01_json")
@@ -180,7 +183,7 @@ def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir,
         cam = result.cameras[0]
         depth = (result.hypotheses[0] @ cam.R.T + cam.t)[..., 2]  # (N, T, 17)
         acceleration[value] = np.nanpercentile(np.abs(np.diff(depth, 2, axis=1)), 99)
-    assert acceleration["10"] < 0.7 * acceleration["0"], acceleration
+    assert acceleration["10"] < 0.8 * acceleration["0"], acceleration
     code, _, err = run_cli(
         *lift_args(data_dir, prior_file, tmp_path / "bad", "--keypoints", keypoints, "--depth-smoothness", "-1")
     )
