@@ -154,7 +154,7 @@ def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir,
     unsmoothed (tests/lifting/sampling/test_grounding.py). One view's limbs are rebuilt at adult lengths after
     smoothing (lifting/anthropometry.py), which scales the tiny test prior's short limbs, and their joints'
     accelerations with them, smoothed or not: the smoothed paths keep at most 80 % of the unsmoothed ones'
-    (about 75 %; 70 % before the rebuild)."""
+    (about 75 %; under 70 % without the rebuild)."""
     from platypose.exporters.npz import read_npz
 
     keypoints = str(data_dir / TAKE / "openpose-body25b" / "cam01_json")
