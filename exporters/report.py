@@ -10,6 +10,7 @@ backend (no display needed).
 from __future__ import annotations
 
 from pathlib import Path
+from textwrap import fill
 
 import numpy as np
 
@@ -47,6 +48,13 @@ def ankle_heights(ankles: np.ndarray, floor: dict | None) -> tuple[np.ndarray, s
     return ankles[..., 2] - np.nanmin(ankles[..., 2]), "cm above the lowest ankle"
 
 
+def _flag_text(result: LiftResult, p: int) -> str:
+    """What the lift flagged for person ``p`` (``meta["plausibility"]``'s ``flag_text``), or empty."""
+    reports = (result.meta or {}).get("plausibility") or []
+    report = reports[p] if p < len(reports) and isinstance(reports[p], dict) else {}
+    return (report.get("flag_text") or ", ".join(report.get("flags", []))) if report.get("flags") else ""
+
+
 def _plot_angles(ax, times: np.ndarray, series: np.ndarray, names: tuple[str, ...]) -> None:
     """Median-motion lines and 5-95 % bands of ``names`` from a person's series (T, A, 4)."""
     for name, colour in zip(names, _COLOURS):
@@ -67,7 +75,8 @@ def write_report(result: LiftResult, series: dict[int, np.ndarray], name: str, p
     from matplotlib.figure import Figure
 
     path = Path(path)
-    persons = sorted(series, key=lambda p: -np.isfinite(series[p][:, 0, 0]).sum())[:MAX_ROWS]
+    longest = sorted(series, key=lambda p: -np.isfinite(series[p][:, 0, 0]).sum())[:MAX_ROWS]
+    persons = sorted(longest, key=lambda p: int(result.track_ids[p]))  # rows in id order
     rows = max(len(persons), 1)
     fig = Figure(figsize=(18, 3.6 * rows + 0.8), dpi=100, layout="constrained")
     axes = fig.subplots(rows, 4, squeeze=False, width_ratios=[3, 3, 2, 3])
@@ -81,6 +90,9 @@ def write_report(result: LiftResult, series: dict[int, np.ndarray], name: str, p
         s = series[p]
         _plot_angles(axes[row, 0], times, s, LEG_ANGLES)
         axes[row, 0].set_title(f"person {track}: hips and knees", fontsize=10)
+        flagged = _flag_text(result, p)
+        if flagged:
+            axes[row, 0].set_title(fill(f"flagged: {flagged}", 70), fontsize=9, color="tab:red", loc="left", pad=18)
         _plot_angles(axes[row, 1], times, s, UPPER_ANGLES)
         axes[row, 1].set_title(f"person {track}: trunk, shoulders, elbow", fontsize=10)
         ax = axes[row, 2]

@@ -47,6 +47,6 @@ def log_floor_and_plausibility(
             static=True,
         )
     for track, report in zip(track_ids, plausibility):
-        flags = ", ".join(report.get("flags", [])) or "none"
-        text = f"flags: {flags}\n\n```json\n{json.dumps(report, indent=2)}\n```"
+        flags = (report.get("flag_text") or ", ".join(report.get("flags", []))) if report.get("flags") else "none"
+        text = f"flagged: {flags}\n\n```json\n{json.dumps(report, indent=2)}\n```"
         rec.log(f"world/people/p{track}/plausibility", rr.TextDocument(text, media_type="text/markdown"), static=True)

@@ -26,9 +26,10 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.flags import person_lines
 from platypose.lifting.floor import ESTIMATE, Floor, floor_under
 from platypose.lifting.lift import WindowSettings
-from platypose.lifting.plausibility import plausibility, plausibility_lines
+from platypose.lifting.plausibility import plausibility
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.rigid import rigid_person
 from platypose.lifting.root import presence
@@ -39,12 +40,14 @@ SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference ac
 
 
 class JobLog:
-    """Timestamped lines of one lift (``OUT/<name>/log.txt`` for the CLI), and its warnings for the result's meta."""
+    """Timestamped lines of one lift (``OUT/<name>/log.txt`` for the CLI), and its warnings and notes for the result's
+    meta."""
 
     def __init__(self) -> None:
         self.started = time.perf_counter()
         self.lines: list[str] = []
         self.warnings: list[str] = []
+        self.notes: list[str] = []
 
     def __call__(self, message: str) -> None:
         self.lines.append(f"[{time.perf_counter() - self.started:7.1f} s] {message}")
@@ -53,6 +56,11 @@ class JobLog:
         """Log a warning and keep it for the result's meta."""
         self.warnings.append(message)
         self(f"warning: {message}")
+
+    def note(self, message: str) -> None:
+        """Log what the lift assumed (not a fault: no warning) and keep it for the result's ``meta["notes"]``."""
+        self.notes.append(message)
+        self(message)
 
     def write(self, path: Path) -> None:
         """Write the log atomically."""
@@ -93,7 +101,8 @@ def view_cameras(
     calibration_word: str = "cams",
 ) -> list[Camera]:
     """The matched ``cameras`` checked against the views' image sizes (height, width), or without a calibration
-    the default camera of a single view (with a warning); InputError for several views without one.
+    the default camera of a single view (a note: one uncalibrated phone is the common case, not a fault); InputError
+    for several views without one.
 
     ``calibration_word`` is how the messages name the missing calibration (the CLI says ``--cams``).
     """
@@ -105,9 +114,7 @@ def view_cameras(
         raise InputError(f"{what}: {len(names)} views need {calibration_word} to place the cameras")
     from platypose.lifting.calibration.defaults import default_camera
 
-    log.warning(
-        f"no {calibration_word}: a level camera at the origin with a 53 degree diagonal field of view is assumed"
-    )
+    log.note(f"no {calibration_word}: a level camera at the origin with a 53 degree diagonal field of view is assumed")
     return [default_camera(names[0], *image_sizes[0])]
 
 
@@ -147,7 +154,7 @@ def lift_take(
     sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
     and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor. The
     result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
-    person, :mod:`platypose.lifting.plausibility`; each flag is also a warning) and ``rigid_bones`` (per person,
+    person, :mod:`platypose.lifting.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
     :func:`platypose.lifting.rigid.rigid_person`: every hypothesis and the median get one length per bone over
     the clip); the caller adds its own.
     """
@@ -180,17 +187,18 @@ def lift_take(
             f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
         )
     report = report_reprojection(median, keypoints, cameras, log)
-    persons = plausibility(hypotheses, keypoints, floor, fps)
+    persons = plausibility(hypotheses, keypoints, floor, fps, median=median)
     for track, person in zip(track_ids, persons):
         person["track_id"] = int(track)
-    for line in plausibility_lines(persons, track_ids):
-        log.warning(line)
+    for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
+        log(line)
     meta = {
         "prior_sha256": prior.checksum,
         "reprojection_px": report,
         "floor": floor_meta,
         "plausibility": persons,
         "rigid_bones": rigid,
+        "notes": list(log.notes),
     }
     return LiftResult(
         hypotheses=hypotheses,

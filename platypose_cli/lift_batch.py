@@ -35,7 +35,7 @@ from platypose.cli.lift_run import (
     job_entry,
     run_job,
 )
-from platypose.lifting.plausibility import plausibility_lines
+from platypose.lifting.flags import person_lines
 
 SUMMARY = "summary.json"
 
@@ -170,7 +170,7 @@ def run_batch(
         line = f"{jobs[index].name}: {entry['status']} in {entry['seconds']:.1f} s"
         say(line + (f": {entry['error']}" if entry["error"] else ""))
         persons = entry.get("plausibility", [])
-        for flagged in plausibility_lines(persons, [p["track_id"] for p in persons]):  # shown even with --quiet
+        for flagged in person_lines(persons, [p["track_id"] for p in persons]):  # shown even with --quiet
             typer.echo(f"  {jobs[index].name}: {flagged}", err=True)
 
     settings.out.mkdir(parents=True, exist_ok=True)
