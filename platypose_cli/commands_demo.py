@@ -68,8 +68,8 @@ def demo(
     source: str = typer.Option(
         "videos", "--source", help="videos: detect in cam01 + cam02; keypoints: the shipped OpenPose 2D of 4 views."
     ),
-    threads: int = typer.Option(
-        1, "--threads", min=1, help="torch and onnxruntime threads (1: fastest on a busy machine)."
+    threads: int | None = typer.Option(
+        None, "--threads", min=1, help="torch and onnxruntime threads (default: 1, as lift)."
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     prior: PriorSettings = None,

@@ -2,8 +2,8 @@
 
 The runner's interface: jobs (and settings) in, one summary entry per job out, in job order.
 
-With ``--jobs J`` each worker process gets ``cores // J`` threads for torch and
-onnxruntime, so J workers never oversubscribe the machine. ``summary.json`` is
+Each input gets ``--threads`` threads for torch and onnxruntime, by default one
+(:mod:`platypose.cli.threads`), with ``--jobs J`` in each of J worker processes. ``summary.json`` is
 rewritten under a lock (``OUT/.summary.lock``) and merged with the entries that
 other runs into the same OUT wrote meanwhile (entries of other inputs are kept,
 this run's replace the same inputs'). Ctrl-C (or SIGTERM) stops the batch: inputs
@@ -35,14 +35,10 @@ from platypose.cli.lift_run import (
     job_entry,
     run_job,
 )
+from platypose.cli.threads import threads_for
 from platypose.lifting.flags import person_lines
 
 SUMMARY = "summary.json"
-
-
-def threads_per_job(jobs: int) -> int:
-    """Threads each of ``jobs`` parallel workers may use: ``cores // jobs``, at least 1."""
-    return max(1, (os.cpu_count() or 1) // max(1, jobs))
 
 
 def _raise_interrupt(signum, frame) -> None:
@@ -181,9 +177,11 @@ def run_batch(
         if executor is not None:
             executor(jobs, todo, settings, record, bar)
         elif workers <= 1 or len(todo) <= 1:
-            limit_threads(settings.detect.threads or threads_per_job(1))
+            threads = threads_for(settings.detect.threads)
+            limit_threads(threads)
+            here = replace(settings, detect=replace(settings.detect, threads=threads))  # the detector's too
             for index in todo:
-                record(index, run_job(jobs[index], settings))
+                record(index, run_job(jobs[index], here))
                 bar.update(1)
         else:
             _run_parallel(jobs, todo, settings, workers, record, bar)
@@ -204,7 +202,7 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    threads = settings.detect.threads or threads_per_job(workers)
+    threads = threads_for(settings.detect.threads)
     worker_settings = replace(settings, detect=replace(settings.detect, threads=threads), quiet=True)
     context = multiprocessing.get_context("spawn")
     recorded: set[int] = set()
