@@ -35,6 +35,7 @@ from platypose.lifting.rigid import rigid_person
 from platypose.lifting.root import presence
 from platypose.lifting.sampler import SamplerConfig
 from platypose.lifting.take import lift_persons, reprojection_report
+from platypose.lifting.world import level_on_floor
 
 SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
 
@@ -156,7 +157,9 @@ def lift_take(
     result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
     person, :mod:`platypose.lifting.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
     :func:`platypose.lifting.rigid.rigid_person`: every hypothesis and the median get one length per bone over
-    the clip); the caller adds its own.
+    the clip); the caller adds its own. With an estimated floor every output is moved into the estimated world
+    (:mod:`platypose.lifting.world`: z = 0 the floor, z up, the camera at its estimated height and pitch), which
+    ``meta["floor"]["frame"]`` says.
     """
     log = log if log is not None else JobLog()
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
@@ -192,6 +195,10 @@ def lift_take(
         person["track_id"] = int(track)
     for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
         log(line)
+    if floor_meta and floor_meta["source"] == "estimated":  # outputs in the estimated world: z = 0 the floor, z up
+        camera, floor_meta = level_on_floor(floor, floor_meta, cameras[0], (hypotheses, median))
+        cameras = [camera]
+        log(f"outputs in the {floor_meta['frame']}")
     meta = {
         "prior_sha256": prior.checksum,
         "reprojection_px": report,
