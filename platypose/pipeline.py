@@ -72,6 +72,7 @@ class JobLog:
 
 FLOOR_PASS_SAMPLES = 10  # hypotheses of the quick lift a one-camera floor is estimated under
 FLOOR_PASS_PERSONS = 4  # persons (present longest) whose standing ankles it is estimated from
+QUICK_LIFT = "the floor's quick lift"  # what progress calls the quick lift's windows
 
 
 def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
@@ -143,7 +144,7 @@ def lift_take(
     sampler: SamplerConfig,
     windows: WindowSettings,
     arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
-    progress: Callable[[list[int], int, int], None] | None = None,
+    progress: Callable[[list[int] | str, int, int], None] | None = None,
     log: JobLog | None = None,
     floor: Floor | str | None = None,
 ) -> LiftResult:
@@ -151,6 +152,8 @@ def lift_take(
     seen by ``cameras``, each person's root path known (T, 3) or None (solved per hypothesis).
 
     ``arrays(shape, name)`` makes the result's long arrays (default: in memory; the CLI's are files).
+    ``progress(group, done, total)`` counts the windows lifted of each group of persons (``group``: their indices,
+    or ``QUICK_LIFT`` for the windows of the floor's quick lift).
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
     sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
     and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor. The
@@ -166,7 +169,9 @@ def lift_take(
     absent = ~presence(keypoints, times)  # (P, T)
     floor_meta = None
     if floor == ESTIMATE:
-        floor, floor_meta = quick_floor(prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log)
+        floor, floor_meta = quick_floor(
+            prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress
+        )
     if isinstance(floor, Floor):
         sampler = replace(sampler, floor=floor.plane)
         floor_meta = floor_meta or floor.as_dict()
@@ -231,11 +236,13 @@ def quick_floor(
     windows: WindowSettings,
     fps: float,
     log: JobLog,
+    progress: Callable[[list[int] | str, int, int], None] | None = None,
 ) -> tuple[Floor | None, dict | None]:
     """The floor under a one-camera take (keypoints (1, T, P, 17, 3), persons ``absent`` (P, T)) and its ``meta``
     entry, estimated (:func:`platypose.lifting.floor.floor_under`) under the median motions of a quick lift
     without a floor: ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest;
-    None, None (logged) when too few standing ankles are found."""
+    None, None (logged) when too few standing ankles are found. ``progress(QUICK_LIFT, done, total)`` counts its
+    windows."""
     if len(cameras) != 1:
         return None, None
     began = time.perf_counter()
@@ -257,6 +264,7 @@ def quick_floor(
         hypotheses,
         median,
         energy,
+        None if progress is None else (lambda group, done, total: progress(QUICK_LIFT, done, total)),
     )
     floor, meta = floor_under(median, cameras[0], fps, kept[0])
     seconds = time.perf_counter() - began

@@ -104,8 +104,4 @@ def demo(
     entries = run_batch([job], settings, 1, False, lambda m: None if quiet else typer.echo(m, err=True))
     if entries[0]["status"] == "ok":
         typer.echo("\n".join(describe(out / job.name / f"{job.name}.npz")))
-        typer.echo(f"outputs in {out / job.name}/:")
-        for path in entries[0]["outputs"]:
-            typer.echo(f"  {Path(path).name}")
-        typer.echo(f"look at it: rerun {out / job.name / f'{job.name}.rrd'}")
     finish(entries, out)

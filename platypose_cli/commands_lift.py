@@ -92,6 +92,10 @@ def finish(entries: list[dict], out: Path) -> None:
     """Print the batch's outcome and its warnings; exit 2 if inputs failed for bad input only, 1 if any other way."""
     failed = [e for e in entries if e["status"] == "failed"]
     counts = ", ".join(f"{sum(e['status'] == s for e in entries)} {s}" for s in ("ok", "failed", "skipped"))
+    from platypose.cli.console import written_lines
+
+    for line in written_lines(entries):
+        typer.echo(line)
     typer.echo(f"{len(entries)} input(s): {counts}; summary in {out / 'summary.json'}")
     for entry in entries:
         for warning in entry.get("warnings", []):
@@ -173,6 +177,7 @@ def lift(
 ) -> None:
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
     arguments = {k: as_json(v) for k, v in locals().items()}
+    from platypose.cli.console import say_over_bar
     from platypose.cli.lift_batch import run_batch
     from platypose.cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
     from platypose.lifting.errors import InputError
@@ -217,7 +222,7 @@ def lift(
 
     def say(message: str) -> None:
         if not quiet:
-            typer.echo(message, err=True)
+            say_over_bar(message)
 
     try:
         entries = run_batch(job_list, settings, jobs, resume, say, retry_failed, batch_executor)

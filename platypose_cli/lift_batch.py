@@ -25,6 +25,7 @@ from pathlib import Path
 
 import typer
 
+from platypose.cli.console import say_over_bar
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import (
     MANIFEST,
@@ -167,7 +168,7 @@ def run_batch(
         say(line + (f": {entry['error']}" if entry["error"] else ""))
         persons = entry.get("plausibility", [])
         for flagged in person_lines(persons, [p["track_id"] for p in persons]):  # shown even with --quiet
-            typer.echo(f"  {jobs[index].name}: {flagged}", err=True)
+            say_over_bar(f"  {jobs[index].name}: {flagged}")
 
     settings.out.mkdir(parents=True, exist_ok=True)
     write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)

@@ -295,7 +295,8 @@ def test_demo_lifts_the_bundled_take(run_cli, tmp_path, prior_file) -> None:
     code, out, err = run_cli(*args)
     assert code == 0, err
     folder = tmp_path / "openpose-body25b"
-    assert f"outputs in {folder}/" in out and "1 person(s) x 4 hypotheses x 100 frames" in out
+    assert f"in {folder}/" in out and "1 person(s) x 4 hypotheses x 100 frames" in out
+    assert f"look at it: rerun {folder / 'openpose-body25b.rrd'}" in out
     result = read_npz(folder / "openpose-body25b.npz")
     assert len(result.cameras) == 4 and result.num_persons == 1
     pelvis = np.median(result.median[0, :, 0, 2])
