@@ -34,7 +34,7 @@ import numpy as np
 from platypose.exporters import rerun_adapter as rra
 from platypose.exporters.frames import frame_chunks
 from platypose.exporters.result import LiftResult
-from platypose.exporters.rrd_floor import log_floor_and_plausibility
+from platypose.exporters.rrd_floor import log_floor_and_plausibility, log_who
 from platypose.exporters.video import jpeg_frames, needs_reencode, reencode_h264
 from platypose.exporters.watched_writer import run_watched
 from platypose.lifting.atomic import atomic_path
@@ -348,6 +348,7 @@ def write_rrd(
     video_paths: Mapping[str, Path] | None = None,
     video_mode: str = "asset",
     say: Callable[[str], None] = lambda _: None,
+    who: tuple[dict, dict] = ({}, {}),
 ) -> Path:
     """Write the rerun recording of ``result`` to ``path`` atomically; videos are matched to cameras by name.
 
@@ -360,7 +361,7 @@ def write_rrd(
     present = result.present().any(axis=1)
     flags = {p: quality_flags(result, p) for p in range(result.num_persons) if present[p]}
     with atomic_path(path) as tmp:
-        run_watched(_record, (result, name, video_paths, video_mode, flags), tmp, say)
+        run_watched(_record, (result, name, video_paths, video_mode, flags, who), tmp, say)
     return path
 
 
@@ -370,6 +371,7 @@ def _record(
     video_paths: Mapping[str, Path],
     video_mode: str,
     flags: dict,
+    who: tuple[dict, dict],
     path: Path,
     say: Callable[[str], None],
 ) -> None:
@@ -391,5 +393,6 @@ def _record(
             _log_person(rec, result, p, p, label)
         reports = [person_report(result, p) or {} for p in range(result.num_persons)]
         log_floor_and_plausibility(rec, result.meta.get("floor"), reports, result.track_ids, people_centre(result))
+        log_who(rec, result, *who)
     finally:
         rra.close_recording(rec)
