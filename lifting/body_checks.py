@@ -3,7 +3,8 @@
 - **Bone lengths**: each limb bone's median length over the clip (thigh, shin, upper arm, forearm) inside the range
   of statures ``STATURE_RANGE_M`` (children to tall adults) by Drillis & Contini's segment fractions
   (:mod:`lifting.anthropometry`), widened by ``LENGTH_MARGIN``; and each bone within ``MIRROR_RATIO`` of its mirror
-  image. One view holds its limbs to adult lengths, so this flags only what several views measured wrong.
+  image. One view cannot measure a bone (its limbs are held to adult lengths, their asymmetry is the prior's guess),
+  so :func:`lifting.plausibility.body_plausibility` checks bones only where several views measured them.
 - **Joint angles**: per frame, knee and elbow flexion (180 degrees less the angle the joint's two bones make) and
   hip flexion (180 degrees less the angle between the trunk, pelvis to thorax, and the thigh), each at most its
   ``FLEXION_LIMITS_DEG`` (tissue stops a knee or elbow folding flat, a thigh from passing through the trunk), and

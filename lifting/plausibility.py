@@ -187,8 +187,10 @@ def person_plausibility(
 
 def body_plausibility(report: dict, median: np.ndarray) -> dict:
     """``report`` with the body checks of the person's median motion ``(T, 17, 3)`` (:mod:`lifting.body_checks`):
-    ``bone_lengths_out`` and ``angles_out`` (empty when human), flagged ``bone lengths`` and ``joint angles``."""
-    bones, angles = bone_lengths_out_of_range(median), angles_out_of_range(median)
+    ``bone_lengths_out`` and ``angles_out`` (empty when human), flagged ``bone lengths`` and ``joint angles``. Bones are
+    checked only where several views measured them: one view's limbs are the prior's guess, held to adult lengths."""
+    bones = {} if report.get("one_view") else bone_lengths_out_of_range(median)
+    angles = angles_out_of_range(median)
     flags = list(report["flags"]) + ["bone lengths"] * bool(bones) + ["joint angles"] * bool(angles)
     return {**report, "bone_lengths_out": bones, "angles_out": angles, "flags": flags}
 

@@ -34,6 +34,7 @@ from platypose.lifting.prior import PriorBundle
 from platypose.lifting.rigid import rigid_person
 from platypose.lifting.root import presence
 from platypose.lifting.sampler import SamplerConfig
+from platypose.lifting.steady_depth import steady_person
 from platypose.lifting.take import lift_persons, reprojection_report
 from platypose.lifting.world import level_on_floor
 
@@ -185,6 +186,10 @@ def lift_take(
         prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress
     )
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
+    if len(cameras) == 1:  # one view: steady each root's depth along its ray, before the rigid step
+        for p, track in enumerate(track_ids):
+            moved = steady_person(hypotheses, p, cameras[0], fps, floor if isinstance(floor, Floor) else None)
+            log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
     rigid = {}
     for p, track in enumerate(track_ids):
         began = time.perf_counter()

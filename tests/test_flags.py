@@ -52,8 +52,9 @@ def test_a_knee_bent_backwards_and_a_long_shin_are_flagged_with_their_figures():
     long_shin = standing()
     long_shin[:, JOINT_INDEX["left_ankle"], 2] -= 0.4  # a 0.83 m shin, and twice its mirror image
     assert list(bone_lengths_out_of_range(long_shin)) == ["left knee-left ankle", "right knee-right ankle"]
-    report = body_plausibility({"flags": ["under floor"], "under_floor_share": 0.2}, long_shin)
+    report = body_plausibility({"flags": ["under floor"], "under_floor_share": 0.2, "one_view": False}, long_shin)
     assert report["flags"] == ["under floor", "bone lengths"]
+    assert body_plausibility({"flags": [], "one_view": True}, long_shin)["flags"] == []  # one view: the prior's guess
     text = flag_text(report)
     assert text.startswith("under floor (20% of hypothesis-frames more than 3 cm under it); bone lengths (left knee")
     assert person_lines([{**report, "flag_text": text}], [4]) == [f"person 4: flagged: {text}"]

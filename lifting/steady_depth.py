@@ -1,0 +1,105 @@
+"""Steady depth for a person seen by one camera: each hypothesis's root moves continuously along its ray.
+
+One view fixes where a person is in the image, not how far: the sampler places each window by the size prior, or by
+a stance foot's ray meeting the floor. Where neither holds (a flip in the air, a crouch, a person back after a
+detection gap), a hypothesis's depth jumps: the Sports2D roof man, unseen for 1.5 s, came back 6 m nearer than he
+left and slid 8 m back while landing. Here each hypothesis's pelvis depth path (log of its distance along the
+camera's optical axis) is smoothed over the person's whole track, gaps included:
+
+    minimise  sum_t w_t (y_t - x_t)^2  +  lam * sum_t (y_{t+1} - 2 y_t + y_{t-1})^2
+
+over the track's frames from first to last present (absent frames have no data term, so the path crosses a gap
+continuously from where it was, and the hypotheses keep their own paths: those whose depth the gap leaves open
+spread as they did). ``w_t`` is 1 where the hypothesis's lower ankle stands (within ``STANDING_BAND`` of its
+standing height there, :func:`lifting.plausibility.standing_heights`: on the floor, a roof or a step; a grounded
+foot fixes depth), ``AIRBORNE_WEIGHT`` elsewhere, and ``lam``
+passes changes slower than ``CUTOFF_HZ`` where the data weigh 1. Each frame is then scaled about the camera centre
+by the ratio of the smoothed to the raw depth: every joint moves along its own ray, so the image is unchanged. A
+scale never takes a joint under the floor that was not under it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import solveh_banded
+
+from platypose.lifting.camera import Camera
+from platypose.lifting.floor import ANKLES, Floor
+from platypose.lifting.plausibility import standing_heights
+
+CUTOFF_HZ = 3.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
+AIRBORNE_WEIGHT = 0.005  # data weight of frames whose feet do not stand (changes over about 0.8 Hz smoothed)
+STANDING_BAND = 0.1  # metres: a lower ankle within this of the floor (or its own low level) stands
+
+
+def smooth_path(values: np.ndarray, weights: np.ndarray, lam: float) -> np.ndarray:
+    """The minimiser ``y`` ``(T,)`` of ``sum w (y - x)^2 + lam * sum (second difference of y)^2`` for ``values``
+    ``(T,)`` (NaN: no data) and ``weights`` ``(T,)``."""
+    known = np.isfinite(values)
+    w = np.where(known, weights, 0.0)
+    x = np.where(known, values, 0.0)
+    T = len(x)
+    if T < 3:
+        return np.where(known, values, np.nanmean(values))
+    # D^T D of the second difference D ((T-2) x T), as upper bands of a symmetric banded matrix
+    rows = np.ones(T - 2)
+    main, first = np.convolve(rows, [1.0, 4.0, 1.0]), np.convolve(rows, [-2.0, -2.0])
+    bands = np.zeros((3, T))
+    bands[0, 2:] = lam
+    bands[1, 1:] = lam * first
+    bands[2] = lam * main + w + 1e-9
+    return solveh_banded(bands, w * x)
+
+
+def steady_scales(pelvis: np.ndarray, lower_ankle: np.ndarray, camera: Camera, fps: float) -> np.ndarray:
+    """Per hypothesis and frame, the factor ``(N, T)`` to scale the frame about the camera centre by: pelvises
+    ``(N, T, 3)`` (NaN where absent), lower-ankle heights ``(N, T)``; 1 outside the track."""
+    depth = (pelvis - camera.center) @ camera.R[2]  # (N, T) along the optical axis
+    present = np.isfinite(depth).all(axis=0) & (np.nan_to_num(depth, nan=-1.0) > 0).all(axis=0)
+    scales = np.ones(depth.shape)
+    frames = np.flatnonzero(present)
+    if len(frames) < 3:
+        return scales
+    span = slice(frames[0], frames[-1] + 1)
+    omega = 2 * np.pi * CUTOFF_HZ / fps
+    lam = 1.0 / (2 - 2 * np.cos(omega)) ** 2
+    ankle = np.where(present, lower_ankle, np.nan)[:, span]
+    standing = np.abs(np.nan_to_num(ankle - standing_heights(ankle, fps), nan=np.inf)) < STANDING_BAND  # (N, t)
+    for n in range(len(depth)):
+        log_depth = np.where(present, np.log(np.where(present, depth[n], 1.0)), np.nan)[span]
+        smooth = smooth_path(log_depth, np.where(standing[n], 1.0, AIRBORNE_WEIGHT), lam)
+        scales[n, span] = np.where(np.isfinite(log_depth), np.exp(smooth - np.nan_to_num(log_depth)), 1.0)
+    return scales
+
+
+def floor_safe(scales: np.ndarray, joints_height: np.ndarray, camera_height: float) -> np.ndarray:
+    """``scales`` ``(N, T)`` capped so that no joint (heights ``(N, T, J)`` above the floor) ends under the floor
+    that was not under it: a joint below the camera sinks as its frame is scaled up."""
+    below = joints_height < camera_height - 1e-6
+    floor_of = np.minimum(joints_height, 0.0)
+    limit = np.where(below, (camera_height - floor_of) / np.maximum(camera_height - joints_height, 1e-6), np.inf)
+    return np.minimum(scales, np.nan_to_num(limit.min(axis=-1), nan=np.inf))
+
+
+def steady_person(hypotheses, p: int, camera: Camera, fps: float, floor: Floor | None, chunk: int = 1024) -> float:
+    """Steady the depth of person ``p`` of ``hypotheses`` ``(P, N, T, 17, 3)`` (an array or anything indexed like one)
+    seen by ``camera``, in place; the largest change of a pelvis depth made (metres)."""
+    T = hypotheses.shape[2]
+    pelvis = np.concatenate([np.asarray(hypotheses[p, :, s : s + chunk, 0], np.float64) for s in range(0, T, chunk)], 1)
+    ankles = np.concatenate(
+        [np.asarray(hypotheses[p, :, s : s + chunk][:, :, list(ANKLES)], np.float64) for s in range(0, T, chunk)], 1
+    )
+    height = (lambda x: floor.height(x)) if floor is not None else (lambda x: x[..., 2])
+    scales = steady_scales(pelvis, height(ankles).min(axis=-1), camera, fps)
+    centre = camera.center
+    moved = 0.0
+    for start in range(0, T, chunk):
+        block = np.asarray(hypotheses[p, :, start : start + chunk], np.float64)  # (N, t, 17, 3)
+        scale = scales[:, start : start + chunk]
+        if floor is not None:
+            scale = floor_safe(scale, floor.height(block), float(floor.height(centre)))
+        shifted = centre + scale[..., None, None] * (block - centre)
+        change = np.linalg.norm(shifted[:, :, 0] - block[:, :, 0], axis=-1)
+        moved = max(moved, float(np.nanmax(change, initial=0.0)))
+        hypotheses[p, :, start : start + chunk] = np.where(np.isfinite(block), shifted, block).astype(np.float32)
+    return moved
