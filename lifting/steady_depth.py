@@ -6,14 +6,15 @@ detection gap), a hypothesis's depth jumps: the Sports2D roof man, unseen for 1.
 left and slid 8 m back while landing. Here each hypothesis's pelvis depth path (log of its distance along the
 camera's optical axis) is smoothed over the person's whole track, gaps included:
 
-    minimise  sum_t w_t (y_t - x_t)^2  +  lam * sum_t (y_{t+1} - 2 y_t + y_{t-1})^2
+    minimise  sum_t w_t (y_t - x_t)^2  +  mu * sum_t (y_{t+1} - y_t)^2  +  lam * sum_t (y_{t+1} - 2 y_t + y_{t-1})^2
 
 over the track's frames from first to last present (absent frames have no data term, so the path crosses a gap
 continuously from where it was, and the hypotheses keep their own paths: those whose depth the gap leaves open
 spread as they did). ``w_t`` is 1 where the hypothesis's lower ankle stands (within ``STANDING_BAND`` of its
 standing height there, :func:`lifting.plausibility.standing_heights`: on the floor, a roof or a step; a grounded
 foot fixes depth), ``AIRBORNE_WEIGHT`` elsewhere, and ``lam``
-passes changes slower than ``CUTOFF_HZ`` where the data weigh 1. Each frame is then scaled about the camera centre
+and ``mu`` (a prior on the root's speed and acceleration along the ray) pass changes slower than ``CUTOFF_HZ`` where
+the data weigh 1. Each frame is then scaled about the camera centre
 by the ratio of the smoothed to the raw depth: every joint moves along its own ray, so the image is unchanged. A
 scale never takes a joint under the floor that was not under it.
 """
@@ -32,9 +33,9 @@ AIRBORNE_WEIGHT = 0.005  # data weight of frames whose feet do not stand (change
 STANDING_BAND = 0.1  # metres: a lower ankle within this of the floor (or its own low level) stands
 
 
-def smooth_path(values: np.ndarray, weights: np.ndarray, lam: float) -> np.ndarray:
-    """The minimiser ``y`` ``(T,)`` of ``sum w (y - x)^2 + lam * sum (second difference of y)^2`` for ``values``
-    ``(T,)`` (NaN: no data) and ``weights`` ``(T,)``."""
+def smooth_path(values: np.ndarray, weights: np.ndarray, lam: float, mu: float = 0.0) -> np.ndarray:
+    """The minimiser ``y`` ``(T,)`` of ``sum w (y - x)^2 + mu * sum (first difference of y)^2 + lam * sum (second
+    difference of y)^2`` for ``values`` ``(T,)`` (NaN: no data) and ``weights`` ``(T,)``."""
     known = np.isfinite(values)
     w = np.where(known, weights, 0.0)
     x = np.where(known, values, 0.0)
@@ -44,10 +45,11 @@ def smooth_path(values: np.ndarray, weights: np.ndarray, lam: float) -> np.ndarr
     # D^T D of the second difference D ((T-2) x T), as upper bands of a symmetric banded matrix
     rows = np.ones(T - 2)
     main, first = np.convolve(rows, [1.0, 4.0, 1.0]), np.convolve(rows, [-2.0, -2.0])
+    steps = np.ones(T - 1)
     bands = np.zeros((3, T))
     bands[0, 2:] = lam
-    bands[1, 1:] = lam * first
-    bands[2] = lam * main + w + 1e-9
+    bands[1, 1:] = lam * first - mu * steps
+    bands[2] = lam * main + mu * np.convolve(steps, [1.0, 1.0]) + w + 1e-9
     return solveh_banded(bands, w * x)
 
 
@@ -61,13 +63,13 @@ def steady_scales(pelvis: np.ndarray, lower_ankle: np.ndarray, camera: Camera, f
     if len(frames) < 3:
         return scales
     span = slice(frames[0], frames[-1] + 1)
-    omega = 2 * np.pi * CUTOFF_HZ / fps
-    lam = 1.0 / (2 - 2 * np.cos(omega)) ** 2
+    response = 2 - 2 * np.cos(2 * np.pi * CUTOFF_HZ / fps)  # of a first difference at the cut-off
+    lam, mu = 1.0 / response**2, 1.0 / response
     ankle = np.where(present, lower_ankle, np.nan)[:, span]
     standing = np.abs(np.nan_to_num(ankle - standing_heights(ankle, fps), nan=np.inf)) < STANDING_BAND  # (N, t)
     for n in range(len(depth)):
         log_depth = np.where(present, np.log(np.where(present, depth[n], 1.0)), np.nan)[span]
-        smooth = smooth_path(log_depth, np.where(standing[n], 1.0, AIRBORNE_WEIGHT), lam)
+        smooth = smooth_path(log_depth, np.where(standing[n], 1.0, AIRBORNE_WEIGHT), lam, mu)
         scales[n, span] = np.where(np.isfinite(log_depth), np.exp(smooth - np.nan_to_num(log_depth)), 1.0)
     return scales
 

@@ -8,7 +8,8 @@ For each npz and person (the median motion, the frames the person is present):
   frames, and its 10th percentile;
 - trunk tilt: the angle of pelvis -> thorax from world z up, median over frames (degrees);
 - pelvis z: median over frames;
-- pelvis path: the summed pelvis steps between consecutive present frames (m), and the largest step (m);
+- pelvis path: the summed pelvis steps between consecutive present frames (m), the largest step (m), and the
+  largest step from the last frame before a gap (absent frames) to the first after it (m);
 - the world the npz says (``meta["floor"]``: source and frame).
 
 Printed as Markdown table rows (issue 28's done-when figures).
@@ -34,6 +35,7 @@ def person_figures(median: np.ndarray) -> dict:
     pelvis = median[:, 0].astype(np.float64)
     consecutive = frames[1:][np.diff(frames) == 1]
     steps = np.linalg.norm(pelvis[consecutive] - pelvis[consecutive - 1], axis=1)
+    across = np.linalg.norm(np.diff(pelvis[frames], axis=0), axis=1)[np.diff(frames) > 1]  # over absent frames
     return {
         "frames": int(on.sum()),
         "lowest_ankle_m": float(np.median(lowest)),
@@ -42,14 +44,14 @@ def person_figures(median: np.ndarray) -> dict:
         "pelvis_z_m": float(np.median(joints[:, 0, 2])),
         "path_m": float(steps.sum()),
         "max_step_m": float(steps.max()) if len(steps) else 0.0,
+        "gap_step_m": float(across.max()) if len(across) else 0.0,
     }
 
 
 def main(paths: list[str]) -> None:
-    print(
-        "| npz | person | frames | lowest ankle median (p10) | trunk tilt | pelvis z | pelvis path | max step | world |"
-    )
-    print("|---|---|---|---|---|---|---|---|---|")
+    head = "| npz | person | frames | lowest ankle median (p10) | trunk tilt | pelvis z | pelvis path | max step "
+    print(head + "| step over a gap | world |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for path in paths:
         result = read_npz(path)
         floor = (result.meta or {}).get("floor") or {}
@@ -59,7 +61,7 @@ def main(paths: list[str]) -> None:
             print(
                 f"| {path} | {track} | {f['frames']} | {100 * f['lowest_ankle_m']:.1f} cm ({100 * f['lowest_ankle_p10_m']:.1f}) "
                 f"| {f['trunk_tilt_deg']:.1f} deg | {f['pelvis_z_m']:.2f} m | {f['path_m']:.1f} m | {f['max_step_m']:.2f} m "
-                f"| {world} |"
+                f"| {f['gap_step_m']:.2f} m | {world} |"
             )
 
 
