@@ -47,3 +47,15 @@ def test_outputs_are_moved_in_place_chunk_by_chunk_and_the_meta_says_so():
     whole = floor_world(floor, camera).points(chunked)
     move_frames(chunked, floor_world(floor, camera), chunk=2)
     assert np.allclose(chunked, whole)
+
+
+def test_info_says_the_world_and_heights_above_its_floor(run_cli, data_dir, tmp_path):
+    from export_helpers import two_person_result
+
+    from platypose.exporters.npz import write_npz
+
+    floor = {"normal": [0.0, 0.0, 1.0], "offset_m": 0.0, "source": "estimated", "frame": "estimated world: z = 0 ..."}
+    path = write_npz(two_person_result(data_dir).with_meta(floor=floor), tmp_path / "take.npz")
+    code, out, err = run_cli("info", path)
+    assert code == 0, err
+    assert "  world: estimated world: z = 0 ..." in out and out.count("m above the floor (z = 0),") == 2
