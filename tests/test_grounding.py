@@ -277,6 +277,17 @@ def test_sports2d_without_calibration_estimates_the_floor_and_stands_on_it(shipp
     assert all(abs(level["height_m"]) < 0.15 for level in woman["support"]), woman
     for report in (man, woman):
         assert report["under_floor_share"] < 0.01 and report["stance_slide_median_m"] < 0.02, report
+    # the outputs are in the estimated world: z = 0 the floor, the camera on the z axis at its estimated height
+    assert floor["normal"] == [0.0, 0.0, 1.0] and floor["offset_m"] == 0.0 and "estimated world" in floor["frame"]
+    assert np.allclose(result.cameras[0].center, [0.0, 0.0, floor["camera_height_m"]], atol=1e-6)
+    lowest = np.nanmin(np.asarray(result.median)[..., [3, 6], 2], axis=-1)  # (P, T) lower ankle's z
+    on_roof, on_floor = (np.nanmedian(lowest[reports_index(result, r)]) for r in (man, woman))
+    assert on_roof > 1.5 and -0.05 < on_floor < 0.25, (on_roof, on_floor)
+
+
+def reports_index(result, report: dict) -> int:
+    """The person index of a plausibility report (by its track id)."""
+    return list(result.track_ids).index(report["track_id"])
 
 
 @pytest.mark.slow
