@@ -66,7 +66,7 @@ def _draw_who(ax, result: LiftResult, p: int, good, picture) -> None:
         caption += (
             f"\n{result.cameras[good.camera].name} frame {good.frame}\nbox {x1:.0f},{y1:.0f}-{x2:.0f},{y2:.0f} px"
         )
-    ax.set_title(caption, fontsize=9)
+    ax.set_title(caption, fontsize=8)
 
 
 def _plot_angles(ax, times: np.ndarray, series: np.ndarray, names: tuple[str, ...]) -> None:
@@ -119,7 +119,7 @@ def write_report(
         axes[row, 0].set_title(f"person {track}: hips and knees", fontsize=10)
         flagged = _flag_text(result, p)
         if flagged:
-            axes[row, 0].set_title(fill(f"flagged: {flagged}", 70), fontsize=9, color="tab:red", loc="left", pad=18)
+            axes[row, 0].set_title(fill(f"flagged: {flagged}", 48), fontsize=8, color="tab:red", loc="left", pad=18)
         _plot_angles(axes[row, 1], times, s, UPPER_ANGLES)
         axes[row, 1].set_title(f"person {track}: trunk, shoulders, elbow", fontsize=10)
         ax = axes[row, 2]
