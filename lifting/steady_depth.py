@@ -12,7 +12,8 @@ over the track's frames from first to last present (absent frames have no data t
 continuously from where it was, and the hypotheses keep their own paths: those whose depth the gap leaves open
 spread as they did). ``w_t`` is 1 where the hypothesis's lower ankle stands (within ``STANDING_BAND`` of its
 standing height there, :func:`lifting.plausibility.standing_heights`: on the floor, a roof or a step; a grounded
-foot fixes depth), ``AIRBORNE_WEIGHT`` elsewhere, and ``lam``
+foot fixes depth) and the frame is trusted (:func:`trusted_frames`: most joints seen, not a blip),
+``AIRBORNE_WEIGHT`` elsewhere, and ``lam``
 and ``mu`` (a prior on the root's speed and acceleration along the ray) pass changes slower than ``CUTOFF_HZ`` where
 the data weigh 1. Each frame is then scaled about the camera centre
 by the ratio of the smoothed to the raw depth: every joint moves along its own ray, so the image is unchanged. A
@@ -31,6 +32,8 @@ from platypose.lifting.plausibility import standing_heights
 CUTOFF_HZ = 3.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
 AIRBORNE_WEIGHT = 0.005  # data weight of frames whose feet do not stand (changes over about 0.8 Hz smoothed)
 STANDING_BAND = 0.1  # metres: a lower ankle within this of the floor (or its own low level) stands
+MIN_SEEN = 10  # joints the camera must see in a frame for its placement to count fully
+MIN_RUN = 0.2  # seconds: a shorter run of such frames is a blip, placed by the prior alone
 
 
 def smooth_path(values: np.ndarray, weights: np.ndarray, lam: float, mu: float = 0.0) -> np.ndarray:
@@ -53,9 +56,24 @@ def smooth_path(values: np.ndarray, weights: np.ndarray, lam: float, mu: float =
     return solveh_banded(bands, w * x)
 
 
-def steady_scales(pelvis: np.ndarray, lower_ankle: np.ndarray, camera: Camera, fps: float) -> np.ndarray:
+def trusted_frames(seen: np.ndarray, fps: float) -> np.ndarray:
+    """Frames ``(T,)`` whose placement counts fully, from the joints seen per frame ``seen`` ``(T,)``: at least
+    ``MIN_SEEN`` joints, in a run of such frames lasting ``MIN_RUN`` seconds or more (a blip of a few frames, a person
+    half out of the image, is placed by the prior alone and must not drag the rest of the track)."""
+    good = np.asarray(seen) >= MIN_SEEN
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], good.astype(np.int8), [0]])))
+    trusted = np.zeros(len(good), bool)
+    for start, stop in zip(edges[::2], edges[1::2]):
+        trusted[start:stop] = stop - start >= MIN_RUN * fps
+    return trusted
+
+
+def steady_scales(
+    pelvis: np.ndarray, lower_ankle: np.ndarray, camera: Camera, fps: float, trusted: np.ndarray | None = None
+) -> np.ndarray:
     """Per hypothesis and frame, the factor ``(N, T)`` to scale the frame about the camera centre by: pelvises
-    ``(N, T, 3)`` (NaN where absent), lower-ankle heights ``(N, T)``; 1 outside the track."""
+    ``(N, T, 3)`` (NaN where absent), lower-ankle heights ``(N, T)``, ``trusted`` frames ``(T,)``
+    (:func:`trusted_frames`; others weigh as airborne ones); 1 outside the track."""
     depth = (pelvis - camera.center) @ camera.R[2]  # (N, T) along the optical axis
     present = np.isfinite(depth).all(axis=0) & (np.nan_to_num(depth, nan=-1.0) > 0).all(axis=0)
     scales = np.ones(depth.shape)
@@ -67,6 +85,8 @@ def steady_scales(pelvis: np.ndarray, lower_ankle: np.ndarray, camera: Camera, f
     lam, mu = 1.0 / response**2, 1.0 / response
     ankle = np.where(present, lower_ankle, np.nan)[:, span]
     standing = np.abs(np.nan_to_num(ankle - standing_heights(ankle, fps), nan=np.inf)) < STANDING_BAND  # (N, t)
+    if trusted is not None:
+        standing &= trusted[span]
     for n in range(len(depth)):
         log_depth = np.where(present, np.log(np.where(present, depth[n], 1.0)), np.nan)[span]
         smooth = smooth_path(log_depth, np.where(standing[n], 1.0, AIRBORNE_WEIGHT), lam, mu)
@@ -83,16 +103,19 @@ def floor_safe(scales: np.ndarray, joints_height: np.ndarray, camera_height: flo
     return np.minimum(scales, np.nan_to_num(limit.min(axis=-1), nan=np.inf))
 
 
-def steady_person(hypotheses, p: int, camera: Camera, fps: float, floor: Floor | None, chunk: int = 1024) -> float:
+def steady_person(
+    hypotheses, p: int, camera: Camera, fps: float, floor: Floor | None, seen: np.ndarray, chunk: int = 1024
+) -> float:
     """Steady the depth of person ``p`` of ``hypotheses`` ``(P, N, T, 17, 3)`` (an array or anything indexed like one)
-    seen by ``camera``, in place; the largest change of a pelvis depth made (metres)."""
+    seen by ``camera`` (``seen`` ``(T,)``: joints it sees per frame), in place; the largest change of a pelvis depth
+    made (metres)."""
     T = hypotheses.shape[2]
     pelvis = np.concatenate([np.asarray(hypotheses[p, :, s : s + chunk, 0], np.float64) for s in range(0, T, chunk)], 1)
     ankles = np.concatenate(
         [np.asarray(hypotheses[p, :, s : s + chunk][:, :, list(ANKLES)], np.float64) for s in range(0, T, chunk)], 1
     )
     height = (lambda x: floor.height(x)) if floor is not None else (lambda x: x[..., 2])
-    scales = steady_scales(pelvis, height(ankles).min(axis=-1), camera, fps)
+    scales = steady_scales(pelvis, height(ankles).min(axis=-1), camera, fps, trusted_frames(seen, fps))
     centre = camera.center
     moved = 0.0
     for start in range(0, T, chunk):

@@ -8,7 +8,7 @@ from test_flags import standing
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.camera import project
 from platypose.lifting.floor import Floor
-from platypose.lifting.steady_depth import smooth_path, steady_person
+from platypose.lifting.steady_depth import smooth_path, steady_person, trusted_frames
 
 FLOOR = Floor((0.0, 0.0, 1.0), 1.7, "given")  # the camera (at the origin, level) 1.7 m above the floor
 
@@ -34,7 +34,8 @@ def test_a_gap_and_a_too_near_airborne_return_are_bridged_from_where_the_person_
     hypotheses = (hypotheses + rng.normal(0.0, 0.002, hypotheses.shape)).astype(np.float32)
     before = hypotheses.copy()
     path_before, step_before = pelvis_path(before[0, 0, :, 0])
-    moved = steady_person(hypotheses, 0, camera, 30.0, FLOOR)
+    seen = np.where(np.arange(90) < 30, 17, 0) + np.where(np.arange(90) >= 50, 17, 0)  # every joint where present
+    moved = steady_person(hypotheses, 0, camera, 30.0, FLOOR, seen)
     after = hypotheses[0, 0, :, 0]
     path_after, step_after = pelvis_path(after)
     assert step_before > 3.0 and step_after < 1.0, (step_before, step_after)
@@ -45,6 +46,12 @@ def test_a_gap_and_a_too_near_airborne_return_are_bridged_from_where_the_person_
     assert np.all(np.isnan(hypotheses[:, :, 30:50]))  # still absent
     heights = FLOOR.height(hypotheses[0].astype(np.float64))
     assert np.nanmin(heights) >= min(np.nanmin(FLOOR.height(before[0].astype(np.float64))), 0.0) - 1e-4
+
+
+def test_a_blip_of_a_few_frames_or_few_joints_is_not_trusted():
+    seen = np.array([17] * 3 + [0] * 10 + [17] * 20 + [6] * 10 + [17] * 5)
+    trusted = trusted_frames(seen, 30.0)
+    assert not trusted[:3].any() and trusted[13:33].all() and not trusted[33:43].any() and not trusted[43:].any()
 
 
 def test_smooth_path_passes_a_slow_change_and_crosses_a_gap_continuously():
