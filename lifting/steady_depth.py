@@ -26,7 +26,7 @@ import numpy as np
 from scipy.linalg import solveh_banded
 
 from platypose.lifting.camera import Camera
-from platypose.lifting.floor import ANKLES, Floor
+from platypose.lifting.floor import ANKLES, plane_floor
 from platypose.lifting.plausibility import standing_heights
 
 CUTOFF_HZ = 3.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
@@ -104,11 +104,12 @@ def floor_safe(scales: np.ndarray, joints_height: np.ndarray, camera_height: flo
 
 
 def steady_person(
-    hypotheses, p: int, camera: Camera, fps: float, floor: Floor | None, seen: np.ndarray, chunk: int = 1024
+    hypotheses, p: int, camera: Camera, fps: float, plane: tuple | None, seen: np.ndarray, chunk: int = 1024
 ) -> float:
     """Steady the depth of person ``p`` of ``hypotheses`` ``(P, N, T, 17, 3)`` (an array or anything indexed like one)
-    seen by ``camera`` (``seen`` ``(T,)``: joints it sees per frame), in place; the largest change of a pelvis depth
-    made (metres)."""
+    seen by ``camera`` (``seen`` ``(T,)``: joints it sees per frame) standing on the floor ``plane`` (nx, ny, nz, d)
+    or None, in place; the largest change of a pelvis depth made (metres)."""
+    floor = None if plane is None else plane_floor(*plane, "given")
     T = hypotheses.shape[2]
     pelvis = np.concatenate([np.asarray(hypotheses[p, :, s : s + chunk, 0], np.float64) for s in range(0, T, chunk)], 1)
     ankles = np.concatenate(
