@@ -23,7 +23,8 @@ scale never takes a joint under the floor that was not under it.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import solveh_banded
+from scipy import sparse
+from scipy.sparse.linalg import spsolve
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.floor import ANKLES, plane_floor
@@ -36,24 +37,28 @@ MIN_SEEN = 10  # joints the camera must see in a frame for its placement to coun
 MIN_RUN = 0.2  # seconds: a shorter run of such frames is a blip, placed by the prior alone
 
 
-def smooth_path(values: np.ndarray, weights: np.ndarray, lam: float, mu: float = 0.0) -> np.ndarray:
-    """The minimiser ``y`` ``(T,)`` of ``sum w (y - x)^2 + mu * sum (first difference of y)^2 + lam * sum (second
-    difference of y)^2`` for ``values`` ``(T,)`` (NaN: no data) and ``weights`` ``(T,)``."""
+def smooth_path(
+    values: np.ndarray, weights: np.ndarray, lam: float, mu: float = 0.0, spacing: np.ndarray | None = None
+) -> np.ndarray:
+    """The minimiser ``y`` ``(T,)`` of ``sum w (y - x)^2 + mu * sum (first derivative of y)^2 + lam * sum (second
+    derivative of y)^2`` for ``values`` ``(T,)`` (NaN: no data) and ``weights`` ``(T,)``, samples ``spacing``
+    ``(T - 1,)`` frames apart (default 1: uneven spacing, as a variable-rate video's, weighs each term by the time
+    it covers, so fewer samples of the same path give the same path)."""
     known = np.isfinite(values)
-    w = np.where(known, weights, 0.0)
-    x = np.where(known, values, 0.0)
-    T = len(x)
+    T = len(values)
     if T < 3:
         return np.where(known, values, np.nanmean(values))
-    # D^T D of the second difference D ((T-2) x T), as upper bands of a symmetric banded matrix
-    rows = np.ones(T - 2)
-    main, first = np.convolve(rows, [1.0, 4.0, 1.0]), np.convolve(rows, [-2.0, -2.0])
-    steps = np.ones(T - 1)
-    bands = np.zeros((3, T))
-    bands[0, 2:] = lam
-    bands[1, 1:] = lam * first - mu * steps
-    bands[2] = lam * main + mu * np.convolve(steps, [1.0, 1.0]) + w + 1e-9
-    return solveh_banded(bands, w * x)
+    h = np.ones(T - 1) if spacing is None else np.maximum(np.asarray(spacing, np.float64), 1e-6)
+    covered = np.concatenate([[h[0]], h]) / 2 + np.concatenate([h, [h[-1]]]) / 2  # time each sample stands for
+    w = np.where(known, weights, 0.0) * covered
+    x = np.where(known, values, 0.0)
+    first = sparse.diags([-1 / h, 1 / h], [0, 1], shape=(T - 1, T))
+    left, right = 1 / h[:-1], 1 / h[1:]
+    span = (h[:-1] + h[1:]) / 2
+    second = sparse.diags([left / span, -(left + right) / span, right / span], [0, 1, 2], shape=(T - 2, T))
+    system = lam * second.T @ sparse.diags(span) @ second + mu * first.T @ sparse.diags(h) @ first
+    system = system + sparse.diags(w + 1e-9)
+    return spsolve(system.tocsc(), w * x)
 
 
 def trusted_frames(seen: np.ndarray, fps: float) -> np.ndarray:
@@ -69,11 +74,17 @@ def trusted_frames(seen: np.ndarray, fps: float) -> np.ndarray:
 
 
 def steady_scales(
-    pelvis: np.ndarray, lower_ankle: np.ndarray, camera: Camera, fps: float, trusted: np.ndarray | None = None
+    pelvis: np.ndarray,
+    lower_ankle: np.ndarray,
+    camera: Camera,
+    fps: float,
+    trusted: np.ndarray | None = None,
+    times: np.ndarray | None = None,
 ) -> np.ndarray:
     """Per hypothesis and frame, the factor ``(N, T)`` to scale the frame about the camera centre by: pelvises
     ``(N, T, 3)`` (NaN where absent), lower-ankle heights ``(N, T)``, ``trusted`` frames ``(T,)``
-    (:func:`trusted_frames`; others weigh as airborne ones); 1 outside the track."""
+    (:func:`trusted_frames`; others weigh as airborne ones), frame ``times`` ``(T,)`` (default: every 1 / ``fps``);
+    1 outside the track."""
     depth = (pelvis - camera.center) @ camera.R[2]  # (N, T) along the optical axis
     present = np.isfinite(depth).all(axis=0) & (np.nan_to_num(depth, nan=-1.0) > 0).all(axis=0)
     scales = np.ones(depth.shape)
@@ -87,9 +98,10 @@ def steady_scales(
     standing = np.abs(np.nan_to_num(ankle - standing_heights(ankle, fps), nan=np.inf)) < STANDING_BAND  # (N, t)
     if trusted is not None:
         standing &= trusted[span]
+    spacing = None if times is None else np.diff(np.asarray(times, np.float64)[span]) * fps
     for n in range(len(depth)):
         log_depth = np.where(present, np.log(np.where(present, depth[n], 1.0)), np.nan)[span]
-        smooth = smooth_path(log_depth, np.where(standing[n], 1.0, AIRBORNE_WEIGHT), lam, mu)
+        smooth = smooth_path(log_depth, np.where(standing[n], 1.0, AIRBORNE_WEIGHT), lam, mu, spacing)
         scales[n, span] = np.where(np.isfinite(log_depth), np.exp(smooth - np.nan_to_num(log_depth)), 1.0)
     return scales
 
@@ -104,11 +116,19 @@ def floor_safe(scales: np.ndarray, joints_height: np.ndarray, camera_height: flo
 
 
 def steady_person(
-    hypotheses, p: int, camera: Camera, fps: float, plane: tuple | None, seen: np.ndarray, chunk: int = 1024
+    hypotheses,
+    p: int,
+    camera: Camera,
+    fps: float,
+    plane: tuple | None,
+    seen: np.ndarray,
+    times: np.ndarray | None = None,
+    chunk: int = 1024,
 ) -> float:
     """Steady the depth of person ``p`` of ``hypotheses`` ``(P, N, T, 17, 3)`` (an array or anything indexed like one)
     seen by ``camera`` (``seen`` ``(T,)``: joints it sees per frame) standing on the floor ``plane`` (nx, ny, nz, d)
-    or None, in place; the largest change of a pelvis depth made (metres)."""
+    or None, at frame ``times`` ``(T,)`` (default: every 1 / ``fps``), in place; the largest change of a pelvis
+    depth made (metres)."""
     floor = None if plane is None else plane_floor(*plane, "given")
     T = hypotheses.shape[2]
     pelvis = np.concatenate([np.asarray(hypotheses[p, :, s : s + chunk, 0], np.float64) for s in range(0, T, chunk)], 1)
@@ -116,7 +136,7 @@ def steady_person(
         [np.asarray(hypotheses[p, :, s : s + chunk][:, :, list(ANKLES)], np.float64) for s in range(0, T, chunk)], 1
     )
     height = (lambda x: floor.height(x)) if floor is not None else (lambda x: x[..., 2])
-    scales = steady_scales(pelvis, height(ankles).min(axis=-1), camera, fps, trusted_frames(seen, fps))
+    scales = steady_scales(pelvis, height(ankles).min(axis=-1), camera, fps, trusted_frames(seen, fps), times)
     centre = camera.center
     moved = 0.0
     for start in range(0, T, chunk):

@@ -189,7 +189,7 @@ def lift_take(
     if len(cameras) == 1:  # one view: steady each root's depth along its ray, before the rigid step
         for p, track in enumerate(track_ids):
             seen = (np.nan_to_num(keypoints[0, :, p, :, 2]) > 0).sum(axis=-1)  # joints seen per frame
-            moved = steady_person(hypotheses, p, cameras[0], fps, sampler.floor, seen)
+            moved = steady_person(hypotheses, p, cameras[0], fps, sampler.floor, seen, times)
             log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
     rigid = {}
     for p, track in enumerate(track_ids):

@@ -62,3 +62,15 @@ def test_smooth_path_passes_a_slow_change_and_crosses_a_gap_continuously():
     lam = 1.0 / (2 - 2 * np.cos(2 * np.pi / 30.0)) ** 2  # 1 Hz at 30 fps
     smooth = smooth_path(values, np.ones(len(t)), lam)
     assert np.abs(smooth - slow).max() < 0.05 and np.abs(np.diff(smooth)).max() < 0.02
+
+
+def test_a_variable_rate_sampling_of_a_path_gives_the_same_path():
+    """Every third sample dropped (a variable-rate video): the smoothed path is the full one's at the kept times."""
+    t = np.arange(90) / 30.0
+    values = 0.3 * np.sin(2 * np.pi * 0.5 * t) + np.where(t > 1.5, 0.2, 0.0)  # a step the smoothing rounds off
+    lam, mu = 6.85, 2.6
+    full = smooth_path(values, np.full(90, 0.01), lam, mu)
+    kept = np.array([i for i in range(90) if i % 3 != 1])
+    sparse_path = smooth_path(values[kept], np.full(len(kept), 0.01), lam, mu, np.diff(kept).astype(float))
+    uneven = smooth_path(values[kept], np.full(len(kept), 0.01), lam, mu)  # spacing ignored
+    assert np.abs(sparse_path - full[kept]).max() < 0.25 * np.abs(uneven - full[kept]).max()
