@@ -1,6 +1,7 @@
 """Steady depth for a person seen by one camera: each hypothesis's root moves continuously along its ray.
 
-One view fixes where a person is in the image, not how far: the sampler places each window by the size prior, or by
+Applied where the lift is grounded on a floor (standing feet then fix depth, the frames this trusts). One view
+fixes where a person is in the image, not how far: the sampler places each window by the size prior, or by
 a stance foot's ray meeting the floor. Where neither holds (a flip in the air, a crouch, a person back after a
 detection gap), a hypothesis's depth jumps: the Sports2D roof man, unseen for 1.5 s, came back 6 m nearer than he
 left and slid 8 m back while landing. Here each hypothesis's pelvis depth path (log of its distance along the
@@ -99,9 +100,10 @@ def steady_scales(
     if trusted is not None:
         standing &= trusted[span]
     spacing = None if times is None else np.diff(np.asarray(times, np.float64)[span]) * fps
+    weights = np.where(standing, 1.0, AIRBORNE_WEIGHT)
     for n in range(len(depth)):
         log_depth = np.where(present, np.log(np.where(present, depth[n], 1.0)), np.nan)[span]
-        smooth = smooth_path(log_depth, np.where(standing[n], 1.0, AIRBORNE_WEIGHT), lam, mu, spacing)
+        smooth = smooth_path(log_depth, weights[n], lam, mu, spacing)
         scales[n, span] = np.where(np.isfinite(log_depth), np.exp(smooth - np.nan_to_num(log_depth)), 1.0)
     return scales
 

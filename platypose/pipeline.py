@@ -186,8 +186,8 @@ def lift_take(
         prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress
     )
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
-    if len(cameras) == 1:  # one view: steady each root's depth along its ray, before the rigid step
-        for p, track in enumerate(track_ids):
+    if len(cameras) == 1 and sampler.floor is not None:  # one grounded view: steady each solved root's depth
+        for p, track in ((p, t) for p, t in enumerate(track_ids) if roots[p] is None):
             seen = (np.nan_to_num(keypoints[0, :, p, :, 2]) > 0).sum(axis=-1)  # joints seen per frame
             moved = steady_person(hypotheses, p, cameras[0], fps, sampler.floor, seen, times)
             log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
