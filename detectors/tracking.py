@@ -23,9 +23,9 @@ from scipy.optimize import linear_sum_assignment
 
 from platypose.detectors.id_repair import SwitchRepairConfig, repair_id_switches
 from platypose.detectors.keypoints import missing_persons
+from platypose.detectors.person_choice import indices_of_ids, nearest_track, parse_persons
 from platypose.detectors.pose_metrics import person_size, pose_distance
 from platypose.detectors.types import PoseTrack2D
-from platypose.lifting.errors import InputError
 
 _NO_MATCH = 1e6
 
@@ -167,24 +167,25 @@ def track_detections(
 
 
 def persons_count(persons: str) -> int | None:
-    """Parse a ``persons`` choice: ``all`` -> None, ``largest`` -> 1, ``N`` -> N; InputError otherwise."""
-    if persons == "all":
-        return None
-    if persons == "largest":
-        return 1
-    if persons.isdigit() and int(persons) > 0:
-        return int(persons)
-    raise InputError(f"persons must be 'all', 'largest' or a positive number, got {persons!r}", option="persons")
+    """Check a ``persons`` choice (:func:`platypose.detectors.person_choice.parse_persons`; InputError if bad): N for
+    ``largest`` (1) or ``N``, None for the others (all, ids, a point)."""
+    kind, value = parse_persons(persons)
+    return value if kind == "count" else None
 
 
 def persons_to_keep(views: Sequence[PoseTrack2D], persons: str) -> np.ndarray | None:
-    """Indices along P (shared by the views) of the ``persons`` choice, largest first by size summed over
-    frames and views; None for ``all``."""
-    count = persons_count(persons)
-    if count is None:
+    """Indices along P (shared by the views) of the ``persons`` choice (:mod:`platypose.detectors.person_choice`):
+    the largest first by size summed over frames and views, the tracks of given ids, or the track nearest a pixel
+    of the first view where it is first seen; None for ``all``."""
+    kind, value = parse_persons(persons)
+    if kind == "all":
         return None
+    if kind == "ids":
+        return indices_of_ids(views[0].track_ids, value)
+    if kind == "point":
+        return np.array([nearest_track(views[0].keypoints, value)], dtype=np.intp)
     score = sum(np.nansum(person_size(view.keypoints), axis=0) for view in views)
-    return np.sort(np.argsort(-score, kind="stable")[:count])
+    return np.sort(np.argsort(-score, kind="stable")[:value])
 
 
 def select_persons(tracks: PoseTrack2D, persons: str) -> PoseTrack2D:

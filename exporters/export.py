@@ -141,6 +141,12 @@ def export(
     if "trc" in formats or "c3d" in formats:
         say(f"{name}: {' and '.join(f.upper() for f in formats if f in ('trc', 'c3d'))} markers")
         written += _write_markers(result, out_dir, name, formats)
+    who = ({}, {})  # per person: good frame and thumbnail (exporters.person_pictures), for report and recording
+    if "report" in formats or "rrd" in formats:
+        from platypose.exporters.person_pictures import good_frames, thumbnails
+
+        frames = good_frames(result)
+        who = (frames, thumbnails(result, {k: Path(v) for k, v in (video_paths or {}).items()}, frames))
     if "angles" in formats or "report" in formats:
         from platypose.exporters.angles import angle_series, write_angles_csv
 
@@ -152,12 +158,12 @@ def export(
             from platypose.exporters.report import write_report
 
             say(f"{name}: report picture")
-            written.append(write_report(result, series, name, out_dir / f"{name}_report.png"))
+            written.append(write_report(result, series, name, out_dir / f"{name}_report.png", who))
     if set(formats) & set(FILLED_FORMATS):
         written.append(_write_gaps(result, out_dir, name, say))
     if "rrd" in formats:
         from platypose.exporters.rrd import write_rrd
 
         say(f"{name}: rerun recording")
-        written.append(write_rrd(result, out_dir / f"{name}.rrd", name, video_paths, rrd_video, say))
+        written.append(write_rrd(result, out_dir / f"{name}.rrd", name, video_paths, rrd_video, say, who))
     return written

@@ -10,6 +10,7 @@ backend (no display needed).
 from __future__ import annotations
 
 from pathlib import Path
+from textwrap import fill
 
 import numpy as np
 
@@ -47,6 +48,27 @@ def ankle_heights(ankles: np.ndarray, floor: dict | None) -> tuple[np.ndarray, s
     return ankles[..., 2] - np.nanmin(ankles[..., 2]), "cm above the lowest ankle"
 
 
+def _flag_text(result: LiftResult, p: int) -> str:
+    """What the lift flagged for person ``p`` (``meta["plausibility"]``'s ``flag_text``), or empty."""
+    reports = (result.meta or {}).get("plausibility") or []
+    report = reports[p] if p < len(reports) and isinstance(reports[p], dict) else {}
+    return (report.get("flag_text") or ", ".join(report.get("flags", []))) if report.get("flags") else ""
+
+
+def _draw_who(ax, result: LiftResult, p: int, good, picture) -> None:
+    """Person ``p``'s thumbnail (or a blank) titled with their id, camera, frame and image box."""
+    ax.set_axis_off()
+    if picture is not None:
+        ax.imshow(picture)
+    caption = f"person {int(result.track_ids[p])}"
+    if good is not None:
+        x1, y1, x2, y2 = good.box
+        caption += (
+            f"\n{result.cameras[good.camera].name} frame {good.frame}\nbox {x1:.0f},{y1:.0f}-{x2:.0f},{y2:.0f} px"
+        )
+    ax.set_title(caption, fontsize=8)
+
+
 def _plot_angles(ax, times: np.ndarray, series: np.ndarray, names: tuple[str, ...]) -> None:
     """Median-motion lines and 5-95 % bands of ``names`` from a person's series (T, A, 4)."""
     for name, colour in zip(names, _COLOURS):
@@ -59,18 +81,30 @@ def _plot_angles(ax, times: np.ndarray, series: np.ndarray, names: tuple[str, ..
     ax.legend(fontsize=7, loc="upper right")
 
 
-def write_report(result: LiftResult, series: dict[int, np.ndarray], name: str, path: Path | str) -> Path:
-    """Draw the report of ``result`` with its angle ``series`` (per person index, (T, A, 4)) to ``path`` atomically."""
+def write_report(
+    result: LiftResult,
+    series: dict[int, np.ndarray],
+    name: str,
+    path: Path | str,
+    who: tuple[dict, dict] = ({}, {}),
+) -> Path:
+    """Draw the report of ``result`` with its angle ``series`` (per person index, (T, A, 4)) to ``path`` atomically.
+
+    ``who``: per person index their good frame and thumbnail (:mod:`exporters.person_pictures`), drawn first in
+    their row with the camera, frame and image box, so a reader knows who the row is about."""
     import matplotlib
 
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
 
     path = Path(path)
-    persons = sorted(series, key=lambda p: -np.isfinite(series[p][:, 0, 0]).sum())[:MAX_ROWS]
+    longest = sorted(series, key=lambda p: -np.isfinite(series[p][:, 0, 0]).sum())[:MAX_ROWS]
+    persons = sorted(longest, key=lambda p: int(result.track_ids[p]))  # rows in id order
     rows = max(len(persons), 1)
     fig = Figure(figsize=(18, 3.6 * rows + 0.8), dpi=100, layout="constrained")
-    axes = fig.subplots(rows, 4, squeeze=False, width_ratios=[3, 3, 2, 3])
+    shown = int(bool(who[0]))  # a first column of who is who, when some person has a good frame
+    grid = fig.subplots(rows, 4 + shown, squeeze=False, width_ratios=[1.2] * shown + [3, 3, 2, 3])
+    axes = grid[:, shown:]
     times = result.frame_times
     cams = _camera_centres(result)
     title = f"{name}: {result.num_persons} person(s), {result.num_hypotheses} hypotheses, "
@@ -83,8 +117,13 @@ def write_report(result: LiftResult, series: dict[int, np.ndarray], name: str, p
     for row, p in enumerate(persons):
         track = int(result.track_ids[p])
         s = series[p]
+        if shown:
+            _draw_who(grid[row, 0], result, p, *(part.get(p) for part in who))
         _plot_angles(axes[row, 0], times, s, LEG_ANGLES)
         axes[row, 0].set_title(f"person {track}: hips and knees", fontsize=10)
+        flagged = _flag_text(result, p)
+        if flagged:
+            axes[row, 0].set_title(fill(f"flagged: {flagged}", 48), fontsize=8, color="tab:red", loc="left", pad=18)
         _plot_angles(axes[row, 1], times, s, UPPER_ANGLES)
         axes[row, 1].set_title(f"person {track}: trunk, shoulder elevation (ISB), elbow", fontsize=10)
         ax = axes[row, 2]

@@ -34,7 +34,7 @@ import numpy as np
 from platypose.exporters import rerun_adapter as rra
 from platypose.exporters.frames import frame_chunks
 from platypose.exporters.result import LiftResult
-from platypose.exporters.rrd_floor import log_floor_and_plausibility
+from platypose.exporters.rrd_floor import log_floor_and_plausibility, log_who
 from platypose.exporters.video import jpeg_frames, needs_reencode, reencode_h264
 from platypose.exporters.video_clock import video_stamps
 from platypose.exporters.watched_writer import run_watched
@@ -46,8 +46,6 @@ VIDEO_MODES = ("asset", "frames", "none")
 KEYPOINTS_CLASS = 0
 ENERGY_SHADES = (0.55, 1.0, 0.55)  # value of the 5 %, median and 95 % lines in the person's hue
 LABEL_HEIGHT_M = 0.25  # the name floats this far above the head
-SPREAD_FLAG_M = 0.15  # a person whose mean joint spread exceeds this is flagged
-STRETCH_FLAG_M = 0.10  # ... or whose BVH had to absorb a bone stretching by more than this
 # The camera views share a region of about this aspect (width / height) beside the 3D view.
 CAMERA_REGION = (800.0, 700.0)
 
@@ -258,20 +256,10 @@ def person_report(result: LiftResult, p: int) -> dict | None:
 
 
 def quality_flags(result: LiftResult, p: int) -> list[str]:
-    """Reasons to check person ``p`` (empty when none): a large spread, a stretching skeleton, few frames, and the
-    lift's own plausibility flags (under the floor, sliding, one view)."""
-    flags = [f"plausibility: {flag}" for flag in (person_report(result, p) or {}).get("flags", [])]
-    present = result.present()[p]
-    track = f"p{result.track_ids[p]}"
-    spread = _mean_spread(result, p)
-    if spread > SPREAD_FLAG_M:
-        flags.append(f"hypotheses spread {1000 * spread:.0f} mm on average (over {1000 * SPREAD_FLAG_M:.0f})")
-    fit = result.meta.get("bvh_fit_error", {}).get(track, {}).get("median", {})
-    if fit.get("stretch_m", 0.0) > STRETCH_FLAG_M:
-        flags.append(f"bones stretch by up to {1000 * fit['stretch_m']:.0f} mm (not a rigid body)")
-    if present.mean() < 0.5:
-        flags.append(f"present in {present.sum()} of {len(present)} frames")
-    return flags
+    """What is wrong with person ``p`` (empty when nothing is): the lift's plausibility flags (``meta["plausibility"]``:
+    under the floor, sliding, spread, bone lengths, joint angles), in the words of its ``flag_text``."""
+    report = person_report(result, p) or {}
+    return [report.get("flag_text") or ", ".join(report.get("flags", []))] if report.get("flags") else []
 
 
 def _mean_spread(result: LiftResult, p: int) -> float:
@@ -299,10 +287,7 @@ def quality_text(result: LiftResult, flags: dict[int, list[str]]) -> str:
         if fit:
             line += f", BVH fit {1000 * fit['mean_m']:.0f} mm mean / {1000 * fit['max_m']:.0f} mm max"
         lines.append(line)
-        lines += [f"  - check: {f}" for f in flags.get(p, [])]
-        report = person_report(result, p)
-        if report is not None:
-            lines.append(f"  - plausibility: {', '.join(report.get('flags', [])) or 'no flags'}")
+        lines += [f"  - flagged: {f}" for f in flags.get(p, [])]
     warnings = result.meta.get("warnings") or []
     if warnings:
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in warnings]
@@ -335,6 +320,7 @@ def write_rrd(
     video_paths: Mapping[str, Path] | None = None,
     video_mode: str = "asset",
     say: Callable[[str], None] = lambda _: None,
+    who: tuple[dict, dict] = ({}, {}),
 ) -> Path:
     """Write the rerun recording of ``result`` to ``path`` atomically; videos are matched to cameras by name.
 
@@ -347,7 +333,7 @@ def write_rrd(
     present = result.present().any(axis=1)
     flags = {p: quality_flags(result, p) for p in range(result.num_persons) if present[p]}
     with atomic_path(path) as tmp:
-        run_watched(_record, (result, name, video_paths, video_mode, flags), tmp, say)
+        run_watched(_record, (result, name, video_paths, video_mode, flags, who), tmp, say)
     return path
 
 
@@ -357,6 +343,7 @@ def _record(
     video_paths: Mapping[str, Path],
     video_mode: str,
     flags: dict,
+    who: tuple[dict, dict],
     path: Path,
     say: Callable[[str], None],
 ) -> None:
@@ -373,9 +360,11 @@ def _record(
                 _log_video(rec, f"{entity}/video", video, video_mode, camera.time_offset_s, result, say)
             _log_keypoints(rec, result, c)
         for p in flags:
-            label = f"p{result.track_ids[p]}" + (" (check)" if flags[p] else "")
+            named = (person_report(result, p) or {}).get("flags", [])
+            label = f"p{result.track_ids[p]}" + (f" (flagged: {', '.join(named)})" if named else "")
             _log_person(rec, result, p, p, label)
         reports = [person_report(result, p) or {} for p in range(result.num_persons)]
         log_floor_and_plausibility(rec, result.meta.get("floor"), reports, result.track_ids, people_centre(result))
+        log_who(rec, result, *who)
     finally:
         rra.close_recording(rec)

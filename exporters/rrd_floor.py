@@ -1,11 +1,13 @@
-"""The floor and each person's plausibility in a rerun recording (logged by :func:`exporters.rrd.write_rrd`).
+"""The floor, each person's plausibility and who they are in a rerun recording (logged by :func:`exporters.rrd.write_rrd`).
 
 Entity paths (static, under the Z-up ``world``):
 
 - ``world/floor``: the floor plane as a grid of lines (``GRID_EXTENT`` metres either way of the point of
   the floor nearest the people's mean pelvis, a line every ``GRID_STEP``), labelled with where it came from;
 - ``world/people/p<id>/plausibility``: a text document with the person's plausibility figures and flags
-  (:mod:`lifting.plausibility`).
+  (:mod:`lifting.plausibility`);
+- ``who/p<id>`` and ``who/p<id>/thumbnail``: where the person is best seen (camera, frame, image box) and that
+  box cut from the video (:func:`log_who`).
 """
 
 from __future__ import annotations
@@ -47,6 +49,22 @@ def log_floor_and_plausibility(
             static=True,
         )
     for track, report in zip(track_ids, plausibility):
-        flags = ", ".join(report.get("flags", [])) or "none"
-        text = f"flags: {flags}\n\n```json\n{json.dumps(report, indent=2)}\n```"
+        flags = (report.get("flag_text") or ", ".join(report.get("flags", []))) if report.get("flags") else "none"
+        text = f"flagged: {flags}\n\n```json\n{json.dumps(report, indent=2)}\n```"
         rec.log(f"world/people/p{track}/plausibility", rr.TextDocument(text, media_type="text/markdown"), static=True)
+
+
+def log_who(rec: rr.RecordingStream, result, frames: dict, pictures: dict) -> None:
+    """Log each person's thumbnail from a good frame (``who/p<id>/thumbnail``, beside the 3D world: an image) and
+    where it was cut (camera, frame, image box: ``who/p<id>``) into ``rec``, statically
+    (:mod:`exporters.person_pictures`)."""
+    for p, good in frames.items():
+        track = int(result.track_ids[p])
+        camera = result.cameras[good.camera].name
+        x1, y1, x2, y2 = good.box
+        text = (
+            f"p{track}: best seen by {camera} in frame {good.frame}, image box {x1:.0f},{y1:.0f}-{x2:.0f},{y2:.0f} px"
+        )
+        rec.log(f"who/p{track}", rr.TextDocument(text), static=True)
+        if p in pictures:
+            rec.log(f"who/p{track}/thumbnail", rr.Image(pictures[p]), static=True)

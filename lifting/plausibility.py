@@ -1,4 +1,4 @@
-"""Plausibility of each person's hypotheses: under the floor, sliding feet, spread over metres, one view only.
+"""Plausibility of each person's hypotheses: under the floor, sliding feet, spread over metres, a body no human has.
 
 Measured on the lifted hypotheses ``(P, N, T, 17, 3)`` (world metres) after lifting; a flag says a
 person's hypotheses stay implausible, so a user knows which persons not to trust:
@@ -11,7 +11,11 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
   or swinging past, as in hops, jumping jacks and running, not standing;
 - ``spread``: the hypotheses' pelvises lie more than ``SPREAD`` from their median (90 % of them, median
   over frames);
-- ``one view``: the person is seen by fewer than two cameras in most frames they are present.
+- ``bone lengths`` and ``joint angles``: the median motion's limb bones outside human lengths, its joints outside
+  human range (:mod:`lifting.body_checks`).
+
+Being seen by fewer than two cameras in most frames present is not a flag but the report's ``one_view``. The report's
+``flag_text`` says every flag with its figure in one sentence (:func:`lifting.flags.flag_text`).
 
 Not everyone stands on the floor: a hypothesis's standing height at a time (:func:`standing_heights`) is the low
 ``STANDING_QUANTILE`` of its lower ankle within ``SUPPORT_WINDOW`` either side, and the person's support
@@ -26,6 +30,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from platypose.lifting.body_checks import angles_out_of_range, bone_lengths_out_of_range
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
 
 UNDER_FLOOR = 0.03  # metres below the floor
@@ -176,56 +181,41 @@ def person_plausibility(
     if report["pelvis_spread_m"] > SPREAD:
         flags.append("spread")
     report["several_views_share"] = float(np.mean(np.asarray(views_seen)[present] >= 2)) if present.any() else 0.0
-    if report["several_views_share"] < 0.5:
-        flags.append("one view")
+    report["one_view"] = report["several_views_share"] < 0.5
     return {**report, "flags": flags}
 
 
+def body_plausibility(report: dict, median: np.ndarray) -> dict:
+    """``report`` with the body checks of the person's median motion ``(T, 17, 3)`` (:mod:`lifting.body_checks`):
+    ``bone_lengths_out`` and ``angles_out`` (empty when human), flagged ``bone lengths`` and ``joint angles``. Bones are
+    checked only where several views measured them: one view's limbs are the prior's guess, held to adult lengths."""
+    bones = {} if report.get("one_view") else bone_lengths_out_of_range(median)
+    angles = angles_out_of_range(median)
+    flags = list(report["flags"]) + ["bone lengths"] * bool(bones) + ["joint angles"] * bool(angles)
+    return {**report, "bone_lengths_out": bones, "angles_out": angles, "flags": flags}
+
+
 def plausibility(
-    hypotheses, keypoints: np.ndarray, floor: Floor | None, fps: float = 30.0, chunk: int = CHUNK
+    hypotheses,
+    keypoints: np.ndarray,
+    floor: Floor | None,
+    fps: float = 30.0,
+    chunk: int = CHUNK,
+    median=None,
 ) -> list[dict]:
     """:func:`person_plausibility` of every person: hypotheses ``(P, N, T, 17, 3)`` (an array, or anything indexed
     like one, read ``chunk`` frames at a time) at ``fps``, keypoints ``(C, T, P, 17, 3)`` (x, y, confidence) on the
-    same frames."""
+    same frames; given their ``median`` ``(P, T, 17, 3)``, with its :func:`body_plausibility` too. Each report
+    ends with its ``flag_text`` (:func:`lifting.flags.flag_text`)."""
+    from platypose.lifting.flags import flag_text
+
     seen = ((np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= 4).sum(axis=0)  # (T, P) cameras seeing 4+ joints
     P, T = hypotheses.shape[0], hypotheses.shape[2]
     reports = []
     for p in range(P):
         blocks = (hypotheses[p, :, start : start + chunk] for start in range(0, T, chunk))
-        reports.append(person_plausibility(blocks, seen[:, p], floor, fps))
+        report = person_plausibility(blocks, seen[:, p], floor, fps)
+        if median is not None and report["frames"]:
+            report = body_plausibility(report, np.asarray(median[p], np.float64))
+        reports.append({**report, "flag_text": flag_text(report)})
     return reports
-
-
-def plausibility_lines(reports: list[dict], track_ids: list | np.ndarray) -> list[str]:
-    """One console line per person with a flag (what is implausible and the figure behind it) or standing off the
-    floor (where: a roof, a platform, a lower floor)."""
-    lines = []
-    for track, report in zip(track_ids, reports):
-        raised = [level for level in report.get("support", []) if abs(level["height_m"]) > ON_FLOOR]
-        if raised and not report["flags"]:
-            lines.append(f"person {track}: {support_text(raised)}")
-        if not report["flags"]:
-            continue
-        details = []
-        if "under floor" in report["flags"]:
-            details.append(f"{report['under_floor_share']:.0%} of hypothesis-frames under the floor")
-        if "sliding" in report["flags"]:
-            details.append(f"stance feet slide {100 * report['stance_slide_median_m']:.1f} cm per frame")
-        if "spread" in report["flags"]:
-            details.append(f"hypotheses spread over {report['pelvis_spread_m']:.1f} m")
-        if "one view" in report["flags"]:
-            details.append("seen by one camera: depth and size from the prior")
-        if raised:
-            details.append(support_text(raised))
-        lines.append(f"person {track}: flagged ({', '.join(report['flags'])}): {'; '.join(details)}")
-    return lines
-
-
-def support_text(levels: list[dict]) -> str:
-    """Where a person stands off the floor, from their support ``levels`` (:func:`support_levels`)."""
-    parts = [
-        f"{abs(level['height_m']):.2f} m {'above' if level['height_m'] > 0 else 'below'} the floor in frames "
-        f"{level['first_frame']}-{level['last_frame']}"
-        for level in levels
-    ]
-    return "stands " + ", ".join(parts)

@@ -26,24 +26,29 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.flags import person_lines
 from platypose.lifting.floor import ESTIMATE, Floor, floor_under
-from platypose.lifting.plausibility import plausibility, plausibility_lines
+from platypose.lifting.plausibility import plausibility
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.rigid import rigid_person
 from platypose.lifting.root import presence
 from platypose.lifting.settings import SamplerConfig, WindowSettings
+from platypose.lifting.steady_depth import steady_person
 from platypose.lifting.take import lift_persons, reprojection_report
+from platypose.lifting.world import level_on_floor
 
 SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
 
 
 class JobLog:
-    """Timestamped lines of one lift (``OUT/<name>/log.txt`` for the CLI), and its warnings for the result's meta."""
+    """Timestamped lines of one lift (``OUT/<name>/log.txt`` for the CLI), and its warnings and notes for the result's
+    meta."""
 
     def __init__(self) -> None:
         self.started = time.perf_counter()
         self.lines: list[str] = []
         self.warnings: list[str] = []
+        self.notes: list[str] = []
 
     def __call__(self, message: str) -> None:
         self.lines.append(f"[{time.perf_counter() - self.started:7.1f} s] {message}")
@@ -52,6 +57,11 @@ class JobLog:
         """Log a warning and keep it for the result's meta."""
         self.warnings.append(message)
         self(f"warning: {message}")
+
+    def note(self, message: str) -> None:
+        """Log what the lift assumed (not a fault: no warning) and keep it for the result's ``meta["notes"]``."""
+        self.notes.append(message)
+        self(message)
 
     def write(self, path: Path) -> None:
         """Write the log atomically."""
@@ -62,6 +72,7 @@ class JobLog:
 
 FLOOR_PASS_SAMPLES = 10  # hypotheses of the quick lift a one-camera floor is estimated under
 FLOOR_PASS_PERSONS = 4  # persons (present longest) whose standing ankles it is estimated from
+QUICK_LIFT = "the floor's quick lift"  # what progress calls the quick lift's windows
 
 
 def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
@@ -92,7 +103,8 @@ def view_cameras(
     calibration_word: str = "cams",
 ) -> list[Camera]:
     """The matched ``cameras`` checked against the views' image sizes (height, width), or without a calibration
-    the default camera of a single view (with a warning); InputError for several views without one.
+    the default camera of a single view (a note: one uncalibrated phone is the common case, not a fault); InputError
+    for several views without one.
 
     ``calibration_word`` is how the messages name the missing calibration (the CLI says ``--cams``).
     """
@@ -104,9 +116,7 @@ def view_cameras(
         raise InputError(f"{what}: {len(names)} views need {calibration_word} to place the cameras")
     from platypose.lifting.calibration.defaults import default_camera
 
-    log.warning(
-        f"no {calibration_word}: a level camera at the origin with a 53 degree diagonal field of view is assumed"
-    )
+    log.note(f"no {calibration_word}: a level camera at the origin with a 53 degree diagonal field of view is assumed")
     return [default_camera(names[0], *image_sizes[0])]
 
 
@@ -134,7 +144,7 @@ def lift_take(
     sampler: SamplerConfig,
     windows: WindowSettings,
     arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
-    progress: Callable[[list[int], int, int], None] | None = None,
+    progress: Callable[[list[int] | str, int, int], None] | None = None,
     log: JobLog | None = None,
     floor: Floor | str | None = None,
 ) -> LiftResult:
@@ -142,20 +152,26 @@ def lift_take(
     seen by ``cameras``, each person's root path known (T, 3) or None (solved per hypothesis).
 
     ``arrays(shape, name)`` makes the result's long arrays (default: in memory; the CLI's are files).
+    ``progress(group, done, total)`` counts the windows lifted of each group of persons (``group``: their indices,
+    or ``QUICK_LIFT`` for the windows of the floor's quick lift).
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
     sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
     and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor. The
     result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
-    person, :mod:`platypose.lifting.plausibility`; each flag is also a warning) and ``rigid_bones`` (per person,
+    person, :mod:`platypose.lifting.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
     :func:`platypose.lifting.rigid.rigid_person`: every hypothesis and the median get one length per bone over
-    the clip); the caller adds its own.
+    the clip); the caller adds its own. With an estimated floor every output is moved into the estimated world
+    (:mod:`platypose.lifting.world`: z = 0 the floor, z up, the camera at its estimated height and pitch), which
+    ``meta["floor"]["frame"]`` says.
     """
     log = log if log is not None else JobLog()
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
     absent = ~presence(keypoints, times)  # (P, T)
     floor_meta = None
     if floor == ESTIMATE:
-        floor, floor_meta = quick_floor(prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log)
+        floor, floor_meta = quick_floor(
+            prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress
+        )
     if isinstance(floor, Floor):
         sampler = replace(sampler, floor=floor.plane)
         floor_meta = floor_meta or floor.as_dict()
@@ -169,6 +185,11 @@ def lift_take(
         prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress
     )
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
+    if len(cameras) == 1 and sampler.floor is not None:  # one grounded view: steady each solved root's depth
+        for p, track in ((p, t) for p, t in enumerate(track_ids) if roots[p] is None):
+            seen = (np.nan_to_num(keypoints[0, :, p, :, 2]) > 0).sum(axis=-1)  # joints seen per frame
+            moved = steady_person(hypotheses, p, cameras[0], fps, sampler.floor, seen, times)
+            log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
     rigid = {}
     for p, track in enumerate(track_ids):
         began = time.perf_counter()
@@ -179,17 +200,22 @@ def lift_take(
             f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
         )
     report = report_reprojection(median, keypoints, cameras, log)
-    persons = plausibility(hypotheses, keypoints, floor, fps)
+    persons = plausibility(hypotheses, keypoints, floor, fps, median=median)
     for track, person in zip(track_ids, persons):
         person["track_id"] = int(track)
-    for line in plausibility_lines(persons, track_ids):
-        log.warning(line)
+    for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
+        log(line)
+    if floor_meta and floor_meta["source"] == "estimated":  # outputs in the estimated world: z = 0 the floor, z up
+        camera, floor_meta = level_on_floor(floor, floor_meta, cameras[0], (hypotheses, median))
+        cameras = [camera]
+        log(f"outputs in the {floor_meta['frame']}")
     meta = {
         "prior_sha256": prior.checksum,
         "reprojection_px": report,
         "floor": floor_meta,
         "plausibility": persons,
         "rigid_bones": rigid,
+        "notes": list(log.notes),
     }
     return LiftResult(
         hypotheses=hypotheses,
@@ -215,11 +241,13 @@ def quick_floor(
     windows: WindowSettings,
     fps: float,
     log: JobLog,
+    progress: Callable[[list[int] | str, int, int], None] | None = None,
 ) -> tuple[Floor | None, dict | None]:
     """The floor under a one-camera take (keypoints (1, T, P, 17, 3), persons ``absent`` (P, T)) and its ``meta``
     entry, estimated (:func:`platypose.lifting.floor.floor_under`) under the median motions of a quick lift
     without a floor: ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest;
-    None, None (logged) when too few standing ankles are found."""
+    None, None (logged) when too few standing ankles are found. ``progress(QUICK_LIFT, done, total)`` counts its
+    windows."""
     if len(cameras) != 1:
         return None, None
     began = time.perf_counter()
@@ -241,6 +269,7 @@ def quick_floor(
         hypotheses,
         median,
         energy,
+        None if progress is None else (lambda group, done, total: progress(QUICK_LIFT, done, total)),
     )
     floor, meta = floor_under(median, cameras[0], fps, kept[0])
     seconds = time.perf_counter() - began

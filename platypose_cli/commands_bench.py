@@ -186,7 +186,7 @@ def bench(
     repeats: int = typer.Option(3, "--repeats", help="Timed runs after one warm-up; the median run is reported."),
     matmul_size: int = typer.Option(2048, "--matmul-size", help="Side of the square float32 matmul reference."),
     threads: int | None = typer.Option(
-        None, "--threads", min=1, help="torch and onnxruntime threads (default: torch's)."
+        None, "--threads", min=1, help="torch and onnxruntime threads (default: 1, as lift)."
     ),
     end_to_end: bool = typer.Option(True, "--end-to-end/--no-end-to-end", help="Also detect and lift a looped clip."),
     clip_seconds: float = typer.Option(60.0, "--clip-seconds", help="Length of the end-to-end clip (30 fps)."),
@@ -203,6 +203,7 @@ def bench(
     import torch
 
     from platypose.cli.bench_clip import peak_rss_mb
+    from platypose.cli.threads import threads_for
     from platypose.detectors.tracking import persons_count
     from platypose.lifting.atomic import write_text_atomic
     from platypose.lifting.errors import InputError
@@ -218,8 +219,8 @@ def bench(
     if end_to_end and not video.is_file():
         raise InputError(f"{video}: video to loop not found (give --video)")
     persons_count(persons)  # InputError for a value --persons does not take
-    if threads is not None:
-        torch.set_num_threads(threads)
+    threads = threads_for(threads)
+    torch.set_num_threads(threads)
     prior = prior_settings.load(threads)
     if end_to_end and prior.device.type != "cpu":
         raise InputError(

@@ -67,8 +67,8 @@ def demo(
     source: str = typer.Option(
         "videos", "--source", help="videos: detect in cam01 + cam02; keypoints: the shipped OpenPose 2D of 4 views."
     ),
-    threads: int = typer.Option(
-        1, "--threads", min=1, help="torch and onnxruntime threads (1: fastest on a busy machine)."
+    threads: int | None = typer.Option(
+        None, "--threads", min=1, help="torch and onnxruntime threads (default: 1, as lift)."
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     prior: PriorSettings = None,
@@ -103,8 +103,4 @@ def demo(
     entries = run_batch([job], settings, 1, False, lambda m: None if quiet else typer.echo(m, err=True))
     if entries[0]["status"] == "ok":
         typer.echo("\n".join(describe(out / job.name / f"{job.name}.npz")))
-        typer.echo(f"outputs in {out / job.name}/:")
-        for path in entries[0]["outputs"]:
-            typer.echo(f"  {Path(path).name}")
-        typer.echo(f"look at it: rerun {out / job.name / f'{job.name}.rrd'}")
     finish(entries, out)

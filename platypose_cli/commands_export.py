@@ -19,6 +19,10 @@ def _describe(path: Path, result) -> list[str]:
         f"{path.name}: {P} person(s) x {N} hypotheses x {T} frames at {result.fps:.3f} fps "
         f"({result.frame_times[0]:.3f}-{result.frame_times[-1]:.3f} s), 17 joints, metres, Z up"
     ]
+    floor = (result.meta or {}).get("floor") or {}
+    if floor.get("frame"):
+        lines.append(f"  world: {floor['frame']}")
+    where = " above the floor (z = 0)" if floor.get("normal") == [0.0, 0.0, 1.0] and not floor.get("offset_m") else ""
     present = result.present()
     for p, track in enumerate(result.track_ids):
         on = present[p]
@@ -28,7 +32,7 @@ def _describe(path: Path, result) -> list[str]:
         hyp, med = result.hypotheses[p][:, on], result.median[p][on]
         spread = np.sqrt(((hyp - med) ** 2).sum(-1).mean(0)) * 1000
         line = (
-            f"  person {track}: present in {on.sum()}/{T} frames, pelvis height median {np.median(med[:, 0, 2]):.2f} m,"
+            f"  person {track}: present in {on.sum()}/{T} frames, pelvis height median {np.median(med[:, 0, 2]):.2f} m{where},"
             f" joint spread mean {spread.mean():.1f} mm (max {spread.max():.1f} mm)"
         )
         if result.energy is not None:

@@ -82,6 +82,10 @@ def finish(entries: list[dict], out: Path) -> None:
 
     failed = [e for e in entries if e["status"] == "failed"]
     counts = ", ".join(f"{sum(e['status'] == s for e in entries)} {s}" for s in ("ok", "failed", "skipped"))
+    from platypose.cli.console import written_lines
+
+    for line in written_lines(entries):
+        typer.echo(line)
     typer.echo(f"{len(entries)} input(s): {counts}; summary in {out / 'summary.json'}")
     for entry in entries:
         for warning in entry.get("warnings", []):
@@ -167,7 +171,7 @@ def lift(
         None,
         "--threads",
         min=1,
-        help="torch and onnxruntime threads per input (default: cores / jobs).",
+        help="torch and onnxruntime threads per input (default: 1, measured fastest on a busy machine).",
         rich_help_panel="Run",
     ),
     resume: bool = typer.Option(
@@ -187,6 +191,7 @@ def lift(
 ) -> None:
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
     arguments = {k: as_json(v) for k, v in locals().items()}
+    from platypose.cli.console import say_over_bar
     from platypose.cli.lift_batch import run_batch
     from platypose.cli.lift_jobs import check_views_match, discover_jobs, expand_inputs, keypoints_job
     from platypose.cli.safe_names import printable
@@ -239,7 +244,7 @@ def lift(
 
     def say(message: str) -> None:
         if not quiet:
-            typer.echo(printable(message), err=True)
+            say_over_bar(printable(message))
 
     try:
         entries = run_batch(job_list, settings, jobs, resume, say, retry_failed, batch_executor)

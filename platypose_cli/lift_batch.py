@@ -2,8 +2,8 @@
 
 The runner's interface: jobs (and settings) in, one summary entry per job out, in job order.
 
-With ``--jobs J`` each worker process gets ``cores // J`` threads for torch and
-onnxruntime, so J workers never oversubscribe the machine. ``summary.json`` is
+Each input gets ``--threads`` threads for torch and onnxruntime, by default one
+(:mod:`platypose.cli.threads`), with ``--jobs J`` in each of J worker processes. ``summary.json`` is
 rewritten under a lock (``OUT/.summary.lock``) and merged with the entries that
 other runs into the same OUT wrote meanwhile (entries of other inputs are kept,
 this run's replace the same inputs'). Ctrl-C (or SIGTERM) stops the batch: inputs
@@ -25,6 +25,7 @@ from pathlib import Path
 
 import typer
 
+from platypose.cli.console import say_over_bar
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import (
     MANIFEST,
@@ -36,14 +37,10 @@ from platypose.cli.lift_run import (
     remove_stale_staging,
     run_job,
 )
-from platypose.lifting.plausibility import plausibility_lines
+from platypose.cli.threads import threads_for
+from platypose.lifting.flags import person_lines
 
 SUMMARY = "summary.json"
-
-
-def threads_per_job(jobs: int) -> int:
-    """Threads each of ``jobs`` parallel workers may use: ``cores // jobs``, at least 1."""
-    return max(1, (os.cpu_count() or 1) // max(1, jobs))
 
 
 def _raise_interrupt(signum, frame) -> None:
@@ -172,8 +169,8 @@ def run_batch(
         line = f"{jobs[index].name}: {entry['status']} in {entry['seconds']:.1f} s"
         say(line + (f": {entry['error']}" if entry["error"] else ""))
         persons = entry.get("plausibility", [])
-        for flagged in plausibility_lines(persons, [p["track_id"] for p in persons]):  # shown even with --quiet
-            typer.echo(f"  {jobs[index].name}: {flagged}", err=True)
+        for flagged in person_lines(persons, [p["track_id"] for p in persons]):  # shown even with --quiet
+            say_over_bar(f"  {jobs[index].name}: {flagged}")
 
     settings.out.mkdir(parents=True, exist_ok=True)
     write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
@@ -183,9 +180,11 @@ def run_batch(
         if executor is not None:
             executor(jobs, todo, settings, record, bar)
         elif workers <= 1 or len(todo) <= 1:
-            limit_threads(settings.detect.threads or threads_per_job(1))
+            threads = threads_for(settings.detect.threads)
+            limit_threads(threads)
+            here = replace(settings, detect=replace(settings.detect, threads=threads))  # the detector's too
             for index in todo:
-                record(index, run_job(jobs[index], settings))
+                record(index, run_job(jobs[index], here))
                 bar.update(1)
         else:
             _run_parallel(jobs, todo, settings, workers, record, bar)
@@ -206,7 +205,7 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    threads = settings.detect.threads or threads_per_job(workers)
+    threads = threads_for(settings.detect.threads)
     worker_settings = replace(settings, detect=replace(settings.detect, threads=threads), quiet=True)
     context = multiprocessing.get_context("spawn")
     recorded: set[int] = set()

@@ -80,10 +80,11 @@ class _GroupBars:
     def __init__(self, hidden: bool) -> None:
         self.hidden, self.group, self.bar = hidden, None, None
 
-    def update(self, group: list[int], done: int, total: int) -> None:
+    def update(self, group: list[int] | str, done: int, total: int) -> None:
         if group != self.group:
             self.close()
-            self.group, self.bar = group, _LazyBar(f"lifting {len(group)} person(s)", self.hidden)
+            label = group if isinstance(group, str) else f"lifting {len(group)} person(s)"  # str: the quick lift
+            self.group, self.bar = group, _LazyBar(label, self.hidden)
         self.bar.update(done, total)
 
     def close(self) -> None:

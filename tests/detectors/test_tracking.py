@@ -89,6 +89,27 @@ def test_person_selection(demo_detections) -> None:
         select_persons(tracks, "tallest")
 
 
+def test_persons_by_id_and_by_a_pixel_where_first_seen(demo_detections) -> None:
+    """The Sports2D demo's two tracks chosen by their ids (as the outputs name them) and by a pixel inside or near
+    the box of a track's joints in the first frame it is seen; an unknown id names the ids there are."""
+    detections, indices = demo_detections
+    tracks = track_detections(detections, indices / 30.0, (994, 1768), "demo")
+    ids = [int(t) for t in tracks.track_ids]
+    assert select_persons(tracks, f"{ids[1]},").track_ids.tolist() == [ids[1]]
+    assert select_persons(tracks, f"{ids[1]},{ids[0]}").track_ids.tolist() == ids
+    with pytest.raises(InputError, match=f"no track with id 99 \\(ids: {ids[0]}, {ids[1]}\\)"):
+        select_persons(tracks, "99,")
+    for p in range(2):
+        seen = tracks.keypoints[..., 2] > 0
+        first = np.flatnonzero(seen[:, p].sum(axis=-1) >= 4)[0]
+        x, y = tracks.keypoints[first, p, seen[first, p], :2].mean(axis=0)
+        assert select_persons(tracks, f"@{x:.0f},{y:.0f}").track_ids.tolist() == [ids[p]]
+        assert select_persons(tracks, f"@{x:.0f},{y + 5:.0f}").track_ids.tolist() == [ids[p]]
+    for bad in ("@1", "@a,b", "-1,2", ","):
+        with pytest.raises(InputError, match="persons must be"):
+            select_persons(tracks, bad)
+
+
 def test_crossing_people_keep_their_ids() -> None:
     """Two people walk through each other at constant speed; motion prediction keeps them apart."""
     times = np.arange(40) / 30.0

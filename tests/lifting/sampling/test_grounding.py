@@ -14,13 +14,13 @@ from platypose.detectors.openpose import read_openpose_folder
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.flags import person_lines
 from platypose.lifting.floor import CALIBRATED_FLOOR, ESTIMATE, estimate_floor, parse_floor
 from platypose.lifting.lift import lift_tracks
 from platypose.lifting.plausibility import (
     lasting,
     lowest_ankle,
     plausibility,
-    plausibility_lines,
     stance_ankles,
     stance_slides,
 )
@@ -118,7 +118,7 @@ def test_one_view_lift_of_a_real_take_stands_on_the_floor_without_sliding(shippe
 def test_a_person_seen_by_one_view_among_four_is_grounded(shipped_prior, cameras, athlete):
     """Four calibrated cameras, the athlete seen by cam01 only: the window is lifted with cam01's one-view steps (the
     same hypotheses as lifting cam01 alone), grounded (stance ankles' rays meet the floor), and flagged as seen by
-    one view."""
+    one view (a property, not a flag)."""
     keypoints, times = athlete
     alone = keypoints.copy()
     alone[1:, ..., 2] = 0.0  # cam02-cam04 see nothing
@@ -128,7 +128,7 @@ def test_a_person_seen_by_one_view_among_four_is_grounded(shipped_prior, cameras
     assert np.mean(lowest_ankle(grounded[0], CALIBRATED_FLOOR) < -0.03) < 0.01
     assert np.mean(lowest_ankle(free[0], CALIBRATED_FLOOR) < -0.03) > 0.3
     report = plausibility(grounded, alone, CALIBRATED_FLOOR)[0]
-    assert "one view" in report["flags"] and "under floor" not in report["flags"]
+    assert report["one_view"] and report["flags"] == [] and report["flag_text"] == ""
     assert "under floor" in plausibility(free, alone, CALIBRATED_FLOOR)[0]["flags"]
 
 
@@ -206,7 +206,7 @@ def test_support_is_measured_below_the_floor_where_two_views_place_the_feet(ship
     assert 0.0 < athlete["support"][0]["height_m"] < 0.1 and athlete["flags"] == []
     assert -0.4 < behind["support"][0]["height_m"] < -0.2 and behind["flags"] == ["under floor"]
     assert behind["support"][0]["last_frame"] - behind["support"][0]["first_frame"] > 90
-    assert "m below the floor in frames" in plausibility_lines([behind], [1])[0]
+    assert "m below the floor in frames" in person_lines([behind], [1])[0]
 
 
 @pytest.mark.slow
@@ -278,6 +278,17 @@ def test_sports2d_without_calibration_estimates_the_floor_and_stands_on_it(shipp
     assert all(abs(level["height_m"]) < 0.15 for level in woman["support"]), woman
     for report in (man, woman):
         assert report["under_floor_share"] < 0.01 and report["stance_slide_median_m"] < 0.02, report
+    # the outputs are in the estimated world: z = 0 the floor, the camera on the z axis at its estimated height
+    assert floor["normal"] == [0.0, 0.0, 1.0] and floor["offset_m"] == 0.0 and "estimated world" in floor["frame"]
+    assert np.allclose(result.cameras[0].center, [0.0, 0.0, floor["camera_height_m"]], atol=1e-6)
+    lowest = np.nanmin(np.asarray(result.median)[..., [3, 6], 2], axis=-1)  # (P, T) lower ankle's z
+    on_roof, on_floor = (np.nanmedian(lowest[reports_index(result, r)]) for r in (man, woman))
+    assert on_roof > 1.5 and -0.05 < on_floor < 0.25, (on_roof, on_floor)
+
+
+def reports_index(result, report: dict) -> int:
+    """The person index of a plausibility report (by its track id)."""
+    return list(result.track_ids).index(report["track_id"])
 
 
 @pytest.mark.slow
@@ -296,9 +307,9 @@ def test_lift_reports_floor_and_flags_in_summary_meta_and_console(run_cli, data_
     code, _, err = run_cli(*args, "--out", str(tmp_path))
     assert code == 0, err
     entry = json.loads((tmp_path / "summary.json").read_text())["inputs"][0]
-    assert entry["floor"]["source"] == "calibration" and "one view" in entry["plausibility"][0]["flags"]
+    assert entry["floor"]["source"] == "calibration" and entry["plausibility"][0]["one_view"]
     assert entry["plausibility"][0]["under_floor_share"] < 0.1  # accuracy: the library tests above
-    assert "cam01: person 0: flagged (" in err  # on the console, --quiet or not
+    assert entry["plausibility"][0]["flags"] == [] and "flagged" not in err  # one view is a property, not a flag
     meta = read_npz(tmp_path / "cam01" / "cam01.npz").meta
     assert meta["floor"] == entry["floor"] and meta["plausibility"] == entry["plausibility"]
     code, _, err = run_cli(*args, "--out", str(tmp_path / "none"), "--floor", "none")

@@ -1,0 +1,103 @@
+"""Who is who: each person's image box and a thumbnail from a good frame, for the report and the recording.
+
+A good frame of a person is one where a camera sees most of their joints (at least ``GOOD_JOINTS`` of 17, else the
+most seen) and, among those, their box is tallest (nearest, least hidden). The box is that of the confident joints,
+widened by ``BOX_MARGIN`` of its size on every side and twice that above (a head and feet reach past their
+keypoints). The thumbnail is
+that box cut from the camera's video frame, scaled to ``THUMBNAIL_HEIGHT`` pixels high.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+GOOD_JOINTS = 15
+BOX_MARGIN = 0.1
+THUMBNAIL_HEIGHT = 160
+
+
+@dataclass(frozen=True)
+class GoodFrame:
+    """Where a person is best seen: camera index, frame index, box (x1, y1, x2, y2) in that camera's pixels."""
+
+    camera: int
+    frame: int
+    box: tuple[float, float, float, float]
+
+    def as_dict(self, camera_name: str, time_s: float) -> dict:
+        """Plain dict for meta and text: camera name, frame, time (s), box (px, rounded)."""
+        return {
+            "camera": camera_name,
+            "frame": self.frame,
+            "time_s": round(time_s, 3),
+            "box_px": [round(v, 1) for v in self.box],
+        }
+
+
+def good_frame(keypoints2d: np.ndarray, image_sizes: list[tuple[int, int]]) -> GoodFrame | None:
+    """The good frame of one person's keypoints ``(C, T, 17, 3)`` (x, y, confidence) seen by cameras of
+    ``image_sizes`` (height, width); None when no camera sees 4 of their joints."""
+    seen = np.nan_to_num(keypoints2d[..., 2]) > 0  # (C, T, 17)
+    count = seen.sum(axis=-1)
+    if count.max(initial=0) < 4:
+        return None
+    xy = np.where(seen[..., None], keypoints2d[..., :2], np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN frames: no joint seen
+        low, high = np.nanmin(xy, axis=2), np.nanmax(xy, axis=2)  # (C, T, 2)
+    tall = np.nan_to_num(high[..., 1] - low[..., 1])
+    enough = count >= min(GOOD_JOINTS, int(count.max()))
+    c, t = np.unravel_index(np.argmax(np.where(enough, tall, -1.0)), tall.shape)
+    margin = BOX_MARGIN * (high[c, t] - low[c, t])
+    height, width = image_sizes[c]
+    x1, y1 = np.maximum(low[c, t] - margin * [1.0, 2.0], 0.0)  # twice above: the head's top is above its keypoints
+    x2, y2 = np.minimum(high[c, t] + margin, [width - 1.0, height - 1.0])
+    return GoodFrame(int(c), int(t), (float(x1), float(y1), float(x2), float(y2)))
+
+
+def good_frames(result) -> dict[int, GoodFrame]:
+    """Person index -> good frame, for every person of ``result`` (a LiftResult) seen somewhere."""
+    sizes = [tuple(c.size) for c in result.cameras]
+    frames = {p: good_frame(np.asarray(result.keypoints2d[:, p]), sizes) for p in range(result.num_persons)}
+    return {p: f for p, f in frames.items() if f is not None}
+
+
+def crop(image: np.ndarray, box: tuple[float, float, float, float], height: int = THUMBNAIL_HEIGHT) -> np.ndarray:
+    """``box`` cut from ``image`` ``(H, W, 3)`` and scaled (nearest pixel) to ``height`` rows."""
+    x1, y1, x2, y2 = (int(round(v)) for v in box)
+    part = image[y1 : max(y2, y1 + 1), x1 : max(x2, x1 + 1)]
+    rows = np.linspace(0, len(part) - 1, height).round().astype(int)
+    width = max(1, round(height * part.shape[1] / max(len(part), 1)))
+    cols = np.linspace(0, part.shape[1] - 1, width).round().astype(int)
+    return np.ascontiguousarray(part[rows][:, cols])
+
+
+def thumbnails(result, video_paths: Mapping[str, Path], frames: dict[int, GoodFrame]) -> dict[int, np.ndarray]:
+    """Person index -> RGB thumbnail ``(THUMBNAIL_HEIGHT, w, 3)`` uint8 of their good frame ``frames``, cut from the
+    video of its camera (``video_paths`` by camera name; persons whose camera has no video get none). Each video is
+    decoded once, up to the last frame needed; a video frame is matched to a result frame by time."""
+    from platypose.media import iter_timed_frames
+
+    wanted: dict[int, dict[int, list[int]]] = {}  # camera -> result frame -> persons
+    for p, good in frames.items():
+        if result.cameras[good.camera].name in video_paths:
+            wanted.setdefault(good.camera, {}).setdefault(good.frame, []).append(p)
+    half = 0.5 / result.fps
+    pictures: dict[int, np.ndarray] = {}
+    for c, by_frame in wanted.items():
+        camera = result.cameras[c]
+        times = {t: float(result.frame_times[t]) - camera.time_offset_s for t in by_frame}
+        last = max(times.values())
+        for _, time_s, image in iter_timed_frames(video_paths[camera.name], fmt="rgb24"):
+            for t in [t for t, when in times.items() if abs(when - time_s) <= half]:
+                for p in by_frame[t]:
+                    pictures[p] = crop(image, frames[p].box)
+                del times[t]
+            if not times or time_s > last + half:
+                break
+    return pictures

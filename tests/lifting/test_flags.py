@@ -1,0 +1,74 @@
+"""Flags that mean something: a human body passes, a body no human has is flagged, in one sentence everywhere."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from platypose.lifting.body_checks import angles_out_of_range, bone_lengths_out_of_range, joint_flexions
+from platypose.lifting.flags import flag_text, person_lines
+from platypose.lifting.plausibility import body_plausibility
+from platypose.lifting.skeleton import JOINT_INDEX
+
+
+def standing(frames: int = 20, knee_bend_deg: float = 10.0) -> np.ndarray:
+    """A person 1.75 m tall facing +y (their right is +x), z up, knees bent forwards by ``knee_bend_deg``."""
+    j = {
+        "pelvis": (0.0, 0.0, 0.95),
+        "right_hip": (0.1, 0.0, 0.95),
+        "left_hip": (-0.1, 0.0, 0.95),
+        "spine": (0.0, 0.0, 1.2),
+        "thorax": (0.0, 0.0, 1.45),
+        "neck": (0.0, 0.0, 1.55),
+        "head": (0.0, 0.0, 1.65),
+        "right_shoulder": (0.2, 0.0, 1.45),
+        "left_shoulder": (-0.2, 0.0, 1.45),
+        "right_elbow": (0.2, 0.0, 1.15),
+        "left_elbow": (-0.2, 0.0, 1.15),
+        "right_wrist": (0.2, 0.05, 0.9),
+        "left_wrist": (-0.2, 0.05, 0.9),
+    }
+    bend = np.radians(knee_bend_deg)
+    for side, x in (("right", 0.1), ("left", -0.1)):
+        j[f"{side}_knee"] = (x, 0.0, 0.52)
+        j[f"{side}_ankle"] = (x, -0.43 * np.sin(bend), 0.52 - 0.43 * np.cos(bend))  # a flexing shin swings back
+    pose = np.zeros((17, 3))
+    for name, xyz in j.items():
+        pose[JOINT_INDEX[name]] = xyz
+    return np.repeat(pose[None], frames, axis=0)
+
+
+def test_a_standing_person_is_human():
+    pose = standing()
+    angles = joint_flexions(pose)
+    assert np.allclose(angles["right knee"], 10.0) and np.allclose(angles["right knee hyperextension"], -10.0)
+    assert angles_out_of_range(pose) == {} and bone_lengths_out_of_range(pose) == {}
+
+
+def test_a_knee_bent_backwards_and_a_long_shin_are_flagged_with_their_figures():
+    backwards = standing(knee_bend_deg=-60.0)  # the shin swings forwards: the knee bends the wrong way
+    out = angles_out_of_range(backwards)
+    assert set(out) == {"right knee hyperextension", "left knee hyperextension"}
+    assert out["right knee hyperextension"]["share"] == 1.0 and out["right knee hyperextension"]["max_deg"] == 60.0
+    long_shin = standing()
+    long_shin[:, JOINT_INDEX["left_ankle"], 2] -= 0.4  # a 0.83 m shin, and twice its mirror image
+    assert list(bone_lengths_out_of_range(long_shin)) == ["left knee-left ankle", "right knee-right ankle"]
+    report = body_plausibility({"flags": ["under floor"], "under_floor_share": 0.2, "one_view": False}, long_shin)
+    assert report["flags"] == ["under floor", "bone lengths"]
+    assert body_plausibility({"flags": [], "one_view": True}, long_shin)["flags"] == []  # one view: the prior's guess
+    text = flag_text(report)
+    assert text.startswith("under floor (20% of hypothesis-frames more than 3 cm under it); bone lengths (left knee")
+    assert person_lines([{**report, "flag_text": text}], [4]) == [f"person 4: flagged: {text}"]
+
+
+def test_a_few_odd_frames_are_not_a_flag():
+    pose = standing(frames=100)
+    pose[:3, JOINT_INDEX["right_ankle"]] = pose[:3, JOINT_INDEX["right_hip"]] + [0.0, -0.01, 0.0]  # knee folded flat
+    assert angles_out_of_range(pose) == {}
+    pose[:10, JOINT_INDEX["right_ankle"]] = pose[:10, JOINT_INDEX["right_hip"]] + [0.0, -0.01, 0.0]
+    assert list(angles_out_of_range(pose)) == ["right knee"]
+
+
+def test_on_the_floor_and_unflagged_says_nothing_a_roof_is_said():
+    on_floor = {"flags": [], "support": [{"first_frame": 0, "last_frame": 99, "height_m": 0.02}]}
+    roof = {"flags": [], "support": [{"first_frame": 0, "last_frame": 122, "height_m": 1.92}]}
+    assert person_lines([on_floor, roof], [0, 1]) == ["person 1: stands 1.92 m above the floor in frames 0-122"]

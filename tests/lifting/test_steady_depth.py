@@ -1,0 +1,76 @@
+"""Steady depth: a one-view person placed too near while airborne after a gap is brought back along the rays."""
+
+from __future__ import annotations
+
+import numpy as np
+from test_flags import standing
+
+from platypose.lifting.calibration.defaults import default_camera
+from platypose.lifting.camera import project
+from platypose.lifting.floor import Floor
+from platypose.lifting.steady_depth import smooth_path, steady_person, trusted_frames
+
+FLOOR = Floor((0.0, 0.0, 1.0), 1.7, "given")  # the camera (at the origin, level) 1.7 m above the floor
+
+
+def pelvis_path(pelvis: np.ndarray) -> tuple[float, float]:
+    """Summed and largest step between consecutive present frames, and across gaps (m)."""
+    seen = np.flatnonzero(np.isfinite(pelvis).all(axis=-1))
+    steps = np.linalg.norm(np.diff(pelvis[seen], axis=0), axis=-1)
+    return float(steps.sum()), float(steps.max())
+
+
+def test_a_gap_and_a_too_near_airborne_return_are_bridged_from_where_the_person_was():
+    camera = default_camera("cam", 1080, 1920)
+    pose = standing(90) + [0.0, 10.0, -1.7]  # on the floor, 10 m in front of the camera
+    pose[:, :, 0] += np.linspace(0.0, 1.5, 90)[:, None]  # walking across the image
+    truth = pose.copy()
+    truth[50:60] += [0.0, 0.0, 0.8]  # airborne after the gap
+    lifted = truth.copy()
+    lifted[50:60] = 0.6 * lifted[50:60]  # the sampler put the airborne frames 6 m away (the same image)
+    lifted[30:50] = np.nan  # not seen for 0.7 s
+    rng = np.random.default_rng(0)
+    hypotheses = np.stack([lifted * s for s in (1.0, 1.03, 0.97)])[None]  # (1, 3, T, 17, 3): sizes differ
+    hypotheses = (hypotheses + rng.normal(0.0, 0.002, hypotheses.shape)).astype(np.float32)
+    before = hypotheses.copy()
+    path_before, step_before = pelvis_path(before[0, 0, :, 0])
+    seen = np.where(np.arange(90) < 30, 17, 0) + np.where(np.arange(90) >= 50, 17, 0)  # every joint where present
+    moved = steady_person(hypotheses, 0, camera, 30.0, FLOOR.plane, seen)
+    after = hypotheses[0, 0, :, 0]
+    path_after, step_after = pelvis_path(after)
+    assert step_before > 3.0 and step_after < 1.0, (step_before, step_after)
+    assert path_after < 0.5 * path_before and 3.0 < moved < 4.5
+    assert np.allclose(after[50:60, 1], 10.0, atol=1.0)  # back near where the person left and lands
+    assert np.allclose(after[:30, 1], before[0, 0, :30, 0, 1], atol=0.1)  # standing frames stay (within 10 cm)
+    assert np.allclose(project(hypotheses, camera), project(before, camera), atol=0.05, equal_nan=True)
+    assert np.all(np.isnan(hypotheses[:, :, 30:50]))  # still absent
+    heights = FLOOR.height(hypotheses[0].astype(np.float64))
+    assert np.nanmin(heights) >= min(np.nanmin(FLOOR.height(before[0].astype(np.float64))), 0.0) - 1e-4
+
+
+def test_a_blip_of_a_few_frames_or_few_joints_is_not_trusted():
+    seen = np.array([17] * 3 + [0] * 10 + [17] * 20 + [6] * 10 + [17] * 5)
+    trusted = trusted_frames(seen, 30.0)
+    assert not trusted[:3].any() and trusted[13:33].all() and not trusted[33:43].any() and not trusted[43:].any()
+
+
+def test_smooth_path_passes_a_slow_change_and_crosses_a_gap_continuously():
+    t = np.arange(120) / 30.0
+    slow = 0.3 * np.sin(2 * np.pi * 0.2 * t)  # 0.2 Hz
+    values = slow + np.random.default_rng(1).normal(0.0, 0.05, len(t))
+    values[50:70] = np.nan
+    lam = 1.0 / (2 - 2 * np.cos(2 * np.pi / 30.0)) ** 2  # 1 Hz at 30 fps
+    smooth = smooth_path(values, np.ones(len(t)), lam)
+    assert np.abs(smooth - slow).max() < 0.05 and np.abs(np.diff(smooth)).max() < 0.02
+
+
+def test_a_variable_rate_sampling_of_a_path_gives_the_same_path():
+    """Every third sample dropped (a variable-rate video): the smoothed path is the full one's at the kept times."""
+    t = np.arange(90) / 30.0
+    values = 0.3 * np.sin(2 * np.pi * 0.5 * t) + np.where(t > 1.5, 0.2, 0.0)  # a step the smoothing rounds off
+    lam, mu = 6.85, 2.6
+    full = smooth_path(values, np.full(90, 0.01), lam, mu)
+    kept = np.array([i for i in range(90) if i % 3 != 1])
+    sparse_path = smooth_path(values[kept], np.full(len(kept), 0.01), lam, mu, np.diff(kept).astype(float))
+    uneven = smooth_path(values[kept], np.full(len(kept), 0.01), lam, mu)  # spacing ignored
+    assert np.abs(sparse_path - full[kept]).max() < 0.25 * np.abs(uneven - full[kept]).max()
