@@ -432,7 +432,7 @@ def main(work: Path) -> None:
         for f in sorted((TAKE / "openpose-body25b" / f"{src}_json").glob("*.json")):
             (sw / "kp" / f"{dst}_json" / f.name.replace(src, dst)).write_bytes(f.read_bytes())
     a.run("swap/cam01-cam03", ["lift", "--keypoints", str(sw / "kp"), "--cams", str(TAKE / "calib_pose2sim.toml"),
-                              "--fps", "60", "--image-size", "1088x1920", "--out", str(sw / "out"), "--formats",
+                              "--fps", "60", "--image-size", "1920x1088", "--out", str(sw / "out"), "--formats",
                               "npz", *lift], "warn", "swapped",
           out=sw / "out")  # fmt: skip
     nm = work / "names2" / "in"
