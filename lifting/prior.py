@@ -22,7 +22,7 @@ from torch import nn
 
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.errors import InputError
-from platypose.lifting.prior_checks import CONFIG_BOUNDS, check_config_value, check_manifest
+from platypose.lifting.prior_checks import CONFIG_BOUNDS, check_config, check_config_value, check_manifest
 from platypose.lifting.representation import FEATURES_PER_FRAME, Normalizer
 from platypose.lifting.schedule import TRAIN_STEPS
 from platypose.lifting.skeleton import JOINT_NAMES
@@ -215,9 +215,7 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
     if list(payload["joint_names"]) != list(JOINT_NAMES):
         raise InputError(f"{path}: prior was trained on another joint set")
     try:
-        if not isinstance(payload["config"], dict):
-            raise TypeError("config is not a table")
-        config = PriorConfig(**payload["config"])
+        config = PriorConfig(**check_config(payload["config"]))
         model = MotionPrior(config).to(device)
         model.load_state_dict(payload["state_dict"], strict=True)
         normalizer = Normalizer(
@@ -226,7 +224,9 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
         )
     except (TypeError, ValueError, KeyError, RuntimeError) as err:
         raise InputError(
-            f"{path}: not a valid platypose prior ({type(err).__name__}: {err})".replace("\n", " ")
+            f"{path}: not a valid platypose prior ({'missing field ' if isinstance(err, KeyError) else ''}{err})".replace(
+                "\n", " "
+            )
         ) from None
     _check_finite(path, model, normalizer)
     if normalizer.mean.shape != (config.features,) or normalizer.std.shape != (config.features,):

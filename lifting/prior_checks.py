@@ -38,6 +38,18 @@ def check_config_value(name: str, value: Any) -> None:
         raise ValueError(f"{name} must be within [{low:g}, {high:g}], got {value!r}")
 
 
+def check_config(config: Any) -> dict:
+    """A checkpoint's config table, each field known and of its type within its bounds; ValueError otherwise."""
+    if not isinstance(config, dict):
+        raise ValueError("config is not a table")
+    unknown = sorted(str(k) for k in config if k not in CONFIG_BOUNDS)
+    if unknown:
+        raise ValueError(f"unknown config field(s) {', '.join(unknown)}")
+    for name, value in config.items():
+        check_config_value(name, value)
+    return config
+
+
 def _list_of(value: Any, kind: type) -> bool:
     return isinstance(value, list) and all(isinstance(v, kind) and not isinstance(v, bool) for v in value)
 

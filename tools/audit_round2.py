@@ -336,8 +336,8 @@ def main(work: Path) -> None:
         print("   silent: another runtime was skipped")
     kp = res / "kp"
     shutil.copytree(TAKE / "openpose-body25b/cam01_json", kp / "cam01_json")
-    kbase = ["lift", "--keypoints", str(kp / "cam01_json"), "--fps", "60", "--out", str(res / "kout"), "--formats",
-             "npz", *lift]  # fmt: skip
+    kbase = ["lift", "--keypoints", str(kp / "cam01_json"), "--fps", "60", "--image-size", "1088x1920", "--out",
+             str(res / "kout"), "--formats", "npz", *lift]  # fmt: skip
     a.run("resume/keypoints-first", kbase, "ok", out=res / "kout")
     files = sorted((kp / "cam01_json").iterdir())
     shutil.copy2(files[-1], files[len(files) // 2])
@@ -432,7 +432,8 @@ def main(work: Path) -> None:
         for f in sorted((TAKE / "openpose-body25b" / f"{src}_json").glob("*.json")):
             (sw / "kp" / f"{dst}_json" / f.name.replace(src, dst)).write_bytes(f.read_bytes())
     a.run("swap/cam01-cam03", ["lift", "--keypoints", str(sw / "kp"), "--cams", str(TAKE / "calib_pose2sim.toml"),
-                              "--fps", "60", "--out", str(sw / "out"), "--formats", "npz", *lift], "warn", "swapped",
+                              "--fps", "60", "--image-size", "1920x1088", "--out", str(sw / "out"), "--formats",
+                              "npz", *lift], "warn", "swapped",
           out=sw / "out")  # fmt: skip
     nm = work / "names2" / "in"
     nm.mkdir(parents=True)

@@ -246,7 +246,7 @@ def _edited_prior(source, path, edit) -> str:
         (lambda p: p["config"].update(diffusion_steps=1e9), "diffusion_steps must be a whole number"),
         (lambda p: p["config"].update(diffusion_steps=10**9), "diffusion_steps must be within"),
         (lambda p: p["config"].update(layers=10**6), "layers must be within"),
-        (lambda p: p["config"].update(width="64"), "not a valid platypose prior"),
+        (lambda p: p["config"].update(width="64"), "width must be a whole number, got '64'"),
         (lambda p: p.update(config=[1, 2]), "not a valid platypose prior"),
         (lambda p: p["manifest"].update(sampling_steps=[10**12, 3]), "sampling_steps must be decreasing"),
         (lambda p: p["manifest"].update(distilled={"x": 1}), "'distilled' is damaged"),
