@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 import pytest
-from test_export_rrd import read_entities
+from export_helpers import read_entities
 
 TAKE = "video/pose2sim-balancing"
 

@@ -6,7 +6,7 @@ from types import SimpleNamespace
 
 import numpy as np
 from export_helpers import two_person_result
-from test_export_rrd import read_entities
+from export_helpers import read_entities
 
 from platypose.detectors.openpose import read_openpose_folder
 from platypose.exporters.person_pictures import THUMBNAIL_HEIGHT, GoodFrame, good_frame, thumbnails
