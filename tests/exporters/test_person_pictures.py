@@ -5,8 +5,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
-from export_helpers import two_person_result
-from export_helpers import read_entities
+from export_helpers import read_entities, two_person_result
 
 from platypose.detectors.openpose import read_openpose_folder
 from platypose.exporters.person_pictures import THUMBNAIL_HEIGHT, GoodFrame, good_frame, thumbnails
