@@ -80,7 +80,7 @@ def connected(options: RayOptions, quiet: bool) -> Iterator[object]:
     settings = {
         "address": "local" if local else options.address,  # "local": never join a cluster found on this machine
         "log_to_driver": False,
-        "logging_level": "WARNING" if quiet else "INFO",
+        "logging_level": "ERROR" if quiet else "INFO",  # -q: not even Ray's token-authentication warning
     }
     if local:
         settings.update(
