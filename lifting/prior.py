@@ -48,6 +48,8 @@ class PriorConfig:
     features: int = FEATURES_PER_FRAME
 
     def __post_init__(self) -> None:
+        for name in CONFIG_BOUNDS:  # a checkpoint's config decides memory and work: types first, then bounds
+            check_config_value(name, getattr(self, name))
         for name in ("layers", "width", "heads", "ff_width", "max_frames", "diffusion_steps", "features"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
@@ -59,8 +61,6 @@ class PriorConfig:
             raise ValueError(f"fps must be a positive number, got {self.fps}")
         if not 0 <= self.dropout < 1:
             raise ValueError(f"dropout must be in [0, 1), got {self.dropout}")
-        for name in CONFIG_BOUNDS:  # a checkpoint's config decides memory and work: types and upper bounds
-            check_config_value(name, getattr(self, name))
 
 
 def sinusoidal_embedding(positions: torch.Tensor, width: int) -> torch.Tensor:
@@ -225,9 +225,8 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
             std=np.asarray(payload["normalizer"]["std"], dtype=np.float64),
         )
     except (TypeError, ValueError, KeyError, RuntimeError) as err:
-        raise InputError(
-            f"{path}: not a valid platypose prior ({type(err).__name__}: {err})".replace("\n", " ")
-        ) from None
+        detail = f"no {err}" if isinstance(err, KeyError) else str(err)  # the problem, not Python's name for it
+        raise InputError(f"{path}: not a valid platypose prior ({detail})".replace("\n", " ")) from None
     _check_finite(path, model, normalizer)
     if normalizer.mean.shape != (config.features,) or normalizer.std.shape != (config.features,):
         raise InputError(f"{path}: prior normalisation does not have {config.features} values per statistic")
