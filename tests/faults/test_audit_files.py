@@ -153,18 +153,19 @@ def test_damaged_results(result: Path, tmp_path: Path, name: str) -> None:
     check(tmp_path / "export", ["export", path, "--formats", "bvh", "--out", tmp_path / "x"], "error", needle)
 
 
-def test_a_result_of_5_million_frames(result: Path, tmp_path: Path) -> None:
-    frames = tmp_path / "5M-frames.npz"
+def test_a_result_over_the_size_limit(result: Path, tmp_path: Path) -> None:
+    """8 million frames of one hypothesis (1.6 GB, over the 1.5 GiB a result may hold) are refused, not read."""
+    frames = tmp_path / "8M-frames.npz"
     with zipfile.ZipFile(frames, "w", compression=zipfile.ZIP_DEFLATED) as z, zipfile.ZipFile(result) as s:
         for info in s.infolist():
             if info.filename != "hypotheses.npy":
                 z.writestr(info.filename, s.read(info))
                 continue
             with z.open("hypotheses.npy", "w", force_zip64=True) as m:
-                header = {"descr": "<f4", "fortran_order": False, "shape": (1, 1, 5_000_000, 17, 3)}
+                header = {"descr": "<f4", "fortran_order": False, "shape": (1, 1, 8_000_000, 17, 3)}
                 np.lib.format.write_array_header_1_0(m, header)
                 chunk = np.zeros(2**22, np.float32).tobytes()
-                left = 5_000_000 * 51 * 4
+                left = 8_000_000 * 51 * 4
                 while left > 0:
                     m.write(chunk[: min(len(chunk), left)])
                     left -= len(chunk)
