@@ -19,6 +19,7 @@ pytestmark = pytest.mark.audit
 
 CALIB = TAKE / "calib_pose2sim.toml"
 SSH_GREETING = b"SSH-2.0-OpenSSH_9.6\r\n"
+TIMING = ["--fps", "60", "--image-size", "1920x1088"]  # keypoint files with no video beside them
 
 
 def test_job_names_stay_inside_out(batch_folder, tmp_path: Path) -> None:
@@ -92,7 +93,7 @@ def test_resume_sees_keypoints_copied_with_an_old_time(tmp_path: Path) -> None:
     views = tmp_path / "kp/cam01_json"
     shutil.copytree(TAKE / "openpose-body25b/cam01_json", views)
     out = tmp_path / "out"
-    base = ["lift", "--keypoints", views, "--fps", "60", "--out", out, "--formats", "npz", *LIFT]
+    base = ["lift", "--keypoints", views, *TIMING, "--out", out, "--formats", "npz", *LIFT]
     check(tmp_path / "first", base, "ok", out=out)
     files = sorted(views.iterdir())
     shutil.copy2(files[-1], files[len(files) // 2])
@@ -150,7 +151,7 @@ def test_swapped_views_are_warned_about(tmp_path: Path) -> None:
         for f in sorted((TAKE / "openpose-body25b" / f"{src}_json").glob("*.json")):
             (views / f"{dst}_json" / f.name.replace(src, dst)).write_bytes(f.read_bytes())
     out = tmp_path / "out"
-    args = ["lift", "--keypoints", views, "--cams", CALIB, "--fps", "60", "--out", out, "--formats", "npz", *LIFT]
+    args = ["lift", "--keypoints", views, "--cams", CALIB, *TIMING, "--out", out, "--formats", "npz", *LIFT]
     check(tmp_path / "case", args, "warn", "swapped", out=out)
 
 
