@@ -278,7 +278,9 @@ class StreamingStitch:
             fields = tuple(blend_samples(s, idx, self.w[first:stop]) for s in self.sums)
         self.emitted = stop
         if stop < T and not self.single:
-            drop = int(self.idx[stop]) - self.base  # prior frames no later input frame needs
+            # prior frames no later input frame needs, and no later window adds to: at a low input rate the next
+            # input frame can lie past the next window's start
+            drop = min(int(self.idx[stop]), final) - self.base
             self.sums = [s[drop:] for s in self.sums]
             self.base += drop
         return first, tuple(f.astype(np.float32) for f in fields)

@@ -22,7 +22,13 @@ from torch import nn
 
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.errors import InputError
-from platypose.lifting.prior_checks import CONFIG_BOUNDS, check_config, check_config_value, check_manifest
+from platypose.lifting.prior_checks import (
+    CONFIG_BOUNDS,
+    check_config,
+    check_config_type,
+    check_config_value,
+    check_manifest,
+)
 from platypose.lifting.representation import FEATURES_PER_FRAME, Normalizer
 from platypose.lifting.schedule import TRAIN_STEPS
 from platypose.lifting.skeleton import JOINT_NAMES
@@ -48,6 +54,8 @@ class PriorConfig:
     features: int = FEATURES_PER_FRAME
 
     def __post_init__(self) -> None:
+        for name in CONFIG_BOUNDS:  # types first: a checkpoint's config may hold anything
+            check_config_type(name, getattr(self, name))
         for name in ("layers", "width", "heads", "ff_width", "max_frames", "diffusion_steps", "features"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
@@ -59,7 +67,7 @@ class PriorConfig:
             raise ValueError(f"fps must be a positive number, got {self.fps}")
         if not 0 <= self.dropout < 1:
             raise ValueError(f"dropout must be in [0, 1), got {self.dropout}")
-        for name in CONFIG_BOUNDS:  # a checkpoint's config decides memory and work: types and upper bounds
+        for name in CONFIG_BOUNDS:  # a checkpoint's config decides memory and work: upper bounds
             check_config_value(name, getattr(self, name))
 
 
@@ -223,11 +231,8 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
             std=np.asarray(payload["normalizer"]["std"], dtype=np.float64),
         )
     except (TypeError, ValueError, KeyError, RuntimeError) as err:
-        raise InputError(
-            f"{path}: not a valid platypose prior ({'missing field ' if isinstance(err, KeyError) else ''}{err})".replace(
-                "\n", " "
-            )
-        ) from None
+        detail = f"no {err}" if isinstance(err, KeyError) else str(err)  # the problem, not Python's name for it
+        raise InputError(f"{path}: not a valid platypose prior ({detail})".replace("\n", " ")) from None
     _check_finite(path, model, normalizer)
     if normalizer.mean.shape != (config.features,) or normalizer.std.shape != (config.features,):
         raise InputError(f"{path}: prior normalisation does not have {config.features} values per statistic")

@@ -28,11 +28,19 @@ CONFIG_BOUNDS: dict[str, tuple[type, float, float]] = {
 }
 
 
+def check_config_type(name: str, value: Any) -> None:
+    """ValueError unless ``value`` is a number of the type of config field ``name`` (a whole one for int fields)."""
+    kind = CONFIG_BOUNDS[name][0]
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not number or (kind is int and not isinstance(value, int)):
+        raise ValueError(f"{name} must be {'a whole number' if kind is int else 'a number'}, got {value!r}")
+
+
 def check_config_value(name: str, value: Any) -> None:
     """ValueError unless ``value`` has the type of config field ``name`` and lies within its bounds."""
     kind, low, high = CONFIG_BOUNDS[name]
-    number = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if not number or (kind is int and not isinstance(value, int)) or not math.isfinite(value):
+    check_config_type(name, value)
+    if not math.isfinite(value):
         raise ValueError(f"{name} must be {'a whole number' if kind is int else 'a number'}, got {value!r}")
     if not low <= value <= high:
         raise ValueError(f"{name} must be within [{low:g}, {high:g}], got {value!r}")

@@ -320,3 +320,20 @@ def test_calibration_mismatches_fail_their_input(run_cli, data_dir, tmp_path, pr
     assert "is 540x960" in errors["cam01"]
     assert "calibration mismatch" in errors["side"] and "side match no camera" in errors["side"]
     assert not (tmp_path / "out" / "side" / "side.detections.npz").exists()  # refused before detecting
+
+
+def test_a_short_track_at_a_low_rate_lifts(run_cli, data_dir, tmp_path, prior_file) -> None:
+    """A truncated real video lifted every 10th frame (7 frames at 6 fps, 16-frame windows of the prior at 30 fps):
+    the input frames lie five prior frames apart, and stitching the windows once broadcast 2 frames against 16."""
+    from media_helpers import truncated_copy
+
+    from platypose.exporters.npz import read_npz
+
+    video = truncated_copy(data_dir / TAKE / "cam01.mp4", tmp_path / "cam01.mp4", 0.6)
+    code, _, err = run_cli(
+        *lift_args(data_dir, prior_file, tmp_path / "out", str(video), "--stride", "10", "--formats", "npz")
+    )
+    assert code == 0, err
+    result = read_npz(tmp_path / "out" / "cam01" / "cam01.npz")
+    assert 5 <= result.num_frames <= 9 and result.hypotheses.shape[1] == 6
+    assert np.isfinite(result.hypotheses).all()

@@ -1,0 +1,267 @@
+"""Audit (issue 17), bad input files: crafted pickles, damaged keypoints, BVH, calibration, video and CSV against the
+real CLI, each ending in a clean error or handled well (:mod:`audit_support`). Run with ``pytest -m audit``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from audit_support import (
+    FAST,
+    KEYPOINT_TIMING,
+    REPO,
+    WALK,
+    Case,
+    Run,
+    check_case,
+    corrupt_bvh,
+    edit_json,
+    lift_args,
+    malicious_h36m,
+    minimal_json,
+    one_camera_calibration,
+    openpose_copy,
+    real_csv,
+    registry,
+    rewrite_csv,
+    summary,
+    swapped_calibration,
+    truncated_video,
+)
+
+pytestmark = pytest.mark.audit
+
+CASES: list[Case] = []
+case = registry(CASES)
+
+
+@case("1", "h36m-malicious-motion-info")
+def _(w: Path) -> Run:
+    data, marker = malicious_h36m(w)
+    return Run(["motion", "info", data], marker=marker)
+
+
+@case("1", "h36m-malicious-train-folder-scan")
+def _(w: Path) -> Run:
+    data, marker = malicious_h36m(w)
+    return Run(["train", data.parent, "--out", w / "p.pt", "--iterations", "1"], marker=marker)
+
+
+@case("1", "h36m-malicious-eval")
+def _(w: Path) -> Run:
+    data, marker = malicious_h36m(w)
+    return Run(["eval", data, "--frames", "1", "--samples", "2"], marker=marker)
+
+
+@case("3", "openpose-misnumbered-file")
+def _(w: Path) -> Run:
+    folder = openpose_copy(w, frames=4)
+    (folder / "cam01.0003.json").rename(folder / "cam01.99999999.json")
+    return Run(["detect", folder, "--out", w / "out", *KEYPOINT_TIMING, "-q"], timeout=60)
+
+
+@case("5", "one-camera-calibration-for-another-view")
+def _(w: Path) -> Run:
+    calib = one_camera_calibration(w, "cam_01")
+    keypoints = openpose_copy(w / "kp", "cam02")
+    return Run(["lift", "--keypoints", keypoints, "--cams", calib, *KEYPOINT_TIMING, *FAST, "--out", w / "out"])
+
+
+@case("6", "bvh-1e308-motion-info")
+def _(w: Path) -> Run:
+    return Run(["motion", "info", corrupt_bvh(w, "1e308")])
+
+
+@case("6", "bvh-1e308-train")
+def _(w: Path) -> Run:
+    out = w / "p.pt"
+    return Run(
+        ["train", corrupt_bvh(w, "1e308"), "--out", out, "--iterations", "2"],
+        check=lambda proc: "a prior was written" if out.exists() else None,
+    )
+
+
+@case("6", "prior-with-nan-weights-prior-info")
+def _(w: Path) -> Run:
+    import torch
+
+    payload = torch.load(REPO / "lifting/priors/default.pt", weights_only=True)
+    first = next(iter(payload["state_dict"]))
+    payload["state_dict"][first] = payload["state_dict"][first] * float("nan")
+    torch.save(payload, w / "nan.pt")
+    return Run(["prior-info", w / "nan.pt"])
+
+
+@case("9", "swapped-calibrations")
+def _(w: Path) -> Run:
+    calib = swapped_calibration(w)
+    kp = w / "kp"
+    for view in ("cam01", "cam02"):
+        openpose_copy(kp, view, frames=20)
+    out = w / "out"
+
+    def check(proc) -> str | None:
+        entries = summary(out)["inputs"]
+        warned = any(
+            "cam_01" in " ".join(e.get("warnings", [])) or "cam_02" in " ".join(e.get("warnings", [])) for e in entries
+        )
+        if not warned:
+            return "no warning naming the swapped view in summary.json"
+        if "warning" not in proc.stderr:
+            return "no warning on the console"
+        return None
+
+    args = ["lift", "--keypoints", kp, "--cams", calib, *KEYPOINT_TIMING, *FAST[:-1], "--out", out, "--formats", "npz"]
+    return Run(args, "ok", check)
+
+
+@case("10", "truncated-video-detect")
+def _(w: Path) -> Run:
+    video = truncated_video(w)
+    return Run(
+        ["detect", video, "--out", w / "out", "--stride", "10", "-q", "--threads", "1"],
+        "ok",
+        lambda proc: None if "could be decoded" in proc.stderr else "no warning about the truncated video",
+    )
+
+
+@case("10", "truncated-video-lift")
+def _(w: Path) -> Run:
+    video = truncated_video(w)
+    out = w / "out"
+
+    def check(proc) -> str | None:
+        entry = summary(out)["inputs"][0]
+        if "could be decoded" not in " ".join(entry.get("warnings", [])):
+            return "summary.json does not say the video is truncated"
+        return None if "could be decoded" in proc.stderr else "no warning on the console"
+
+    return Run(
+        ["lift", video, *FAST, "--stride", "10", "--formats", "npz", "--out", out, "--threads", "1"], "ok", check
+    )
+
+
+@case("11", "json-image-size-0")
+def _(w: Path) -> Run:
+    return Run(["detect", minimal_json(w, image_size=[0, 0]), "--out", w / "out", "-q"])
+
+
+@case("11", "lift-json-image-size-0")
+def _(w: Path) -> Run:
+    return Run(["lift", "--keypoints", minimal_json(w, image_size=[0, 0]), *FAST, "--out", w / "out"])
+
+
+@case("11", "openpose-keypoint-1e30")
+def _(w: Path) -> Run:
+    folder = openpose_copy(w)
+    edit_json(folder / "cam01.0002.json", lambda c: c["people"][0]["pose_keypoints_2d"].__setitem__(0, 1e30))
+    return Run(lift_args(folder, w / "out"))
+
+
+@case("11", "openpose-keypoints-far-outside-the-image")
+def _(w: Path) -> Run:
+    folder = openpose_copy(w)
+    edit_json(folder / "cam01.0002.json", lambda c: c["people"][0]["pose_keypoints_2d"].__setitem__(1, -50000.0))
+    return Run(["detect", folder, "--out", w / "out", *KEYPOINT_TIMING, "-q"])
+
+
+@case("11", "csv-zero-frame-times")
+def _(w: Path) -> Run:
+    path = rewrite_csv(real_csv(w), lambda rows: [r.__setitem__(2, "0.000000") for r in rows[1:]])
+    return Run(["lift", "--keypoints", path, "--image-size", "1920x1088", *FAST, "--out", w / "out"])
+
+
+@case("11", "csv-short-row")
+def _(w: Path) -> Run:
+    path = rewrite_csv(real_csv(w), lambda rows: rows.__setitem__(5, rows[5][:4]))
+    return Run(["detect", path, "--image-size", "1920x1088", "--out", w / "out", "-q"])
+
+
+@case("11", "detect-fps-inf")
+def _(w: Path) -> Run:
+    return Run(["detect", openpose_copy(w), "--fps", "inf", "--image-size", "1920x1088", "--out", w / "out", "-q"])
+
+
+@case("11", "lift-fps-inf")
+def _(w: Path) -> Run:
+    return Run(
+        [
+            "lift",
+            "--keypoints",
+            openpose_copy(w),
+            "--fps",
+            "inf",
+            "--image-size",
+            "1920x1088",
+            *FAST,
+            "--out",
+            w / "out",
+        ]
+    )
+
+
+@case("11", "lift-seed-1e23")
+def _(w: Path) -> Run:
+    return Run([*lift_args(openpose_copy(w), w / "out"), "--seed", str(10**23)])
+
+
+@case("11", "lift-samples-1e9")
+def _(w: Path) -> Run:
+    return Run([*lift_args(openpose_copy(w), w / "out"), "--samples", str(10**9)])
+
+
+@case("11", "lift-long-file-name")
+def _(w: Path) -> Run:
+    folder = openpose_copy(w)
+    long = folder.rename(w / ("x" * 240 + "_json"))
+    args = ["lift", "--keypoints", long, *KEYPOINT_TIMING, *FAST, "--out", w / "out", "--formats", "npz,csv,bvh"]
+    return Run(args, "ok")  # no --cams: a view named x...x matches no camera of the Pose2Sim calibration
+
+
+@case("11", "zero-byte-npz-detect")
+def _(w: Path) -> Run:
+    (w / "cam01_keypoints2d.npz").write_bytes(b"")
+    return Run(["detect", w / "cam01_keypoints2d.npz", "--out", w / "out", "-q"])
+
+
+@case("11", "zero-byte-npz-info")
+def _(w: Path) -> Run:
+    (w / "clip.npz").write_bytes(b"")
+    return Run(["info", w / "clip.npz"])
+
+
+for _options in (["--max-frames", "0"], ["--fps", "0"], ["--width", "10", "--heads", "3"], ["--learning-rate", "nan"]):
+
+    def _build(w: Path, options=_options) -> Run:
+        return Run(["train", WALK, "--out", w / "p.pt", "--iterations", "2", *options])
+
+    CASES.append(Case("11", "train" + "".join(o if o.startswith("--") else f"-{o}" for o in _options), _build))
+
+
+@case("11", "600-people-per-frame")
+def _(w: Path) -> Run:
+    folder = openpose_copy(w, frames=4)
+    edit_json(folder / "cam01.0001.json", lambda c: c.__setitem__("people", c["people"][:1] * 600))
+    return Run(["detect", folder, "--out", w / "out", *KEYPOINT_TIMING, "-q"], timeout=120)
+
+
+@case("11", "fractional-frame-numbers")
+def _(w: Path) -> Run:
+    path = minimal_json(w)
+    edit_json(path, lambda c: c["frames"][1].__setitem__("frame", 1.5))
+    return Run(["detect", path, "--out", w / "out", "-q"])
+
+
+@case("11", "lift-help-keeps-bracketed-defaults")
+def _(w: Path) -> Run:
+    def check(proc) -> str | None:
+        shown = " ".join(proc.stdout.split())
+        missing = [b for b in ("[default: (50)]", "[default: (l2)]", "[default: out]") if b not in shown]
+        return f"--help lost {missing}" if missing else None
+
+    return Run(["lift", "--help"], "ok", check)
+
+
+@pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
+def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
+    check_case(audit_case, tmp_path)
