@@ -224,10 +224,13 @@ def send_series(
 
 
 def log_video_asset(rec: rr.RecordingStream, entity: str, video: Path) -> np.ndarray:
-    """Embed an MP4 (H.264/AV1) as a static asset; return its frame timestamps in nanoseconds (V,)."""
+    """Embed an MP4 (H.264/AV1) as a static asset; return its frame timestamps in nanoseconds (V,).
+
+    RuntimeError, with nothing logged, when rerun cannot parse the file (a truncated or damaged MP4)."""
     asset = rr.AssetVideo(path=video)
+    nanos = np.asarray(asset.read_frame_timestamps_nanos(), dtype=np.int64)  # parses the MP4: before logging it
     rec.log(entity, asset, static=True)
-    return np.asarray(asset.read_frame_timestamps_nanos(), dtype=np.int64)
+    return nanos
 
 
 def send_video_references(

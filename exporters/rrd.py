@@ -232,18 +232,24 @@ def _log_keypoints(rec, result: LiftResult, c: int) -> None:
 def _log_video(
     rec, entity: str, video: Path, mode: str, offset_s: float, result: LiftResult, say: Callable[[str], None]
 ) -> None:
-    """The camera's video as an MP4 asset (re-encoded when needed) or as JPEG frames, on both timelines."""
+    """The camera's video as an MP4 asset (re-encoded when needed) or as JPEG frames, on both timelines; a video
+    rerun cannot parse as an asset (a truncated MP4) goes in as the JPEG frames that decode."""
     if mode == "asset":
         with tempfile.TemporaryDirectory() as tmp:
+            source = video
             if needs_reencode(video):
                 say(f"re-encoding {video.name} to H.264 for rerun")
-                encoded = Path(tmp) / "video.mp4"
-                reencode_h264(video, encoded)
-                video = encoded
-            nanos = rra.log_video_asset(rec, entity, video)
-        stamps, frames = video_stamps(nanos / 1e9 + offset_s, result.frame_times, result.fps)
-        rra.send_video_references(rec, entity, nanos, stamps, frames)
-    elif mode == "frames":
+                source = Path(tmp) / "video.mp4"
+                reencode_h264(video, source)
+            try:
+                nanos = rra.log_video_asset(rec, entity, source)
+            except RuntimeError as err:
+                say(f"{video.name}: rerun cannot read it as a video ({err}); its decodable frames go in as JPEG")
+                mode = "frames"
+        if mode == "asset":
+            stamps, frames = video_stamps(nanos / 1e9 + offset_s, result.frame_times, result.fps)
+            rra.send_video_references(rec, entity, nanos, stamps, frames)
+    if mode == "frames":
         for times, blobs in jpeg_frames(video):
             stamps, frames = video_stamps(times + offset_s, result.frame_times, result.fps)
             rra.send_jpeg_frames(rec, entity, stamps, frames, blobs)

@@ -324,16 +324,22 @@ def test_calibration_mismatches_fail_their_input(run_cli, data_dir, tmp_path, pr
 
 def test_a_short_track_at_a_low_rate_lifts(run_cli, data_dir, tmp_path, prior_file) -> None:
     """A truncated real video lifted every 10th frame (7 frames at 6 fps, 16-frame windows of the prior at 30 fps):
-    the input frames lie five prior frames apart, and stitching the windows once broadcast 2 frames against 16."""
+    the input frames lie five prior frames apart, and stitching the windows once broadcast 2 frames against 16. The
+    recording, which rerun cannot embed the truncated MP4 in (it failed the input), holds its decoded frames as JPEG."""
+    from export_helpers import read_entities
     from media_helpers import truncated_copy
 
     from platypose.exporters.npz import read_npz
 
     video = truncated_copy(data_dir / TAKE / "cam01.mp4", tmp_path / "cam01.mp4", 0.6)
     code, _, err = run_cli(
-        *lift_args(data_dir, prior_file, tmp_path / "out", str(video), "--stride", "10", "--formats", "npz")
+        *lift_args(data_dir, prior_file, tmp_path / "out", str(video), "--stride", "10", "--formats", "npz,rrd")
     )
     assert code == 0, err
     result = read_npz(tmp_path / "out" / "cam01" / "cam01.npz")
     assert 5 <= result.num_frames <= 9 and result.hypotheses.shape[1] == 6
     assert np.isfinite(result.hypotheses).all()
+    video = read_entities(tmp_path / "out" / "cam01" / "cam01.rrd")["/world/cameras/cam_01/video"]
+    assert len(video["EncodedImage:blob"]) >= 60  # the frames that decode (61 of 100; rows per timeline)
+    assert all(m == ["image/jpeg"] for m in video["EncodedImage:media_type"])
+    assert all(blob[:3] == b"\xff\xd8\xff" for blob in video["EncodedImage:blob"])
