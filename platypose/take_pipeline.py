@@ -104,7 +104,6 @@ def run_take(
         "root": root_kinds(roots, take.root_trajectory is not None),
         "timings": timings,
         "warnings": log.warnings,
-        "notes": list(log.notes),
     }
     return replace(result, meta=meta)
 
