@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -300,7 +301,7 @@ def test_demo_lifts_the_bundled_take(run_cli, tmp_path, prior_file) -> None:
     assert code == 0, err
     folder = tmp_path / "openpose-body25b"
     assert f"in {folder}/" in out and "1 person(s) x 4 hypotheses x 100 frames" in out
-    assert f"look at it: rerun {folder / 'openpose-body25b.rrd'}" in out
+    assert f"look at it: {sys.executable} -m rerun {folder / 'openpose-body25b.rrd'}" in out
     result = read_npz(folder / "openpose-body25b.npz")
     assert len(result.cameras) == 4 and result.num_persons == 1
     pelvis = np.median(result.median[0, :, 0, 2])
