@@ -131,7 +131,8 @@ def lift(
     formats: str = typer.Option(
         "npz,csv,bvh,rrd",
         "--formats",
-        help="Comma-separated: npz, csv, bvh, trc, c3d, angles, mot (OpenSim IK), report, rrd (docs/outputs.md).",
+        help="Comma-separated: npz, csv, csv-long (every hypothesis), bvh, trc, c3d, angles, mot (OpenSim IK), "
+        "report, rrd (docs/outputs.md).",
         rich_help_panel="Output",
     ),
     persons: str = field_option(TakeSettings, "persons", "People"),

@@ -22,9 +22,7 @@ def test_lift_lists_the_files_it_wrote_and_the_command_to_open_the_recording(tmp
     assert written_lines(many)[0] == f"t0: 2 files in {folder}/" and len(written_lines(many)) == LISTED_INPUTS + 1
 
 
-def test_the_printed_command_opens_the_recording_from_a_new_shell_and_names_ffmpeg_where_missing(
-    tmp_path, monkeypatch
-):
+def test_the_printed_command_opens_the_recording_from_a_new_shell_and_names_ffmpeg_where_missing(tmp_path, monkeypatch):
     """The command runs as printed in a shell whose PATH has no venv (rerun's --version stands in for the viewer,
     which needs a display); a path with a space is quoted; FFmpeg's role is said where it is not on PATH."""
     folder = tmp_path / "my take"
