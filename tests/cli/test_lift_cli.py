@@ -70,6 +70,7 @@ def test_four_views_match_triangulation_and_one_view_spreads(
         rows = list(csv.DictReader(stream))
     assert len(rows) == 100 and len(rows[0]) == 4 + 17 * 4  # per frame: each joint's answer and its spread radius
     assert float(rows[50]["head_z_m"]) == round(float(result.median[0, 50, 10, 2]), 3)
+    assert (folder / "openpose-body25b.csv").stat().st_size < 100 * 500  # under 500 bytes a frame: 1.8 MB/min at 60 fps
     log = (folder / "log.txt").read_text()
     assert "calibration says 1088x1920 px for camera cam_01" in log and "ok in" in log  # a note: the coded size
     assert "warning: calibration says" not in log and not [w for w in result.meta["warnings"] if "calibration" in w]
