@@ -1,9 +1,10 @@
-"""CSV exports: the long file (one row per person, hypothesis, frame, joint) and the per-joint summary.
+"""CSV exports: the people's file (one row per person and frame: each joint's answer and how far the hypotheses
+spread around it) and, on request, the long file (one row per person, hypothesis, frame and joint).
 
-Numbers are written with the shortest text that reads back to the same float32
-(positions) or float64 (times), so the CSV holds the same numbers as the npz.
-Every frame of a person seen at least once is written; frames where the person
-is absent are filled by the rule of :mod:`exporters.gaps` and have ``filled`` 1.
+The people's file rounds to the millimetre (the hypotheses spread by centimetres; the npz keeps every digit). The
+long file writes the shortest text that reads back to the same float32 (positions) or float64 (times), so it holds
+the npz's numbers. Both hold every frame of a person seen at least once; frames where the person is absent are
+filled by the rule of :mod:`exporters.gaps` and have ``filled`` 1.
 """
 
 from __future__ import annotations
@@ -22,10 +23,12 @@ from platypose.lifting.atomic import atomic_open
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
 
 LONG_COLUMNS = ("person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m", "filled")
-STATISTICS = ("median", "q05", "q95")
-SUMMARY_COLUMNS = (
-    ("person", "frame", "time_s", "joint") + tuple(f"{label}_{axis}_m" for label in STATISTICS for axis in "xyz")
-) + ("filled",)
+SPREAD = 0.9  # the quantile of the hypotheses' distances to the answer in the people's file: <joint>_r90_m
+PEOPLE_COLUMNS = ("person", "frame", "time_s", "filled") + tuple(
+    f"{joint}_{value}_m" for joint in JOINT_NAMES for value in ("x", "y", "z", f"r{round(SPREAD * 100)}")
+)
+DECIMALS = 3  # the people's file: millimetres, as metres
+TIME_DECIMALS = 6  # and microseconds
 
 
 def _write_tables(tables: Iterable[pa.Table], columns: Sequence[str], path: Path) -> Path:
@@ -75,38 +78,42 @@ def long_tables(result: LiftResult) -> Iterator[pa.Table]:
                 )
 
 
-def summary_arrays(hypotheses: np.ndarray, median: np.ndarray) -> dict[str, np.ndarray]:
-    """The median (..., 17, 3) and the 5/95% quantiles of ``hypotheses`` (N, ..., 17, 3) over hypotheses."""
-    q05, q95 = np.quantile(hypotheses, [0.05, 0.95], axis=0).astype(np.float32)
-    return {"median": median, "q05": q05, "q95": q95}
+def spread_radius(hypotheses: np.ndarray, answer: np.ndarray, quantile: float = SPREAD) -> np.ndarray:
+    """The ``quantile`` of the distances of ``hypotheses`` (N, ..., 3) to ``answer`` (..., 3): (...,), the radius
+    around the answer that holds that share of the hypotheses."""
+    return np.quantile(np.linalg.norm(hypotheses - answer, axis=-1), quantile, axis=0)
 
 
-def summary_tables(result: LiftResult) -> Iterator[pa.Table]:
-    """Rows ``person, frame, time_s, joint, median_{x,y,z}_m, q05_..., q95_..., filled`` over all frames, in chunks."""
+def _rounded(values: np.ndarray, decimals: int) -> np.ndarray:
+    """``values`` as float64 rounded to ``decimals``, -0.0 written as 0."""
+    return np.round(np.asarray(values, dtype=np.float64), decimals) + 0.0
+
+
+def people_tables(result: LiftResult) -> Iterator[pa.Table]:
+    """Rows ``person, frame, time_s, filled`` then per joint ``<joint>_x_m, _y_m, _z_m, _r90_m`` (the answer, the
+    npz ``median``, and the radius holding 90 % of the hypotheses), millimetres, over all frames, in chunks."""
     for p, plan in _plans(result).items():
         for t in frame_chunks(result.num_frames):
             frames = np.arange(t.start, t.stop)
-            hyp = fill_frames(Lead(result.hypotheses, p), plan, t, axis=1)
-            stats = summary_arrays(hyp, fill_frames(Lead(result.median, p), plan, t))
+            answer = fill_frames(Lead(result.median, p), plan, t)
+            radius = spread_radius(fill_frames(Lead(result.hypotheses, p), plan, t, axis=1), answer)
+            values = np.concatenate([answer, radius[..., None]], axis=-1).reshape(len(frames), -1)
             columns: dict[str, object] = {
-                "person": np.full(len(frames) * NUM_JOINTS, result.track_ids[p]),
-                "frame": np.repeat(frames, NUM_JOINTS),
-                "time_s": np.repeat(result.frame_times[t], NUM_JOINTS),
-                "joint": _joint_column(len(frames)),
+                "person": np.full(len(frames), result.track_ids[p]),
+                "frame": frames,
+                "time_s": _rounded(result.frame_times[t], TIME_DECIMALS),
+                "filled": (~plan.present[t]).astype(np.int8),
             }
-            for label in STATISTICS:
-                values = stats[label].reshape(-1, 3)
-                for axis, name in enumerate("xyz"):
-                    columns[f"{label}_{name}_m"] = values[:, axis]
-            columns["filled"] = np.repeat(~plan.present[t], NUM_JOINTS).astype(np.int8)
+            for k, name in enumerate(PEOPLE_COLUMNS[4:]):
+                columns[name] = _rounded(values[:, k], DECIMALS)
             yield pa.table(columns)
 
 
 def write_long_csv(result: LiftResult, path: Path | str) -> Path:
-    """Write the long CSV to ``path`` atomically, a chunk of frames at a time."""
+    """Write the long CSV (every hypothesis) to ``path`` atomically, a chunk of frames at a time."""
     return _write_tables(long_tables(result), LONG_COLUMNS, Path(path))
 
 
-def write_summary_csv(result: LiftResult, path: Path | str) -> Path:
-    """Write the summary CSV to ``path`` atomically, a chunk of frames at a time."""
-    return _write_tables(summary_tables(result), SUMMARY_COLUMNS, Path(path))
+def write_people_csv(result: LiftResult, path: Path | str) -> Path:
+    """Write the people's CSV to ``path`` atomically, a chunk of frames at a time."""
+    return _write_tables(people_tables(result), PEOPLE_COLUMNS, Path(path))

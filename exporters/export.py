@@ -8,16 +8,16 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.bvh import write_bvh
-from platypose.exporters.csv_export import write_long_csv, write_summary_csv
+from platypose.exporters.csv_export import write_long_csv, write_people_csv
 from platypose.exporters.frames import Lead
 from platypose.exporters.npz import write_npz
 from platypose.exporters.result import LiftResult
 from platypose.lifting.errors import InputError
 
-FORMATS = ("npz", "csv", "bvh", "trc", "c3d", "angles", "mot", "report", "rrd")
+FORMATS = ("npz", "csv", "csv-long", "bvh", "trc", "c3d", "angles", "mot", "report", "rrd")
 BVH_MODES = ("median", "all")
 # Formats holding every frame, absent ones filled by the rule of exporters.gaps (listed in <name>_gaps.json).
-FILLED_FORMATS = ("csv", "bvh", "trc", "c3d", "angles", "mot")
+FILLED_FORMATS = ("csv", "csv-long", "bvh", "trc", "c3d", "angles", "mot")
 
 
 def parse_formats(text: str | Iterable[str]) -> tuple[str, ...]:
@@ -136,8 +136,10 @@ def export(
         written.append(write_npz(result, out_dir / f"{name}.npz"))
     if "csv" in formats:
         say(f"{name}: CSV")
-        written.append(write_long_csv(result, out_dir / f"{name}.csv"))
-        written.append(write_summary_csv(result, out_dir / f"{name}_summary.csv"))
+        written.append(write_people_csv(result, out_dir / f"{name}.csv"))
+    if "csv-long" in formats:
+        say(f"{name}: CSV of every hypothesis")
+        written.append(write_long_csv(result, out_dir / f"{name}_hypotheses.csv"))
     if "trc" in formats or "c3d" in formats:
         say(f"{name}: {' and '.join(f.upper() for f in formats if f in ('trc', 'c3d'))} markers")
         written += _write_markers(result, out_dir, name, formats)

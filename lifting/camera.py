@@ -53,6 +53,21 @@ class Camera:
         return self.size[0]
 
 
+CODEC_BLOCK = 16  # video codecs code frames in blocks of 16 pixels (H.264 macroblocks)
+
+
+def coded_size(pixels: int) -> int:
+    """``pixels`` rounded up to the blocks a video codec codes: 1080 -> 1088."""
+    return -(-pixels // CODEC_BLOCK) * CODEC_BLOCK
+
+
+def codec_padded(calibrated: Sequence[int], video: Sequence[int]) -> bool:
+    """Whether a calibrated (height, width) differs from the video's only by the codec's padding: each side equal
+    or the video's rounded up to a multiple of ``CODEC_BLOCK``. The codec pads right and bottom and the decoder
+    crops them, so the visible pixels keep their coordinates: the same image for the intrinsics."""
+    return all(c in (v, coded_size(v)) for c, v in zip(calibrated, video))
+
+
 def _distort(x: np.ndarray | torch.Tensor, y: np.ndarray | torch.Tensor, dist) -> tuple:
     """OpenCV radial-tangential distortion of normalised coordinates (works for numpy and torch)."""
     k1, k2, p1, p2, k3 = (dist[..., i] for i in range(5))

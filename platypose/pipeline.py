@@ -24,7 +24,7 @@ import numpy as np
 
 from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
-from platypose.lifting.camera import Camera
+from platypose.lifting.camera import CODEC_BLOCK, Camera, codec_padded
 from platypose.lifting.errors import InputError
 from platypose.lifting.flags import person_lines
 from platypose.lifting.floor import ESTIMATE, Floor, floor_under
@@ -121,7 +121,9 @@ def view_cameras(
 
 
 def check_image_size(camera: Camera, image_size: tuple[int, int], source: str, log: JobLog) -> None:
-    """Warn about a small calibrated/actual image size difference; InputError for a large one."""
+    """Warn about a small calibrated/actual image size difference; InputError for a large one. A calibration of the
+    coded frame (each side the video's rounded up to a multiple of 16: the codec pads right and bottom, the decoder
+    crops them) has the video's very pixel coordinates: a note, not a warning."""
     if tuple(camera.size) == tuple(image_size):
         return
     relative = max(abs(a - b) / b for a, b in zip(camera.size, image_size))
@@ -129,6 +131,9 @@ def check_image_size(camera: Camera, image_size: tuple[int, int], source: str, l
         f"calibration says {camera.width}x{camera.height} px for camera {camera.name}, "
         f"{source} is {image_size[1]}x{image_size[0]}"
     )
+    if codec_padded(camera.size, image_size):
+        log.note(f"{said}: the codec's padding to a multiple of {CODEC_BLOCK}, the same pixels")
+        return
     if relative > SIZE_TOLERANCE:
         raise InputError(f"{source}: calibration mismatch: {said}")
     log.warning(f"{said}; pixels used as they are (the principal point is what matters)")

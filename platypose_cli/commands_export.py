@@ -85,7 +85,8 @@ def export_command(
     formats: str = typer.Option(
         "csv,bvh,rrd",
         "--formats",
-        help="Comma-separated: npz, csv, bvh, trc, c3d, angles, mot (OpenSim IK), report, rrd (docs/outputs.md).",
+        help="Comma-separated: npz, csv, csv-long (every hypothesis), bvh, trc, c3d, angles, mot (OpenSim IK), "
+        "report, rrd (docs/outputs.md).",
     ),
     out: Path | None = typer.Option(None, "--out", help="Output folder (default: the npz's folder)."),
     name: str | None = typer.Option(None, "--name", help="Base name of the files (default: the npz's name)."),

@@ -8,12 +8,28 @@ from typing import TYPE_CHECKING
 import typer
 
 from platypose.cli.app import app
+from platypose.cli.brief_help import brief_help, help_all_option
 from platypose.cli.detection import DetectOptions
 from platypose.cli.options import as_json, field_option, settings_options
 from platypose.lifting.settings import TakeSettings
 
 if TYPE_CHECKING:
     from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
+
+# what ``lift --help`` shows; ``--help-all`` shows every option (docs/lift.md's table lists them all)
+LIFT_SHOWN = (
+    "inputs",
+    "cams",
+    "keypoints",
+    "out",
+    "formats",
+    "persons",
+    "samples",
+    "threads",
+    "jobs",
+    "resume",
+    "quiet",
+)
 
 
 def lift_settings(
@@ -96,7 +112,7 @@ def finish(entries: list[dict], out: Path) -> None:
         raise typer.Exit(2 if all(e.get("error_kind") == "input" for e in failed) else 1)
 
 
-@app.command("lift")
+@app.command("lift", cls=brief_help(LIFT_SHOWN))
 @settings_options("prior")
 @settings_options("sampler")
 @settings_options("windows")
@@ -131,7 +147,8 @@ def lift(
     formats: str = typer.Option(
         "npz,csv,bvh,rrd",
         "--formats",
-        help="Comma-separated: npz, csv, bvh, trc, c3d, angles, mot (OpenSim IK), report, rrd (docs/outputs.md).",
+        help="Comma-separated: npz, csv, csv-long (every hypothesis), bvh, trc, c3d, angles, mot (OpenSim IK), "
+        "report, rrd (docs/outputs.md).",
         rich_help_panel="Output",
     ),
     persons: str = field_option(TakeSettings, "persons", "People"),
@@ -185,12 +202,13 @@ def lift(
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars.", rich_help_panel="Output"),
     floor: str = field_option(TakeSettings, "floor", "People"),
+    help_all: bool = help_all_option(),
     prior: PriorSettings = None,
     sampler: SamplerConfig = None,
     windows: WindowSettings = None,
 ) -> None:
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
-    arguments = {k: as_json(v) for k, v in locals().items()}
+    arguments = {k: as_json(v) for k, v in locals().items() if k != "help_all"}
     from platypose.cli.console import say_over_bar
     from platypose.cli.lift_batch import run_batch
     from platypose.cli.lift_jobs import check_views_match, discover_jobs, expand_inputs, keypoints_job

@@ -3,6 +3,9 @@ files written and the command that opens the recording."""
 
 from __future__ import annotations
 
+import os
+import shlex
+import shutil
 import sys
 from pathlib import Path
 
@@ -18,9 +21,22 @@ def say_over_bar(message: str) -> None:
     typer.echo(prefix + message, err=True)
 
 
+def viewer_command(recording: Path) -> str:
+    """The shell command that opens ``recording`` in the rerun viewer from any shell: this interpreter's absolute
+    path with ``-m rerun`` (the ``rerun`` script is on PATH only in an activated venv) and the file's absolute path."""
+    return shlex.join([sys.executable, "-m", "rerun", os.path.abspath(recording)])
+
+
+FFMPEG_NOTE = (
+    "  the viewer plays the videos with FFmpeg, not found on PATH here: install it (ffmpeg.org) to see them; "
+    "the 3D and keypoints show without it"
+)
+
+
 def written_lines(entries: list[dict]) -> list[str]:
-    """Per input lifted: its folder and the files written into it, and ``rerun <recording>`` to look at it; with
-    more than ``LISTED_INPUTS`` inputs, their folders only."""
+    """Per input lifted: its folder and the files written into it, and the command that opens its recording (with a
+    note where FFmpeg, which the viewer needs for the videos, is not on PATH); with more than ``LISTED_INPUTS``
+    inputs, their folders only."""
     lifted = [e for e in entries if e["status"] in ("ok", "skipped") and e["outputs"]]
     lines = []
     for entry in lifted:
@@ -29,5 +45,7 @@ def written_lines(entries: list[dict]) -> list[str]:
             lines.append(f"{entry['name']}: {len(paths)} files in {paths[0].parent}/")
             continue
         lines.append(f"{entry['name']}: wrote {', '.join(p.name for p in paths)} in {paths[0].parent}/")
-        lines += [f"  look at it: rerun {p}" for p in paths if p.suffix == ".rrd"]
+        lines += [f"  look at it: {viewer_command(p)}" for p in paths if p.suffix == ".rrd"]
+    if any(line.startswith("  look at it: ") for line in lines) and shutil.which("ffmpeg") is None:
+        lines.append(FFMPEG_NOTE)
     return lines

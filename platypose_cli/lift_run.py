@@ -204,9 +204,8 @@ def remove_stale_staging(out: Path, name: str, owners_gone: bool = False) -> lis
 def output_patterns(name: str) -> list[str]:
     """Glob patterns of every file a lift of job ``name`` may write into its folder."""
     stem = glob.escape(name)
-    fixed = [
-        f"{stem}{end}" for end in (".npz", ".csv", "_summary.csv", ".rrd", "_gaps.json", "_angles.csv", "_report.png")
-    ]
+    ends = (".npz", ".csv", "_hypotheses.csv", ".rrd", "_gaps.json", "_angles.csv", "_report.png")
+    fixed = [f"{stem}{end}" for end in (*ends, "_summary.csv")]  # _summary.csv: an older lift's, removed as stale
     return fixed + [f"{stem}_p*.{ext}" for ext in ("bvh", "trc", "c3d", "mot", "osim")]
 
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from platypose.lifting.camera import Camera
+from platypose.lifting.camera import CODEC_BLOCK, Camera, codec_padded
 
 
 def viewing_direction(camera: Camera) -> np.ndarray:
@@ -29,11 +29,14 @@ def describe_camera(camera: Camera) -> str:
 
 
 def size_mismatch(camera: Camera, video_size: tuple[int, int], video_name: str) -> str | None:
-    """A warning when the video's (height, width) differs from the calibrated size, else None."""
+    """A warning when the video's (height, width) differs from the calibrated size, a note when only by the codec's
+    padding to a multiple of 16 (:func:`lifting.camera.codec_padded`: the same pixels), else None."""
     if tuple(video_size) == camera.size:
         return None
     h, w = video_size
-    return (
-        f"warning: camera {camera.name} is calibrated for {camera.width}x{camera.height} px "
-        f"but {video_name} is {w}x{h} px"
-    )
+    said = f"camera {camera.name} is calibrated for {camera.width}x{camera.height} px"
+    if codec_padded(camera.size, video_size):
+        return (
+            f"{said}, {video_name} is {w}x{h} px: the codec's padding to a multiple of {CODEC_BLOCK}, the same pixels"
+        )
+    return f"warning: {said} but {video_name} is {w}x{h} px"

@@ -38,7 +38,7 @@ def test_help_imports_no_torch_numpy_or_cv2(command):
 
 
 def test_help_shows_switches_without_a_type_and_options_in_panels(run_cli):
-    code, out, _ = run_cli("lift", "--help")
+    code, out, _ = run_cli("lift", "--help-all")
     assert code == 0 and "<bool>" not in out
     for panel in ("Input", "Output", "People", "Sampler", "Ray", "Experimental"):
         assert f"─ {panel} " in out, panel
@@ -47,7 +47,7 @@ def test_help_shows_switches_without_a_type_and_options_in_panels(run_cli):
 
 def test_lift_eval_and_bench_spell_the_shared_options_alike(run_cli):
     for command in ("lift", "eval", "bench"):
-        code, out, _ = run_cli(command, "--help")
+        code, out, _ = run_cli(command, "--help-all" if command == "lift" else "--help")
         assert code == 0
         for flag in ("--guidance-iters", "--seed", "--prior", "--device", "--runtime", "--robust"):
             assert flag in out, (command, flag)
@@ -93,3 +93,25 @@ def test_lift_md_tables_every_option_of_lift():
     flags = [o.split("/")[0] for p in lift.params for o in p.opts if o.startswith("--")]
     assert len(flags) > 40 and [f for f in flags if f"`{f}" not in table] == []
     assert doc.index("## Quick start") < doc.index("## Options") < doc.index("## What is one input")
+
+
+def test_lift_help_fits_one_screen_with_the_common_options_and_help_all_shows_every_one():
+    """At 80 columns ``lift --help`` is at most 60 lines: the options most people use, then where the rest are;
+    ``--help-all`` shows every option of the command (and they all still work: a hidden one is only not shown)."""
+    import os
+    import re
+
+    from platypose.cli.commands_lift import LIFT_SHOWN
+
+    env = {**os.environ, "COLUMNS": "80", "TERM": "dumb"}
+    run = [sys.executable, "-m", "platypose", "lift"]
+    short = subprocess.run([*run, "--help"], capture_output=True, text=True, timeout=120, env=env).stdout
+    full = subprocess.run([*run, "--help-all"], capture_output=True, text=True, timeout=120, env=env).stdout
+    assert 20 < len(short.splitlines()) <= 60, len(short.splitlines())
+    assert max(len(line) for line in short.splitlines()) <= 80
+    for flag in ("--cams", "--keypoints", "--out", "--formats", "--persons", "--samples", "--threads", "--help-all"):
+        assert flag in short, flag
+    assert "--temperature" not in short and "--executor" not in short and "--help-all." in short
+    assert len(LIFT_SHOWN) == 11 and len(full.splitlines()) > 150
+    listed = set(re.findall(r"(--[a-z][a-z0-9-]*)", full))
+    assert {"--temperature", "--executor", "--ray-address", "--floor", "--sync", "--seed", "--prior"} <= listed

@@ -22,7 +22,7 @@ def test_export_writes_every_format_and_fit_error_in_meta(result, tmp_path):
     written = export(result, tmp_path, "clip", ["npz", "csv", "bvh"], bvh="all")
     names = sorted(p.name for p in written)
     assert names == sorted(
-        ["clip.npz", "clip.csv", "clip_summary.csv", "clip_gaps.json", "clip_p0.bvh", "clip_p7.bvh"]
+        ["clip.npz", "clip.csv", "clip_gaps.json", "clip_p0.bvh", "clip_p7.bvh"]
         + [f"clip_p{t}_h{n:03d}.bvh" for t in (0, 7) for n in range(6)]
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == names  # no temporary files left
@@ -65,11 +65,10 @@ def test_info_and_export_commands(result, data_dir, tmp_path, run_cli):
         "clip.csv",
         "clip.rrd",
         "clip_gaps.json",
-        "clip_summary.csv",
     ]
-    with open(tmp_path / "re" / "clip_summary.csv", newline="") as f:
+    with open(tmp_path / "re" / "clip.csv", newline="") as f:
         first = next(csv.DictReader(f))
-    assert np.float32(first["median_x_m"]) == result.median[0, 0, 0, 0]
+    assert float(first["pelvis_x_m"]) == round(float(result.median[0, 0, 0, 0]), 3)
 
 
 def test_commands_report_bad_input_with_exit_code_2(result, tmp_path, run_cli):

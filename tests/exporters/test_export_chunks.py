@@ -13,7 +13,7 @@ from platypose.exporters.frames import FrameArray, Lead
 from platypose.exporters.npz import read_npz
 from platypose.exporters.result import LiftResult
 
-FORMATS = ["npz", "csv", "bvh", "rrd"]
+FORMATS = ["npz", "csv", "csv-long", "bvh", "rrd"]
 
 
 def on_disk(result: LiftResult, folder) -> LiftResult:

@@ -1,4 +1,4 @@
-"""npz and CSV exports, read back with np.load and the csv module, on real climbing motion."""
+"""npz and CSV exports, read back with np.load, the csv module and pandas, on real climbing motion."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from export_helpers import two_person_result
 
-from platypose.exporters.csv_export import write_long_csv, write_summary_csv
+from platypose.exporters.csv_export import PEOPLE_COLUMNS, write_long_csv, write_people_csv
+from platypose.exporters.export import export
 from platypose.exporters.npz import read_npz, write_npz
 from platypose.exporters.result import LiftResult
 from platypose.lifting.errors import InputError
@@ -103,24 +104,45 @@ def test_long_csv_holds_the_npz_numbers(result, tmp_path):
     assert all(np.array_equal(np.float32([float(v) for v in r[5:8]]), result.hypotheses[1, 2, 5, 10]) for r in held)
 
 
-def test_summary_csv_has_median_and_quantiles(result, tmp_path):
-    path = write_summary_csv(result, tmp_path / "clip_summary.csv")
+def test_people_csv_has_each_joints_answer_and_spread_per_frame(result, tmp_path):
+    path = write_people_csv(result, tmp_path / "clip.csv")
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == 2 * 30 * 17
-    assert list(rows[0]) == ["person", "frame", "time_s", "joint"] + [
-        f"{s}_{a}_m" for s in ("median", "q05", "q95") for a in "xyz"
-    ] + ["filled"]
+    assert len(rows) == 2 * 30  # one row per person and frame
+    assert list(rows[0])[:8] == ["person", "frame", "time_s", "filled", "pelvis_x_m", "pelvis_y_m", "pelvis_z_m"] + [
+        "pelvis_r90_m"
+    ]
+    assert list(rows[0]) == list(PEOPLE_COLUMNS) and len(PEOPLE_COLUMNS) == 4 + 17 * 4
     present = result.present()
-    for row in rows[::53]:
-        p, t, j = {0: 0, 7: 1}[int(row["person"])], int(row["frame"]), JOINT_NAMES.index(row["joint"])
-        assert row["filled"] == str(int(not present[p, t]))
+    for row in rows[::7]:
+        p, t = {0: 0, 7: 1}[int(row["person"])], int(row["frame"])
+        assert row["filled"] == str(int(not present[p, t])) and float(row["time_s"]) == round(result.frame_times[t], 6)
         t = max(t, 5) if p == 1 else t  # person 7's frames 0-4 hold frame 5
-        hyp = result.hypotheses[p, :, t, j]
-        assert np.float32(row["median_y_m"]) == result.median[p, t, j, 1]
-        assert float(row["q05_x_m"]) == pytest.approx(np.quantile(hyp[:, 0], 0.05), abs=1e-6)
-        assert float(row["q95_z_m"]) == pytest.approx(np.quantile(hyp[:, 2], 0.95), abs=1e-6)
-        assert float(row["q05_z_m"]) <= float(row["median_z_m"]) <= float(row["q95_z_m"])
+        for j, joint in enumerate(JOINT_NAMES):
+            answer = np.array([float(row[f"{joint}_{a}_m"]) for a in "xyz"])
+            np.testing.assert_allclose(answer, result.median[p, t, j], atol=5e-4 + 1e-9)  # millimetres
+            distances = np.linalg.norm(result.hypotheses[p, :, t, j] - result.median[p, t, j], axis=-1)
+            assert float(row[f"{joint}_r90_m"]) == pytest.approx(np.quantile(distances, 0.9), abs=5e-4 + 1e-9)
+    assert all(len(value.split(".")[-1]) <= 3 for row in rows for k, value in row.items() if k.endswith("_m"))
+
+
+def test_pandas_reads_the_people_csv_in_one_call_and_the_long_form_is_on_request(result, tmp_path):
+    import pandas  # the test extra's; the question is what a pandas user gets from one call
+
+    written = export(result, tmp_path, "clip", ["csv"])
+    assert sorted(p.name for p in written) == ["clip.csv", "clip_gaps.json"]  # no file of every hypothesis
+    table = pandas.read_csv(tmp_path / "clip.csv")
+    assert table.shape == (60, 72) and table["person"].tolist() == [0] * 30 + [7] * 30
+    assert all(str(table[c].dtype) == "float64" for c in PEOPLE_COLUMNS[4:])
+    ankle = table.loc[table.person == 7, "left_ankle_z_m"].to_numpy()
+    np.testing.assert_allclose(ankle[5:], result.median[1, 5:, 6, 2], atol=5e-4 + 1e-9)
+    written = export(result, tmp_path / "long", "clip", ["csv-long"])
+    assert sorted(p.name for p in written) == ["clip_gaps.json", "clip_hypotheses.csv"]
+    assert (tmp_path / "long" / "clip_hypotheses.csv").read_bytes() == write_long_csv(
+        result, tmp_path / "direct.csv"
+    ).read_bytes()
+    long = pandas.read_csv(tmp_path / "long" / "clip_hypotheses.csv")
+    assert long.shape == (2 * 6 * 30 * 17, 9) and long["hypothesis"].max() == 5
 
 
 def test_cameras_are_the_native_calibration_json(result, tmp_path):

@@ -232,7 +232,7 @@ def test_staging_folder_of_a_long_job_name(tmp_path):
     name = "x" * 240
     with staging_folder(tmp_path / name, name) as staging:
         assert staging.is_dir() and len(staging.name) < 100
-        (staging / f"{name}_summary.csv").write_text("ok")  # the longest output name fits beside it
+        (staging / f"{name}_hypotheses.csv").write_text("ok")  # the longest output name fits beside it
     stale = tmp_path / f".{name[:64]}.999999999.abc.partial"
     stale.mkdir()
     assert remove_stale_staging(tmp_path, name) == [stale.name]
