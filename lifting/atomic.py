@@ -71,8 +71,9 @@ def atomic_open(target: Path | str, mode: str = "wb", **open_args: Any) -> Itera
 
 
 def write_text_atomic(target: Path | str, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``target`` atomically and return the path."""
-    with atomic_open(target, "w", encoding="utf-8") as stream:
+    """Write ``text`` (UTF-8; undecodable bytes of file names, kept as surrogates, as ``\\udcff``) to ``target``
+    atomically and return the path."""
+    with atomic_open(target, "w", encoding="utf-8", errors="backslashreplace") as stream:
         stream.write(text)
     return Path(target)
 
