@@ -19,8 +19,8 @@ def say_over_bar(message: str) -> None:
 
 
 def written_lines(entries: list[dict]) -> list[str]:
-    """Per input lifted: its folder and the files written into it, and ``rerun <recording>`` to look at it; with
-    more than ``LISTED_INPUTS`` inputs, their folders only."""
+    """Per input lifted (or skipped by ``--resume``: its files kept, not written): its folder and the files in it,
+    and ``rerun <recording>`` to look at it; with more than ``LISTED_INPUTS`` inputs, their folders only."""
     lifted = [e for e in entries if e["status"] in ("ok", "skipped") and e["outputs"]]
     lines = []
     for entry in lifted:
@@ -28,6 +28,7 @@ def written_lines(entries: list[dict]) -> list[str]:
         if len(lifted) > LISTED_INPUTS:
             lines.append(f"{entry['name']}: {len(paths)} files in {paths[0].parent}/")
             continue
-        lines.append(f"{entry['name']}: wrote {', '.join(p.name for p in paths)} in {paths[0].parent}/")
+        done = "wrote" if entry["status"] == "ok" else "kept, unchanged since an earlier run:"
+        lines.append(f"{entry['name']}: {done} {', '.join(p.name for p in paths)} in {paths[0].parent}/")
         lines += [f"  look at it: rerun {p}" for p in paths if p.suffix == ".rrd"]
     return lines

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import typer
 
+from platypose.cli.bookkeeping import read_record, valid_summary
 from platypose.cli.console import say_over_bar
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import (
@@ -37,6 +38,7 @@ from platypose.cli.lift_run import (
     remove_stale_staging,
     run_job,
 )
+from platypose.cli.locks import exclusive_lock
 from platypose.cli.threads import threads_for
 from platypose.lifting.flags import person_lines
 
@@ -71,30 +73,12 @@ def terminate_as_interrupt() -> Iterator[None]:
 SUMMARY_LOCK = ".summary.lock"  # in OUT, beside summary.json
 
 
-@contextmanager
-def _summary_lock(out: Path) -> Iterator[None]:
-    """An exclusive lock on ``OUT/.summary.lock`` (POSIX; elsewhere no lock)."""
-    try:
-        import fcntl
-    except ImportError:
-        yield
-        return
-    with open(out / SUMMARY_LOCK, "a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
 def _other_entries(out: Path, mine: list[dict]) -> list[dict]:
-    """Entries of ``OUT/summary.json`` (another run's) for inputs this run does not have."""
-    try:
-        earlier = json.loads((out / SUMMARY).read_text(encoding="utf-8"))["inputs"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return []
+    """Entries of ``OUT/summary.json`` (another run's) for inputs this run does not have (a damaged summary is moved
+    aside with a warning)."""
+    earlier = read_record(out / SUMMARY, valid_summary)
     names = {e["name"] for e in mine}
-    return [e for e in earlier if isinstance(e, dict) and e.get("name") not in names]
+    return [e for e in (earlier or {}).get("inputs", []) if e["name"] not in names]
 
 
 def limit_threads(threads: int) -> None:
@@ -110,7 +94,7 @@ def write_summary(out: Path, entries: list[dict], started: str, arguments: dict)
     run's in job order; counts per status; this run's arguments."""
     from platypose.lifting.atomic import write_text_atomic
 
-    with _summary_lock(out):
+    with exclusive_lock(out / SUMMARY_LOCK):  # POSIX; elsewhere no lock
         inputs = _other_entries(out, entries) + entries
         counts = {s: sum(e["status"] == s for e in inputs) for s in ("ok", "failed", "skipped")}
         summary = {

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 import unicodedata
+from collections.abc import Callable, Sequence
 
 RESERVED = frozenset({"summary.json", "summary"})  # the batch's own files in OUT
 MAX_BYTES = 120  # leaves room for suffixes such as ``_p12_h099.bvh`` and staging prefixes within 255 bytes
@@ -45,3 +46,24 @@ def printable(text: str) -> str:
 def _shown(text: str, mark: str) -> str:
     """``text`` with each character of a hidden category replaced by ``mark``."""
     return "".join(mark if unicodedata.category(c) in _HIDDEN else c for c in text)
+
+
+def distinct_names(wanted: Sequence[str], usable: Callable[[int, str], bool] = lambda i, name: True) -> list[str]:
+    """One name per wanted name, no two alike (ignoring case): the first of a wanted name keeps it if
+    ``usable(index, name)``; the others get ``NAME-k``, with the smallest k whose name no one wants and is usable."""
+    names: list[str | None] = [None] * len(wanted)
+    taken: set[str] = set()
+    for i, name in enumerate(wanted):
+        if name.casefold() not in taken and usable(i, name):
+            names[i] = name
+            taken.add(name.casefold())
+    reserved = taken | {name.casefold() for name in wanted}
+    for i, name in enumerate(wanted):
+        k = 2
+        while names[i] is None:
+            candidate = f"{name}-{k}"
+            if candidate.casefold() not in reserved and usable(i, candidate):
+                names[i] = candidate
+                reserved.add(candidate.casefold())
+            k += 1
+    return names
