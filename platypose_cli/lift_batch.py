@@ -18,8 +18,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -27,6 +26,7 @@ import typer
 
 from platypose.cli.bookkeeping import read_record, valid_summary
 from platypose.cli.console import say_over_bar
+from platypose.cli.interrupts import end_with_parent, terminate_as_interrupt
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import (
     MANIFEST,
@@ -45,29 +45,13 @@ from platypose.lifting.flags import person_lines
 SUMMARY = "summary.json"
 
 
-def _raise_interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt(f"signal {signum}")
-
-
 def worker_init(threads: int) -> None:
-    """A worker process: threads capped; Ctrl-C is left to the parent, SIGTERM unwinds (staging folders removed)."""
+    """A worker process: threads capped; Ctrl-C is left to the parent, SIGTERM unwinds (staging folders removed), and
+    the worker ends when the parent is gone (even killed with SIGKILL)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    end_with_parent()
     limit_threads(threads)
-
-
-@contextmanager
-def terminate_as_interrupt() -> Iterator[None]:
-    """SIGTERM is handled like Ctrl-C while the batch runs (so every staging folder is removed on the way out)."""
-    try:
-        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
-    except ValueError:  # not the main thread: leave signals alone
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 SUMMARY_LOCK = ".summary.lock"  # in OUT, beside summary.json

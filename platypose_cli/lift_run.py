@@ -43,7 +43,7 @@ from platypose.cli.locks import exclusive_lock
 from platypose.cli.options import as_json, cli_message
 from platypose.cli.output_names import FAILURE, MANIFEST, job_sources
 from platypose.cli.output_set import changed_files, digests
-from platypose.lifting.atomic import write_text_atomic
+from platypose.lifting.atomic import existing_kind, write_text_atomic
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings import PriorSettings, TakeSettings
 from platypose.pipeline import JobLog
@@ -228,6 +228,8 @@ def export_atomically(result, videos, staging: Path, folder: Path, name: str, fo
     written = export(result, staging, name, formats, videos, say=log)
     (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here: see output_set
     final = []
+    for path in written:
+        existing_kind(folder / path.name, streams=False)  # InputError for a link or device in its place: not replaced
     for path in written:
         os.replace(path, folder / path.name)
         final.append(folder / path.name)
