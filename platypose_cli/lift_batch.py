@@ -45,12 +45,12 @@ from platypose.lifting.flags import person_lines
 SUMMARY = "summary.json"
 
 
-def worker_init(threads: int) -> None:
+def worker_init(threads: int, parent: int) -> None:
     """A worker process: threads capped; Ctrl-C is left to the parent, SIGTERM unwinds (staging folders removed), and
     the worker ends when the parent is gone (even killed with SIGKILL)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
-    end_with_parent()
+    end_with_parent(parent)
     limit_threads(threads)
 
 
@@ -190,7 +190,7 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
         record(index, entry)
         bar.update(1)
 
-    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=worker_init, initargs=(threads,))
+    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=worker_init, initargs=(threads, os.getpid()))
     futures = {pool.submit(run_job, jobs[i], worker_settings): i for i in todo}
     try:
         for future in as_completed(futures):
