@@ -44,13 +44,18 @@ def lift_settings(
     )
     resolve_device(prior.device)
     check_writable(out, folder=True)
+    chosen = parse_formats(formats)
+    if "mot" in chosen:
+        from platypose.exporters.mot import load_opensim
+
+        load_opensim()  # InputError without the opensim package: before anything is detected, not per input
     return RunSettings(
         out=out,
         cams=cams,
         prior=prior,
         detect=detect,
         take=take,
-        formats=parse_formats(formats),
+        formats=chosen,
         quiet=quiet,
         arguments=arguments,
     )
