@@ -101,14 +101,14 @@ def finish(entries: list[dict], out: Path) -> None:
         raise typer.Exit(2 if all(e.get("error_kind") == "input" for e in failed) else 1)
 
 
-def _own_folders(jobs: list, out: Path, quiet: bool) -> list:
-    """``jobs`` renamed where ``out`` holds another input's folder of their name (a line says so)."""
+def _own_folders(jobs: list, out: Path) -> list:
+    """``jobs`` renamed where ``out`` holds another input's folder of their name (a line says so, even with -q)."""
     from platypose.cli.output_names import claim_folders
     from platypose.cli.safe_names import printable
 
     placed = claim_folders(jobs, out)
     for job, moved in zip(jobs, placed):
-        if moved.name != job.name and not quiet:
+        if moved.name != job.name:
             say = f"{job.input}: {out / job.name}/ holds another input's results; writing {out / moved.name}/"
             typer.echo(printable(say), err=True)
     return placed
@@ -231,7 +231,7 @@ def lift(
         job_list = discover_jobs(paths, camera_names)
     if cams is not None:
         check_views_match(job_list, camera_names, cams)
-    job_list = _own_folders(job_list, out, quiet)
+    job_list = _own_folders(job_list, out)
     detect = DetectOptions(
         detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps, image_size=image_size
     )
