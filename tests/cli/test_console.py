@@ -15,3 +15,9 @@ def test_lift_lists_the_files_it_wrote_and_the_command_to_open_the_recording(tmp
     ]
     many = [{**ok, "name": f"t{i}"} for i in range(LISTED_INPUTS + 1)]
     assert written_lines(many)[0] == f"t0: 2 files in {folder}/" and len(written_lines(many)) == LISTED_INPUTS + 1
+
+
+def test_resume_does_not_say_it_wrote_the_files_of_inputs_it_skipped(tmp_path):
+    folder = tmp_path / "take"
+    skipped = {"name": "take", "status": "skipped", "outputs": [str(folder / "take.npz")]}
+    assert written_lines([skipped]) == [f"take: kept, unchanged since an earlier run: take.npz in {folder}/"]
