@@ -78,8 +78,9 @@ def test_a_second_writer_of_one_folder_refuses_and_writes_nothing(tmp_path) -> N
         fcntl.flock(held, fcntl.LOCK_EX)  # another run writes OUT/a/ now
         entry = run_job(job, RunSettings(out=out))
     assert entry["status"] == "failed" and entry["error_kind"] == "input"
-    assert f"another platypose run is writing {folder}/ now; wait for it to end, or lift into another --out" in (
-        entry["error"]
+    assert (
+        f"another platypose run is writing {folder}/ now; wait for it to end, or lift into another --out"
+        in (entry["error"])
     )
     assert sorted(p.name for p in folder.iterdir()) == [".lift.lock"]  # no failed.json, no log of its own
     entry = run_job(job, RunSettings(out=out))  # free again: the run goes on (and fails on the missing video)
@@ -104,7 +105,11 @@ def test_a_fifo_as_the_summary_lock_or_the_calibration_is_refused_at_once(tmp_pa
     cams = tmp_path / "calib.toml"
     os.mkfifo(cams)
     writer = subprocess.Popen(  # an endless writer: the old reader took 1.9 GB, then MemoryError
-        [sys.executable, "-c", f"import sys\nwith open({str(cams)!r}, 'wb') as f:\n  while True: f.write(b'#' * 65536)"],
+        [
+            sys.executable,
+            "-c",
+            f"import sys\nwith open({str(cams)!r}, 'wb') as f:\n  while True: f.write(b'#' * 65536)",
+        ],
         stderr=subprocess.DEVNULL,
     )
     try:
