@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 import pytest
-from audit_support import CALIB, KEYPOINT_TIMING, FAST, minimal_json, platypose
+from audit_support import CALIB, FAST, KEYPOINT_TIMING, minimal_json, platypose
 
 from platypose.cli.lift_jobs import Job, View, discover_jobs
 
