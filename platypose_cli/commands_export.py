@@ -121,10 +121,15 @@ def export_command(
         with terminate_as_interrupt():  # SIGTERM unwinds like Ctrl-C: no temporary file is left behind
             written = export(result, out or path.parent, base, formats, videos, bvh, rrd_video, say)
     except KeyboardInterrupt:
-        typer.echo(
-            "interrupted; no file was left half-written (those finished before are new, the rest as they were)",
-            err=True,
-        )
-        raise typer.Exit(130) from None
+        import os
+        import sys
+
+        message = "interrupted; no file was left half-written (those finished before are new, the rest as they were)"
+        typer.echo(message, err=True)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        # Every temporary file is gone by now; a native library stopped mid-task (OpenSim) can crash the
+        # interpreter's teardown afterwards, so the process ends here.
+        os._exit(130)
     for file in written:
         typer.echo(str(file))
