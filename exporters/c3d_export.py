@@ -37,7 +37,7 @@ def write_c3d(joints: np.ndarray, present: np.ndarray, fps: float, path: Path | 
     c3d["data"]["points"] = points
     residuals = np.broadcast_to(np.where(present, 1.0, 0.0)[None, None], (1, len(MARKER_NAMES), T))
     c3d["data"]["meta_points"]["residuals"] = np.ascontiguousarray(residuals)
-    with atomic_path(path) as tmp:
+    with atomic_path(path, streams=False) as tmp:  # ezc3d's own file is renamed onto tmp: never a device
         named = tmp.with_name(tmp.name + ".c3d")  # ezc3d appends .c3d to a name that lacks it
         try:
             c3d.write(str(named))

@@ -149,6 +149,11 @@ def export(
 
         frames = good_frames(result)
         who = (frames, thumbnails(result, {k: Path(v) for k, v in (video_paths or {}).items()}, frames))
+        unseen = sorted({result.cameras[f.camera].name for p, f in frames.items() if p not in who[1]})
+        if unseen:
+            say(
+                f"{name}: no person thumbnails from camera(s) {', '.join(unseen)}: no video of them (--video CAMERA=PATH)"
+            )
     if "angles" in formats or "report" in formats:
         from platypose.exporters.angles import angle_series, write_angles_csv
 

@@ -6,13 +6,21 @@ is written as a TRC in a temporary folder, the generic model
 run over the whole clip; ``<name>_p<k>.mot`` (the model's coordinates in degrees and
 metres, OpenSim's storage format) and the scaled model ``<name>_p<k>.osim`` are moved
 into the output folder. Needs the ``opensim`` package (``pip install 'platypose[opensim]'``).
+
+OpenSim prints each model's summary on standard output itself (C++, past its logger): that output is sent to
+``/dev/null`` while it works, so ``export`` prints only the files written and ``-q`` is quiet. When OpenSim fails on
+a full temporary disk (it reports only "SimTK Exception ... Xml.cpp"), the error is that disk's, in one line.
 """
 
 from __future__ import annotations
 
+import errno
+import os
 import shutil
+import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,6 +36,7 @@ from platypose.exporters.trc import write_trc
 from platypose.lifting.atomic import atomic_path
 from platypose.lifting.errors import InputError
 
+FULL_BYTES = 4 * 2**20  # free space under which a failure of OpenSim's file writes counts as a full disk
 MISSING = "formats: mot needs the opensim package; install it with pip install 'platypose[opensim]'"
 
 
@@ -40,6 +49,36 @@ def load_opensim() -> Any:
     opensim.Logger.setLevelString("error")
     opensim.Logger.removeFileSink()
     return opensim
+
+
+@contextmanager
+def native_stdout_quiet() -> Iterator[None]:
+    """Standard output (file descriptor 1, which OpenSim's C++ code writes to) goes to /dev/null in the block."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    quiet = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(quiet, 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(quiet)
+
+
+@contextmanager
+def full_disk_as_os_error(work: Path) -> Iterator[None]:
+    """OpenSim's failure to write in ``work`` (a RuntimeError) raised as OSError ENOSPC when that disk is full."""
+    try:
+        yield
+    except (RuntimeError, OSError) as err:
+        try:
+            full = shutil.disk_usage(work).free < FULL_BYTES
+        except OSError:
+            full = False
+        if full:
+            raise OSError(errno.ENOSPC, "no space left for OpenSim's temporary files (set TMPDIR)", str(work)) from err
+        raise
 
 
 @dataclass(frozen=True)
@@ -111,7 +150,8 @@ def write_mots(
         filled = fill_frames(joints, fill_plan(present[p], result.frame_times), slice(None))
         with tempfile.TemporaryDirectory(prefix="platypose-opensim-") as folder:
             work = Path(folder)
-            fit = person_mot(osim, filled, np.asarray(result.frame_times), result.fps, work)
+            with full_disk_as_os_error(work), native_stdout_quiet():
+                fit = person_mot(osim, filled, np.asarray(result.frame_times), result.fps, work)
             for suffix, produced in ((".mot", "ik.mot"), (".osim", "scaled.osim")):
                 target = out_dir / f"{name}_p{track}{suffix}"
                 with atomic_path(target) as tmp:

@@ -1,7 +1,9 @@
 """Who is who: each person's image box and a thumbnail from a good frame, for the report and the recording.
 
 A good frame of a person is one where a camera sees most of their joints (at least ``GOOD_JOINTS`` of 17, else the
-most seen) and, among those, their box is tallest (nearest, least hidden). The box is that of the confident joints,
+most seen), where no other person covers more than ``MAX_SHARED`` of their box (when there is such a frame: two
+people overlapping would otherwise get the same picture) and, among those, their box is tallest (nearest, least
+hidden). The box is that of the confident joints,
 widened by ``BOX_MARGIN`` of its size on every side and twice that above (a head and feet reach past their
 keypoints). The thumbnail is
 that box cut from the camera's video frame, scaled to ``THUMBNAIL_HEIGHT`` pixels high.
@@ -17,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 GOOD_JOINTS = 15
+MAX_SHARED = 0.2  # share of a person's box that another person's box may cover in their good frame
 BOX_MARGIN = 0.1
 THUMBNAIL_HEIGHT = 160
 
@@ -39,19 +42,45 @@ class GoodFrame:
         }
 
 
-def good_frame(keypoints2d: np.ndarray, image_sizes: list[tuple[int, int]]) -> GoodFrame | None:
-    """The good frame of one person's keypoints ``(C, T, 17, 3)`` (x, y, confidence) seen by cameras of
-    ``image_sizes`` (height, width); None when no camera sees 4 of their joints."""
-    seen = np.nan_to_num(keypoints2d[..., 2]) > 0  # (C, T, 17)
-    count = seen.sum(axis=-1)
-    if count.max(initial=0) < 4:
-        return None
+def joint_boxes(keypoints2d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Corners ``low``, ``high`` ``(..., 2)`` of the boxes of the seen joints of keypoints ``(..., 17, 3)``; NaN where
+    no joint is seen."""
+    seen = np.nan_to_num(keypoints2d[..., 2]) > 0
     xy = np.where(seen[..., None], keypoints2d[..., :2], np.nan)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN frames: no joint seen
-        low, high = np.nanmin(xy, axis=2), np.nanmax(xy, axis=2)  # (C, T, 2)
+        return np.nanmin(xy, axis=-2), np.nanmax(xy, axis=-2)
+
+
+def shared(keypoints2d: np.ndarray) -> np.ndarray:
+    """Per person, camera and frame ``(P, C, T)``: the largest share of the person's box that another person's box
+    covers there, from keypoints ``(C, T, P, 17, 3)`` (0 where the person or everyone else is unseen)."""
+    low, high = joint_boxes(np.moveaxis(np.asarray(keypoints2d), 2, 0))  # (P, C, T, 2)
+    size = np.clip(high - low, 0.0, None)
+    area = size[..., 0] * size[..., 1]
+    most = np.zeros(area.shape)
+    for q in range(len(low)):
+        overlap = np.clip(np.minimum(high, high[q]) - np.maximum(low, low[q]), 0.0, None)
+        share = overlap[..., 0] * overlap[..., 1] / np.where(area > 0, area, np.inf)
+        share[q] = 0.0  # not with oneself
+        most = np.fmax(most, np.nan_to_num(share))
+    return most
+
+
+def good_frame(
+    keypoints2d: np.ndarray, image_sizes: list[tuple[int, int]], covered: np.ndarray | None = None
+) -> GoodFrame | None:
+    """The good frame of one person's keypoints ``(C, T, 17, 3)`` (x, y, confidence) seen by cameras of
+    ``image_sizes`` (height, width), avoiding frames where others cover over ``MAX_SHARED`` of them (``covered``
+    ``(C, T)``, :func:`shared`) when it can; None when no camera sees 4 of their joints."""
+    count = (np.nan_to_num(keypoints2d[..., 2]) > 0).sum(axis=-1)  # (C, T)
+    if count.max(initial=0) < 4:
+        return None
+    low, high = joint_boxes(keypoints2d)  # (C, T, 2)
     tall = np.nan_to_num(high[..., 1] - low[..., 1])
     enough = count >= min(GOOD_JOINTS, int(count.max()))
+    if covered is not None and (enough & (covered <= MAX_SHARED)).any():
+        enough &= covered <= MAX_SHARED
     c, t = np.unravel_index(np.argmax(np.where(enough, tall, -1.0)), tall.shape)
     margin = BOX_MARGIN * (high[c, t] - low[c, t])
     height, width = image_sizes[c]
@@ -63,7 +92,9 @@ def good_frame(keypoints2d: np.ndarray, image_sizes: list[tuple[int, int]]) -> G
 def good_frames(result) -> dict[int, GoodFrame]:
     """Person index -> good frame, for every person of ``result`` (a LiftResult) seen somewhere."""
     sizes = [tuple(c.size) for c in result.cameras]
-    frames = {p: good_frame(np.asarray(result.keypoints2d[:, p]), sizes) for p in range(result.num_persons)}
+    keypoints = np.asarray(result.keypoints2d)
+    covered = shared(keypoints)
+    frames = {p: good_frame(keypoints[:, :, p], sizes, covered[p]) for p in range(result.num_persons)}
     return {p: f for p, f in frames.items() if f is not None}
 
 

@@ -10,7 +10,7 @@ backend (no display needed).
 from __future__ import annotations
 
 from pathlib import Path
-from textwrap import fill
+from textwrap import fill, shorten
 
 import numpy as np
 
@@ -24,6 +24,7 @@ LEG_ANGLES = ("right_hip_flexion", "left_hip_flexion", "right_knee_flexion", "le
 UPPER_ANGLES = ("trunk_flexion", "right_shoulder_elevation", "left_shoulder_elevation", "right_elbow_flexion")
 _COLOURS = ("tab:red", "tab:blue", "tab:orange", "tab:cyan")
 MAX_ROWS = 8  # persons drawn (the longest present first)
+FLAG_CHARS = (64, 256)  # a row's flag text: characters per line, in all (longer is cut with "...")
 
 
 def _camera_centres(result: LiftResult) -> np.ndarray:
@@ -63,10 +64,20 @@ def _draw_who(ax, result: LiftResult, p: int, good, picture) -> None:
     caption = f"person {int(result.track_ids[p])}"
     if good is not None:
         x1, y1, x2, y2 = good.box
-        caption += (
-            f"\n{result.cameras[good.camera].name} frame {good.frame}\nbox {x1:.0f},{y1:.0f}-{x2:.0f},{y2:.0f} px"
-        )
+        camera = result.cameras[good.camera].name
+        caption += f"\n{camera} frame {good.frame}\nbox {x1:.0f},{y1:.0f}-{x2:.0f},{y2:.0f} px"
+        caption += "" if picture is not None else f"\n(no thumbnail: no video of {camera} given)"
     ax.set_title(caption, fontsize=8)
+
+
+def _row_title(ax, title: str, flagged: str) -> None:
+    """A row's first title, with the lift's flags (red, wrapped, cut to ``FLAG_CHARS``) below it in the same text,
+    so the layout makes room for all of it and nothing is drawn over it."""
+    if not flagged:
+        ax.set_title(title, fontsize=10)
+        return
+    lines = fill(shorten(f"flagged: {flagged}", FLAG_CHARS[1], placeholder=" ..."), FLAG_CHARS[0])
+    ax.set_title(f"{title}\n{lines}", fontsize=9, color="tab:red")
 
 
 def _plot_angles(ax, times: np.ndarray, series: np.ndarray, names: tuple[str, ...]) -> None:
@@ -120,10 +131,7 @@ def write_report(
         if shown:
             _draw_who(grid[row, 0], result, p, *(part.get(p) for part in who))
         _plot_angles(axes[row, 0], times, s, LEG_ANGLES)
-        axes[row, 0].set_title(f"person {track}: hips and knees", fontsize=10)
-        flagged = _flag_text(result, p)
-        if flagged:
-            axes[row, 0].set_title(fill(f"flagged: {flagged}", 48), fontsize=8, color="tab:red", loc="left", pad=18)
+        _row_title(axes[row, 0], f"person {track}: hips and knees", _flag_text(result, p))
         _plot_angles(axes[row, 1], times, s, UPPER_ANGLES)
         axes[row, 1].set_title(f"person {track}: trunk, shoulder elevation (ISB), elbow", fontsize=10)
         ax = axes[row, 2]

@@ -1,9 +1,16 @@
-"""Atomic file writes: write a temporary file in the target's folder, then rename it over the target."""
+"""Atomic file writes: write a temporary file in the target's folder, then rename it over the target.
+
+Only a regular file (or a new name) is replaced that way. A character device (``/dev/null``, ``/dev/stdout``) or a
+FIFO with a reader is written through, as a shell redirection would; a symbolic link, a socket, a block device or a
+folder in the target's place is refused (InputError): renaming over them would replace a link that may point
+anywhere, or a device file of the machine (``--json /dev/full`` run as root).
+"""
 
 from __future__ import annotations
 
 import errno
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -11,6 +18,21 @@ from pathlib import Path
 from typing import IO, Any
 
 from platypose.lifting.errors import InputError
+from platypose.lifting.file_reads import file_kind
+
+
+def existing_kind(target: Path | str, streams: bool = True) -> str | None:
+    """What is at ``target``: None (nothing), ``file`` (a regular file, replaced by a rename) or, when ``streams``,
+    ``stream`` (a character device or FIFO, written through); InputError naming ``target`` for anything else."""
+    try:
+        mode = os.lstat(target).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    if stat.S_ISREG(mode):
+        return "file"
+    if streams and (stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)):
+        return "stream"
+    raise InputError(f"{target}: is {file_kind(mode)}; platypose does not replace it (remove it or write elsewhere)")
 
 
 def check_writable(target: Path | str, folder: bool = False) -> Path:
@@ -26,6 +48,8 @@ def check_writable(target: Path | str, folder: bool = False) -> Path:
         raise InputError(f"{target}: is a file, an output folder was expected")
     if not folder and target.is_dir():
         raise InputError(f"{target}: is a folder, an output file name was expected")
+    if not folder and existing_kind(target) == "stream":  # InputError for a symbolic link, a socket, ...
+        return target  # a device or FIFO is written through: nothing is created beside it
     where = target if folder else target.parent
     try:
         where.mkdir(parents=True, exist_ok=True)
@@ -43,9 +67,17 @@ def check_writable(target: Path | str, folder: bool = False) -> Path:
 
 
 @contextmanager
-def atomic_path(target: Path | str) -> Iterator[Path]:
-    """Yield a temporary path beside ``target``; on success it replaces ``target`` (mode 644), else it is removed."""
+def atomic_path(target: Path | str, streams: bool = True) -> Iterator[Path]:
+    """Yield a temporary path beside ``target``; on success it replaces ``target`` (mode 644), else it is removed.
+
+    A character device or a FIFO at ``target`` is yielded itself (written through; refused unless ``streams``, for
+    writers that rename files of their own onto the path); InputError for a FIFO without a reader (the write would
+    wait for ever) and for what :func:`existing_kind` refuses."""
     target = Path(target)
+    if existing_kind(target, streams) == "stream":
+        with _stream(target):
+            yield target
+        return
     target.parent.mkdir(parents=True, exist_ok=True)
     # The temporary name is at most ~80 characters, so any target name the file system takes works.
     handle, name = tempfile.mkstemp(prefix=f".{target.name[:64]}.", suffix=".tmp", dir=target.parent)
@@ -64,6 +96,22 @@ def atomic_path(target: Path | str) -> Iterator[Path]:
 
 
 @contextmanager
+def _stream(target: Path) -> Iterator[None]:
+    """Hold ``target`` (a device or FIFO) open for writing while it is written: a FIFO without a reader is refused
+    at once, and its reader does not see the end of the stream between the check and the write."""
+    try:
+        handle = os.open(target, os.O_WRONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as err:
+        if err.errno == errno.ENXIO:
+            raise InputError(f"{target}: a FIFO (named pipe) that no one reads; start its reader first") from None
+        raise OSError(err.errno, err.strerror, str(target)) from None
+    try:
+        yield
+    finally:
+        os.close(handle)
+
+
+@contextmanager
 def atomic_open(target: Path | str, mode: str = "wb", **open_args: Any) -> Iterator[IO]:
     """Open a temporary file beside ``target`` with ``open(mode, **open_args)``; it replaces ``target`` on success."""
     with atomic_path(target) as tmp, open(tmp, mode, **open_args) as stream:
@@ -71,8 +119,9 @@ def atomic_open(target: Path | str, mode: str = "wb", **open_args: Any) -> Itera
 
 
 def write_text_atomic(target: Path | str, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``target`` atomically and return the path."""
-    with atomic_open(target, "w", encoding="utf-8") as stream:
+    """Write ``text`` (UTF-8; undecodable bytes of file names, kept as surrogates, as ``\\udcff``) to ``target``
+    atomically and return the path."""
+    with atomic_open(target, "w", encoding="utf-8", errors="backslashreplace") as stream:
         stream.write(text)
     return Path(target)
 

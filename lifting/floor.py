@@ -79,12 +79,10 @@ def parse_floor(text: str) -> Floor | str | None:
     if spec in ("auto", "none"):
         return None if spec == "none" else "auto"
     try:
-        if spec.startswith("z="):
-            return plane_floor(0.0, 0.0, 1.0, -float(spec[2:]), "given")
-        values = [float(v) for v in spec.split(",")]
+        values = [0.0, 0.0, 1.0, -float(spec[2:])] if spec.startswith("z=") else [float(v) for v in spec.split(",")]
         if len(values) == 4:
             floor = plane_floor(*values, "given")
-            if floor.normal[2] < MIN_UP_COSINE or abs(floor.offset) > MAX_FLOOR_DISTANCE_M:
+            if floor.normal[2] < MIN_UP_COSINE or not abs(floor.offset) <= MAX_FLOOR_DISTANCE_M:
                 raise ValueError(
                     f"a floor's normal points up (within {MAX_FLOOR_TILT_DEG:g} degrees of +z, the world's up) "
                     f"and it lies within {MAX_FLOOR_DISTANCE_M:g} m of the origin"

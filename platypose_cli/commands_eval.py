@@ -68,6 +68,8 @@ def evaluate_command(
 
     if views is not None and views < 1:
         raise InputError(f"--views {views}: use at least 1 camera (leave it out for all)")
+    if windows < 1:
+        raise InputError(f"--windows {windows}: cut at least 1 window from each clip")
     if not (math.isfinite(noise_px) and noise_px >= 0):
         raise InputError(f"--noise-px {noise_px}: must be a finite number of pixels, 0 or more")
     if json_out is not None:
@@ -97,6 +99,13 @@ def evaluate_command(
     clips = [c for c in clips if len(c) and not (c != c).any()]
     if not clips:
         raise InputError(f"{', '.join(map(str, motion))}: no complete (full-body) clips to evaluate")
+    longest = max(len(c) for c in clips)
+    too_long = [f for f in frames_list if f > longest]
+    if too_long:  # no window of that length: its rows would be missing from the table
+        raise InputError(
+            f"--frames {','.join(map(str, too_long))}: longer than every clip (the longest has {longest} frames at "
+            f"the prior's {bundle.fps:g} fps)"
+        )
     typer.echo(
         f"{len(clips)} clips, prior {bundle.checksum[:12]}, {len(cameras)} cameras, noise {noise_px} px, "
         f"floor {'none' if plane is None else f'z = {floor_height(plane):g}'}, {os.cpu_count()} CPUs"

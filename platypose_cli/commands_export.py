@@ -89,7 +89,9 @@ def export_command(
         "report, rrd (docs/outputs.md).",
     ),
     out: Path | None = typer.Option(None, "--out", help="Output folder (default: the npz's folder)."),
-    name: str | None = typer.Option(None, "--name", help="Base name of the files (default: the npz's name)."),
+    name: str | None = typer.Option(
+        None, "--name", help="Base name of the files (default: the npz's name), made a safe file name as lift's."
+    ),
     bvh: str = typer.Option("median", "--bvh", help="median: one BVH per person; all: also one per hypothesis."),
     rrd_video: str = typer.Option(
         "asset", "--rrd-video", help="asset (MP4, re-encoded to H.264 if needed), frames (JPEG), none."
@@ -98,10 +100,14 @@ def export_command(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
 ) -> None:
     """Re-export CSV, BVH and rerun files from a result npz (writing npz again only if asked)."""
+    from platypose.cli.safe_names import printable, safe_name
     from platypose.exporters import export
     from platypose.exporters.npz import read_npz
     from platypose.lifting.atomic import check_writable
 
+    base = safe_name(name or path.stem)  # one plain file name: the files stay inside --out
+    if name is not None and base != name:
+        typer.echo(printable(f"--name {name}: not a plain file name; the files are named {base}"), err=True)
     result = read_npz(path)
     videos = _video_map(video, [c.name for c in result.cameras])
     check_writable(out or path.parent, folder=True)
@@ -110,6 +116,21 @@ def export_command(
         if not quiet:
             typer.echo(message, err=True)
 
-    written = export(result, out or path.parent, name or path.stem, formats, videos, bvh, rrd_video, say)
+    from platypose.cli.interrupts import terminate_as_interrupt
+
+    try:
+        with terminate_as_interrupt():  # SIGTERM unwinds like Ctrl-C: no temporary file is left behind
+            written = export(result, out or path.parent, base, formats, videos, bvh, rrd_video, say)
+    except KeyboardInterrupt:
+        import os
+        import sys
+
+        message = "interrupted; no file was left half-written (those finished before are new, the rest as they were)"
+        typer.echo(message, err=True)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        # Every temporary file is gone by now; a native library stopped mid-task (OpenSim) can crash the
+        # interpreter's teardown afterwards, so the process ends here.
+        os._exit(130)
     for file in written:
         typer.echo(str(file))

@@ -60,13 +60,18 @@ def lift_settings(
     )
     resolve_device(prior.device)
     check_writable(out, folder=True)
+    chosen = parse_formats(formats)
+    if "mot" in chosen:
+        from platypose.exporters.mot import load_opensim
+
+        load_opensim()  # InputError without the opensim package: before anything is detected, not per input
     return RunSettings(
         out=out,
         cams=cams,
         prior=prior,
         detect=detect,
         take=take,
-        formats=parse_formats(formats),
+        formats=chosen,
         quiet=quiet,
         arguments=arguments,
     )
@@ -110,6 +115,19 @@ def finish(entries: list[dict], out: Path) -> None:
         typer.echo(printable(f"  failed {entry['input']}: {entry['error']}"), err=True)
     if failed:
         raise typer.Exit(2 if all(e.get("error_kind") == "input" for e in failed) else 1)
+
+
+def _own_folders(jobs: list, out: Path) -> list:
+    """``jobs`` renamed where ``out`` holds another input's folder of their name (a line says so, even with -q)."""
+    from platypose.cli.output_names import claim_folders
+    from platypose.cli.safe_names import printable
+
+    placed = claim_folders(jobs, out)
+    for job, moved in zip(jobs, placed):
+        if moved.name != job.name:
+            say = f"{job.input}: {out / job.name}/ holds another input's results; writing {out / moved.name}/"
+            typer.echo(printable(say), err=True)
+    return placed
 
 
 @app.command("lift", cls=brief_help(LIFT_SHOWN))
@@ -231,6 +249,7 @@ def lift(
         job_list = discover_jobs(paths, camera_names)
     if cams is not None:
         check_views_match(job_list, camera_names, cams)
+    job_list = _own_folders(job_list, out)
     detect = DetectOptions(
         detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps, image_size=image_size
     )

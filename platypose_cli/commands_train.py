@@ -64,9 +64,9 @@ def train(
     iterations = (config if distil_from is None else distil).iterations
     if threads < 0:
         raise InputError(f"train: --threads must be 0 (torch's default) or more, got {threads}")
-    check_writable(out)
-    if distil_from is not None and same_file(out, distil_from):
+    if distil_from is not None and same_file(out, distil_from):  # before check_writable refuses a link by itself
         raise InputError(f"--out {out}: is the teacher given by --distil-from; it would be overwritten")
+    check_writable(out)
     if log_file is not None:
         check_writable(log_file)
     teacher = load_prior(distil_from)[0] if distil_from is not None else None

@@ -34,9 +34,9 @@ FFMPEG_NOTE = (
 
 
 def written_lines(entries: list[dict]) -> list[str]:
-    """Per input lifted: its folder and the files written into it, and the command that opens its recording (with a
-    note where FFmpeg, which the viewer needs for the videos, is not on PATH); with more than ``LISTED_INPUTS``
-    inputs, their folders only."""
+    """Per input lifted (or skipped by ``--resume``: its files kept, not written): its folder and the files in it,
+    and the command that opens its recording (with a note where FFmpeg, which the viewer needs for the videos,
+    is not on PATH); with more than ``LISTED_INPUTS`` inputs, their folders only."""
     lifted = [e for e in entries if e["status"] in ("ok", "skipped") and e["outputs"]]
     lines = []
     for entry in lifted:
@@ -44,7 +44,8 @@ def written_lines(entries: list[dict]) -> list[str]:
         if len(lifted) > LISTED_INPUTS:
             lines.append(f"{entry['name']}: {len(paths)} files in {paths[0].parent}/")
             continue
-        lines.append(f"{entry['name']}: wrote {', '.join(p.name for p in paths)} in {paths[0].parent}/")
+        done = "wrote" if entry["status"] == "ok" else "kept, unchanged since an earlier run:"
+        lines.append(f"{entry['name']}: {done} {', '.join(p.name for p in paths)} in {paths[0].parent}/")
         lines += [f"  look at it: {viewer_command(p)}" for p in paths if p.suffix == ".rrd"]
     if any(line.startswith("  look at it: ") for line in lines) and shutil.which("ffmpeg") is None:
         lines.append(FFMPEG_NOTE)

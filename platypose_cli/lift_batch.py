@@ -18,14 +18,15 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 
 import typer
 
+from platypose.cli.bookkeeping import read_record, valid_summary
 from platypose.cli.console import say_over_bar
+from platypose.cli.interrupts import end_with_parent, terminate_as_interrupt
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import (
     MANIFEST,
@@ -37,64 +38,31 @@ from platypose.cli.lift_run import (
     remove_stale_staging,
     run_job,
 )
+from platypose.cli.locks import exclusive_lock
 from platypose.cli.threads import threads_for
 from platypose.lifting.flags import person_lines
 
 SUMMARY = "summary.json"
 
 
-def _raise_interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt(f"signal {signum}")
-
-
-def worker_init(threads: int) -> None:
-    """A worker process: threads capped; Ctrl-C is left to the parent, SIGTERM unwinds (staging folders removed)."""
+def worker_init(threads: int, parent: int) -> None:
+    """A worker process: threads capped; Ctrl-C is left to the parent, SIGTERM unwinds (staging folders removed), and
+    the worker ends when the parent is gone (even killed with SIGKILL)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    end_with_parent(parent)
     limit_threads(threads)
-
-
-@contextmanager
-def terminate_as_interrupt() -> Iterator[None]:
-    """SIGTERM is handled like Ctrl-C while the batch runs (so every staging folder is removed on the way out)."""
-    try:
-        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
-    except ValueError:  # not the main thread: leave signals alone
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 SUMMARY_LOCK = ".summary.lock"  # in OUT, beside summary.json
 
 
-@contextmanager
-def _summary_lock(out: Path) -> Iterator[None]:
-    """An exclusive lock on ``OUT/.summary.lock`` (POSIX; elsewhere no lock)."""
-    try:
-        import fcntl
-    except ImportError:
-        yield
-        return
-    with open(out / SUMMARY_LOCK, "a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
 def _other_entries(out: Path, mine: list[dict]) -> list[dict]:
-    """Entries of ``OUT/summary.json`` (another run's) for inputs this run does not have."""
-    try:
-        earlier = json.loads((out / SUMMARY).read_text(encoding="utf-8"))["inputs"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return []
+    """Entries of ``OUT/summary.json`` (another run's) for inputs this run does not have (a damaged summary is moved
+    aside with a warning)."""
+    earlier = read_record(out / SUMMARY, valid_summary)
     names = {e["name"] for e in mine}
-    return [e for e in earlier if isinstance(e, dict) and e.get("name") not in names]
+    return [e for e in (earlier or {}).get("inputs", []) if e["name"] not in names]
 
 
 def limit_threads(threads: int) -> None:
@@ -110,7 +78,7 @@ def write_summary(out: Path, entries: list[dict], started: str, arguments: dict)
     run's in job order; counts per status; this run's arguments."""
     from platypose.lifting.atomic import write_text_atomic
 
-    with _summary_lock(out):
+    with exclusive_lock(out / SUMMARY_LOCK):  # POSIX; elsewhere no lock
         inputs = _other_entries(out, entries) + entries
         counts = {s: sum(e["status"] == s for e in inputs) for s in ("ok", "failed", "skipped")}
         summary = {
@@ -222,7 +190,7 @@ def _run_parallel(jobs, todo, settings: RunSettings, workers: int, record, bar) 
         record(index, entry)
         bar.update(1)
 
-    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=worker_init, initargs=(threads,))
+    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=worker_init, initargs=(threads, os.getpid()))
     futures = {pool.submit(run_job, jobs[i], worker_settings): i for i in todo}
     try:
         for future in as_completed(futures):

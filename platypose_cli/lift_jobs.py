@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from platypose.cli.safe_names import safe_name
+from platypose.cli.safe_names import distinct_names, safe_name
 from platypose.detectors.sources import KEYPOINT_SUFFIXES, view_name
 from platypose.detectors.video import VIDEO_SUFFIXES, sibling_video
 from platypose.lifting.calibration.matching import match_views, normalise_view_name
@@ -80,16 +80,9 @@ def _group(videos: list[Path], take_name: str, camera_names: Sequence[str]) -> l
 
 
 def _unique_names(jobs: list[Job]) -> list[Job]:
-    """Jobs named by safe file names (always inside OUT); those that would share an output folder are renamed
-    ``name``, ``name-2``, ..."""
-    seen: dict[str, int] = {}
-    unique = []
-    for job in jobs:
-        name = safe_name(job.name)
-        count = seen.get(name, 0) + 1
-        seen[name] = count
-        unique.append(Job(name if count == 1 else f"{name}-{count}", job.input, job.views))
-    return unique
+    """Jobs named by safe file names (always inside OUT), no two alike (:func:`distinct_names`)."""
+    names = distinct_names([safe_name(job.name) for job in jobs])
+    return [Job(name, job.input, job.views) for job, name in zip(jobs, names)]
 
 
 def discover_jobs(paths: Sequence[Path], camera_names: Sequence[str] = ()) -> list[Job]:

@@ -132,12 +132,16 @@ def lift_on_worker(job: Job, settings: RunSettings, threads: int, cwd: str, coll
 def write_collected(folder: Path, entry: dict, files: dict[str, bytes]) -> dict:
     """Write a job's collected ``files`` into ``folder`` atomically, ``lift.json`` last (its output names are
     relative to its folder, so it holds as it was written on the worker); the entry with paths in ``folder``."""
+    from platypose.cli.lift_run import JOB_LOCK
+    from platypose.cli.locks import exclusive_lock
     from platypose.lifting.atomic import atomic_open
 
-    (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here
-    for relative in sorted(files, key=lambda name: name == MANIFEST):
-        with atomic_open(folder / relative) as stream:
-            stream.write(files[relative])
+    folder.mkdir(parents=True, exist_ok=True)
+    with exclusive_lock(folder / JOB_LOCK):  # waits for another run writing the folder: never mixes with it
+        (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here
+        for relative in sorted((n for n in files if n != JOB_LOCK), key=lambda name: name == MANIFEST):
+            with atomic_open(folder / relative) as stream:
+                stream.write(files[relative])
     entry = dict(entry, outputs=[str(folder / Path(p).name) for p in entry["outputs"]])
     if entry["status"] == "ok":
         from platypose.cli.lift_run import FAILURE

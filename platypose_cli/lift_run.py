@@ -35,18 +35,20 @@ import numpy as np
 import typer
 
 from platypose.cli.app import describe_os_error
+from platypose.cli.bookkeeping import read_record, valid_failure, valid_manifest
 from platypose.cli.detection import Detection, DetectOptions
 from platypose.cli.input_stamps import input_stamp
 from platypose.cli.lift_jobs import Job
+from platypose.cli.locks import exclusive_lock
 from platypose.cli.options import as_json, cli_message
+from platypose.cli.output_names import FAILURE, MANIFEST, job_sources
 from platypose.cli.output_set import changed_files, digests
-from platypose.lifting.atomic import write_text_atomic
+from platypose.lifting.atomic import existing_kind, write_text_atomic
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings import PriorSettings, TakeSettings
 from platypose.pipeline import JobLog
 
-MANIFEST = "lift.json"
-FAILURE = "failed.json"
+JOB_LOCK = ".lift.lock"  # in OUT/<name>/: held by the one run writing that folder
 SYNC_FILE = "sync_offsets.json"  # offsets estimated by --sync auto, for reuse as --sync FILE
 
 
@@ -226,6 +228,8 @@ def export_atomically(result, videos, staging: Path, folder: Path, name: str, fo
     (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here: see output_set
     final = []
     for path in written:
+        existing_kind(folder / path.name, streams=False)  # InputError for a link or device in its place: not replaced
+    for path in written:
         os.replace(path, folder / path.name)
         final.append(folder / path.name)
     return final
@@ -234,13 +238,10 @@ def export_atomically(result, videos, staging: Path, folder: Path, name: str, fo
 def finished_outputs(folder: Path, formats, digest: str | None = None) -> tuple[list[str] | None, str]:
     """(the outputs of a complete earlier run in ``folder`` with at least ``formats`` and, given ``digest``, the same
     fingerprint of inputs and settings, else None; why it is or is not finished)."""
-    try:
-        manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-        names, done = [str(p) for p in manifest["outputs"]], set(manifest["formats"])
-    except FileNotFoundError:
-        return None, "not run before"
-    except (OSError, ValueError, KeyError, TypeError):
-        return None, f"its {MANIFEST} is unreadable"
+    manifest = read_record(folder / MANIFEST, valid_manifest)  # a damaged one is moved aside with a warning
+    if manifest is None:
+        return None, f"no {MANIFEST} of a finished earlier run"
+    names, done = manifest["outputs"], set(manifest["formats"])
     outputs = [str(folder / Path(n).name) for n in names]  # output-relative (older manifests: any path, same name)
     if not set(formats) <= done:
         return None, f"the earlier run wrote only {', '.join(sorted(done))}"
@@ -282,20 +283,18 @@ def fingerprint(job: Job, settings: RunSettings) -> str:
 def write_failure(folder: Path, job: Job, error: str, digest: str, transient: bool) -> None:
     """Record a failed run of ``job`` in ``folder/failed.json``: its error, the fingerprint of its inputs and
     settings, and whether the failure was transient (retried by ``--resume``)."""
-    failure = {"input": job.input, "error": error, "fingerprint": digest, "transient": transient}
+    failure = {"input": job.input, "sources": job_sources(job), "error": error, "fingerprint": digest}
+    failure["transient"] = transient
     write_text_atomic(folder / FAILURE, json.dumps(failure, indent=1))
 
 
 def earlier_failure(folder: Path, digest: str) -> str | None:
     """The error of an earlier failed run of the same input and settings in ``folder`` that was not transient
     (a full disk, an I/O error: worth retrying), else None."""
-    try:
-        failure = json.loads((folder / FAILURE).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    failure = read_record(folder / FAILURE, valid_failure)  # a damaged one is moved aside with a warning
+    if failure is None or failure["fingerprint"] != digest or failure.get("transient"):
         return None
-    if not isinstance(failure, dict) or failure.get("fingerprint") != digest or failure.get("transient"):
-        return None
-    return failure.get("error")
+    return failure["error"]
 
 
 TRANSIENT_ERRNOS = frozenset(
@@ -326,7 +325,28 @@ def job_entry(
 
 
 def run_job(job: Job, settings: RunSettings) -> dict:
-    """Lift one job; its summary entry (status ok or failed, outputs, seconds, one-line error)."""
+    """Lift one job; its summary entry (status ok or failed, outputs, seconds, one-line error).
+
+    The job's folder is locked for the run (``OUT/<name>/.lift.lock``): another run writing the same folder at that
+    moment (another lift into the same --out) makes this one fail at once with nothing written, so the files of two
+    runs are never mixed."""
+    folder = settings.out / job.name
+    busy = f"another platypose run is writing {folder}/ now; wait for it to end, or lift into another --out"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with exclusive_lock(folder / JOB_LOCK, wait=False, busy=busy):
+            return _run_locked(job, settings)
+    except (
+        InputError,
+        OSError,
+    ) as err:  # the lock is held (locks.Busy), is not a lock file, or the folder cannot be made
+        kind = "input" if isinstance(err, InputError) else "system"
+        message = cli_message(err) if isinstance(err, InputError) else describe_os_error(err)
+        return {**job_entry(job, "failed", error=message), "error_kind": kind}
+
+
+def _run_locked(job: Job, settings: RunSettings) -> dict:
+    """:func:`run_job` once the job's folder is locked."""
     started = time.perf_counter()
     log = JobLog()
     folder = settings.out / job.name
@@ -344,6 +364,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         outputs = [str(p) for p in written]
         manifest = {
             "input": job.input,
+            "sources": job_sources(job),  # whose folder this is (output_names)
             "formats": list(settings.formats),
             "outputs": [p.name for p in written],  # relative to this folder
             "files": digests(written),

@@ -19,7 +19,7 @@ from platypose.lifting.calibration.native import read_native, write_native
 from platypose.lifting.calibration.opencv_yml import is_easymocap, read_opencv_yml
 from platypose.lifting.calibration.qualisys import is_qualisys, read_qualisys
 from platypose.lifting.calibration.toml_format import read_toml
-from platypose.lifting.calibration.validate import read_json
+from platypose.lifting.calibration.validate import read_calibration_bytes, read_json
 from platypose.lifting.calibration.vicon import is_vicon, read_vicon
 from platypose.lifting.calibration.world import to_z_up_metres
 from platypose.lifting.errors import InputError
@@ -32,8 +32,6 @@ MAX_CAMERA_DISTANCE_M = 100.0
 MIN_RIG_SPREAD_M = 0.02
 MIN_CAMERA_GAP_M = 1e-4  # two cameras closer than this are one place given twice
 WITHOUT_EXTRINSICS = ("intrinsics-txt", "default")
-# A calibration of the largest supported rig takes well under a megabyte; larger files are refused unread.
-MAX_CALIBRATION_BYTES = 16 * 2**20
 
 
 def _read_json(path: Path, subject: str | None) -> Calibration:
@@ -109,8 +107,8 @@ def load_calibration(
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: calibration file not found")
-    if path.is_file() and path.stat().st_size > MAX_CALIBRATION_BYTES:
-        raise InputError(f"{path}: {path.stat().st_size / 2**20:.0f} MiB, too large for a calibration file")
+    if not path.is_dir():
+        read_calibration_bytes(path)  # a regular file within the size limit (readers by path, such as OpenCV's, too)
     raw = _read_any(path, subject)
     result = to_z_up_metres(raw, world_up, units)
     _check_distances(path, result, units if units is not None else raw.meta["units"])

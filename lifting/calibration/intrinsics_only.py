@@ -42,7 +42,7 @@ def read_intrinsics(path: Path) -> Calibration:
     """Read an intrinsics-only text file."""
     source = str(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = validate.read_calibration_bytes(path).decode("utf-8")
     except UnicodeDecodeError:
         raise InputError(f"{source}: not a text file") from None
     lines = [ln.split("#", 1)[0] for ln in text.splitlines()]

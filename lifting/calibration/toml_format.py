@@ -76,7 +76,7 @@ def read_toml(path: Path) -> Calibration:
     """Read every camera of a calibration ``.toml``, detecting units and up axis from the cameras."""
     source = str(path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = tomllib.loads(validate.read_calibration_bytes(path).decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError) as err:
         raise InputError(f"{source}: not valid TOML ({err})") from None
     layout = _layout(data)

@@ -14,9 +14,20 @@ import numpy as np
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.file_reads import read_regular
 
 ROTATION_TOLERANCE = 1e-5
 MAX_CAMERAS = 256  # capture rigs have tens of cameras; more means a damaged or hostile file
+# A calibration of the largest supported rig takes well under a megabyte; larger files are refused, counted while
+# reading (a FIFO or a growing file has no size to check beforehand).
+MAX_CALIBRATION_BYTES = 16 * 2**20
+
+
+def read_calibration_bytes(path: Path) -> bytes:
+    """The bytes of calibration file ``path``: a regular file of at most MAX_CALIBRATION_BYTES, else InputError."""
+    return read_regular(path, MAX_CALIBRATION_BYTES, "calibration file")
+
+
 MAX_IMAGE_SIDE = 65536  # pixels
 FOCAL_RANGE_PX = (1.0, 1e6)  # a focal length outside is no lens on any camera we lift from
 MAX_DISTORTION = 1000.0  # |k1..k3|, |p1|, |p2| on normalised coordinates; real lenses stay far below
@@ -25,7 +36,7 @@ MAX_DISTORTION = 1000.0  # |k1..k3|, |p1|, |p2| on normalised coordinates; real 
 def read_json(path: Path) -> Any:
     """The content of a JSON file, else InputError naming the file."""
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
+        return json.loads(read_calibration_bytes(path).decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as err:
         raise InputError(f"{path}: not valid JSON ({err})") from None
 
@@ -33,7 +44,7 @@ def read_json(path: Path) -> Any:
 def read_xml(path: Path, what: str) -> ET.Element:
     """The root element of an XML file, else InputError naming the file (``what``: the tool, for the message)."""
     try:
-        return ET.fromstring(path.read_bytes())
+        return ET.fromstring(read_calibration_bytes(path))
     except ET.ParseError as err:
         raise InputError(f"{path}: not valid {what} XML ({err})") from None
 

@@ -41,3 +41,9 @@ def test_the_printed_command_opens_the_recording_from_a_new_shell_and_names_ffmp
         timeout=60,
     )
     assert done.returncode == 0 and done.stdout.startswith("rerun-cli "), done.stderr[-300:]
+
+
+def test_resume_does_not_say_it_wrote_the_files_of_inputs_it_skipped(tmp_path):
+    folder = tmp_path / "take"
+    skipped = {"name": "take", "status": "skipped", "outputs": [str(folder / "take.npz")]}
+    assert written_lines([skipped]) == [f"take: kept, unchanged since an earlier run: take.npz in {folder}/"]

@@ -23,10 +23,12 @@ def test_rows_in_id_order_with_who_and_the_flag_sentence(data_dir, tmp_path, mon
     picture = np.full((160, 60, 3), 90, np.uint8)
     write_report(result, angle_series(result), "clip", tmp_path / "clip_report.png", (frames, {0: picture}))
     (fig,) = drawn
-    rows = [ax for ax in fig.axes if ax.get_title().endswith("hips and knees")]
-    assert [ax.get_title() for ax in rows] == ["person 0: hips and knees", "person 7: hips and knees"]  # id order
-    said = [ax.get_title(loc="left").replace("\n", " ") for ax in rows]  # wrapped to the column
+    rows = [ax for ax in fig.axes if ax.get_title().split("\n")[0].endswith("hips and knees")]
+    titles = [ax.get_title().split("\n", 1) for ax in rows]
+    assert [t[0] for t in titles] == ["person 0: hips and knees", "person 7: hips and knees"]  # id order
+    said = [t[1].replace("\n", " ") if len(t) > 1 else "" for t in titles]  # the flags in the title, wrapped
     assert said == [f"flagged: {flagged['flag_text']}", ""]
+    assert rows[0].title.get_color() == "tab:red" and rows[1].title.get_color() != "tab:red"
     who = [ax for ax in fig.axes if ax.get_title().startswith("person ") and "hips" not in ax.get_title()]
     who = [ax for ax in who if not any(w in ax.get_title() for w in ("trunk", "pelvis", "ankle"))]
     assert [ax.get_title() for ax in who] == [

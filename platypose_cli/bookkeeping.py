@@ -1,0 +1,71 @@
+"""The batch's bookkeeping files in ``--out`` (``lift.json``, ``failed.json``, ``summary.json``), read defensively.
+
+They are only read as regular files of bounded size (a FIFO in their place would block the lift). A damaged one
+(not JSON, nested too deep, too large, not a regular file, or not the structure platypose writes) is moved aside
+as ``NAME.damaged`` with one warning, and the lift goes on as if it were missing: a damaged file must not fail
+every later lift into that ``--out``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+import typer
+
+from platypose.cli.safe_names import printable
+from platypose.lifting.errors import InputError
+from platypose.lifting.file_reads import read_regular
+
+MAX_RECORD_BYTES = 64 * 2**20  # a summary of tens of thousands of inputs
+
+
+def _strings(value: object) -> bool:
+    return isinstance(value, list) and all(isinstance(v, str) for v in value)
+
+
+def valid_manifest(record: dict) -> bool:
+    """Whether ``record`` has the fields of a ``lift.json`` that ``--resume`` reads."""
+    return _strings(record.get("outputs")) and _strings(record.get("formats"))
+
+
+def valid_failure(record: dict) -> bool:
+    """Whether ``record`` has the fields of a ``failed.json``."""
+    return all(isinstance(record.get(k), str) for k in ("error", "fingerprint"))
+
+
+def valid_summary(record: dict) -> bool:
+    """Whether ``record`` is a ``summary.json``: a list of entries, each with a name and a known status."""
+    inputs = record.get("inputs")
+    return isinstance(inputs, list) and all(
+        isinstance(e, dict) and isinstance(e.get("name"), str) and e.get("status") in ("ok", "failed", "skipped")
+        for e in inputs
+    )
+
+
+def read_record(path: Path, valid: Callable[[dict], bool]) -> dict | None:
+    """The JSON object in ``path`` if ``valid`` accepts it; None when there is none, or when it is damaged: then
+    it is moved aside to ``NAME.damaged`` and one warning says so."""
+    if not os.path.lexists(path):
+        return None
+    try:
+        record = json.loads(read_regular(path, MAX_RECORD_BYTES, "bookkeeping file").decode("utf-8"))
+        why = None if isinstance(record, dict) and valid(record) else "not the fields platypose writes"
+    except InputError as err:
+        why = str(err).removeprefix(f"{path}: ")
+    except (ValueError, RecursionError):  # also UnicodeDecodeError
+        why = "not valid JSON"
+    except OSError as err:
+        why = err.strerror or str(err)
+    if why is None:
+        return record
+    aside = path.with_name(path.name + ".damaged")
+    try:
+        os.replace(path, aside)
+        where = f"moved aside to {aside.name}"
+    except OSError as err:
+        where = f"ignored (it cannot be moved aside: {err.strerror or err})"
+    typer.echo(printable(f"warning: {path}: damaged ({why}); {where}"), err=True)
+    return None

@@ -1,0 +1,61 @@
+"""Exclusive locks on files in ``--out`` (POSIX ``flock``; where there is none, no lock).
+
+A lock file is opened only as a regular file platypose can create: never through a symbolic link, and without
+waiting on a FIFO (which would block the open for ever); anything else in its place is refused with one line.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import stat
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from platypose.lifting.errors import InputError
+from platypose.lifting.file_reads import file_kind
+
+
+class Busy(InputError):
+    """The lock is held by another process (and the caller chose not to wait)."""
+
+
+def _open_lock_file(path: Path) -> int:
+    flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    try:
+        handle = os.open(path, flags | getattr(os, "O_CLOEXEC", 0), 0o644)
+    except OSError as err:
+        if err.errno == errno.ELOOP:
+            raise InputError(f"{path}: is a symbolic link, not a lock file platypose made; remove it") from None
+        if err.errno in (errno.ENXIO, errno.EISDIR):
+            kind = "a folder" if err.errno == errno.EISDIR else file_kind(os.lstat(path).st_mode)
+            raise InputError(f"{path}: is {kind}, not a lock file platypose made; remove it") from None
+        raise
+    mode = os.fstat(handle).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(handle)
+        raise InputError(f"{path}: is {file_kind(mode)}, not a lock file platypose made; remove it")
+    return handle
+
+
+@contextmanager
+def exclusive_lock(path: Path, wait: bool = True, busy: str = "held by another process") -> Iterator[None]:
+    """Hold an exclusive lock on the regular file ``path`` (created if missing) for the ``with`` block.
+
+    ``wait``: block until the lock is free; else raise :class:`Busy` (``path``: ``busy``) when another process
+    holds it. InputError when ``path`` is a symbolic link, a FIFO, a device or a folder."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    handle = _open_lock_file(Path(path))
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+        except BlockingIOError:
+            raise Busy(f"{path}: {busy}") from None
+        yield
+    finally:
+        os.close(handle)  # releases the lock

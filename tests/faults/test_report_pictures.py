@@ -1,0 +1,91 @@
+"""The report picture and the person pictures (issue 40, item 27): long flag text does not run into the row's title,
+a report without a video says why its thumbnails are missing, and two overlapping people do not share a picture."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from export_helpers import two_person_result
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from platypose.exporters import export
+from platypose.exporters.person_pictures import good_frames
+from platypose.lifting.calibration.defaults import default_camera
+
+LONG_FLAGS = (
+    "spread (hypotheses 2.3 m apart (over 1 m)), sliding (feet slide 0.84 m/s while standing (over 0.3 m/s)), "
+    "depth (the pelvis jumps 1.2 m in 0.1 s), height (1.31 m tall, outside 1.45-2.10 m), behind (the camera)"
+)
+
+
+@pytest.fixture
+def drawn(monkeypatch) -> list:
+    """Figures the report saves, kept for the test to measure."""
+    figures = []
+    save = Figure.savefig
+
+    def keep(self, *args, **kwargs):
+        figures.append(self)
+        return save(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    return figures
+
+
+def _titles(figure) -> list:
+    FigureCanvasAgg(figure).draw()
+    renderer = figure.canvas.get_renderer()
+    texts = [t for ax in figure.axes for t in (ax.title, ax._left_title, ax._right_title) if t.get_text()]
+    return [(t.get_text(), t.get_window_extent(renderer)) for t in texts]
+
+
+def test_long_flag_text_does_not_run_into_the_rows_title(data_dir, tmp_path, drawn) -> None:
+    result = two_person_result(data_dir)
+    flags = [{"flags": ["spread", "sliding"], "flag_text": LONG_FLAGS}] * result.num_persons
+    said = []
+    export(result.with_meta(plausibility=flags), tmp_path, "r", "report", say=said.append)
+    titles = _titles(drawn[0])
+    overlaps = [
+        (a[:40], b[:40]) for i, (a, box) in enumerate(titles) for b, other in titles[i + 1 :] if box.overlaps(other)
+    ]
+    assert overlaps == []
+    first = [text for text, _ in titles if text.startswith("person 0: hips and knees")]
+    assert first and "flagged: spread (hypotheses 2.3 m apart" in first[0]
+
+
+def test_a_report_without_videos_says_why_it_has_no_thumbnails(data_dir, tmp_path, drawn) -> None:
+    result = two_person_result(data_dir)
+    said = []
+    export(result, tmp_path, "r", "report", say=said.append)
+    cameras = ", ".join(sorted({result.cameras[f.camera].name for f in good_frames(result).values()}))
+    assert f"r: no person thumbnails from camera(s) {cameras}: no video of them (--video CAMERA=PATH)" in said
+    captions = [text for text, _ in _titles(drawn[0]) if text.startswith("person 7\n")]
+    assert captions and captions[0].endswith("given)") and "(no thumbnail: no video of cam" in captions[0]
+
+
+def _person(x: float, height: float) -> np.ndarray:
+    """17 joints of a standing figure ``height`` px tall with its left edge at ``x`` (x, y, confidence)."""
+    joints = np.zeros((17, 3))
+    joints[:, 0] = x + np.linspace(0, height / 3, 17)
+    joints[:, 1] = 100 + np.linspace(0, height, 17)
+    joints[:, 2] = 1.0
+    return joints
+
+
+def test_two_overlapping_people_get_pictures_of_their_own(tmp_path) -> None:
+    keypoints = np.zeros((1, 20, 2, 17, 3))  # (C, T, P, 17, 3)
+    for t in range(10):  # together, nearest the camera: each tallest here, one box over the other
+        keypoints[0, t, 0] = _person(500, 400 + t)
+        keypoints[0, t, 1] = _person(520, 400 + t)
+    for t in range(10, 20):  # apart, farther away
+        keypoints[0, t, 0] = _person(100, 300)
+        keypoints[0, t, 1] = _person(1200, 300)
+    result = SimpleNamespace(cameras=(default_camera("cam01", 1080, 1920),), keypoints2d=keypoints, num_persons=2)
+    frames = good_frames(result)
+    boxes = [np.array(frames[p].box) for p in (0, 1)]
+    overlap = np.clip(np.minimum(boxes[0][2:], boxes[1][2:]) - np.maximum(boxes[0][:2], boxes[1][:2]), 0, None)
+    assert overlap.prod() == 0.0  # the pictures do not show the same people
+    assert frames[0].frame >= 10 and frames[1].frame >= 10
