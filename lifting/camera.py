@@ -14,6 +14,8 @@ import cv2
 import numpy as np
 import torch
 
+MAX_TIME_OFFSET_S = 24 * 3600.0  # a camera's clock offset larger than a day is no clock difference of one take
+
 
 @dataclass(frozen=True)
 class Camera:

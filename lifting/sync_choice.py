@@ -12,6 +12,7 @@ Shared by ``platypose lift --sync`` / ``calib check --sync`` and ``platypose.lif
 from __future__ import annotations
 
 import json
+import numbers
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,12 +21,12 @@ from typing import Any
 import numpy as np
 
 from platypose.lifting.calibration.matching import match_views
-from platypose.lifting.camera import Camera
+from platypose.lifting.camera import MAX_TIME_OFFSET_S, Camera
 from platypose.lifting.errors import InputError
 
 LOW_CONFIDENCE = 0.2  # below this an estimated offset is reported as unreliable
 SHORT_CLIP_S = 1.5  # estimates from less motion than this can be frames off
-MAX_OFFSET_S = 24 * 3600.0  # larger offsets are not a clock difference of one take
+MAX_OFFSET_S = MAX_TIME_OFFSET_S  # larger offsets are not a clock difference of one take (as in a calibration)
 SyncChoice = str | Path | Mapping[str, float]
 
 
@@ -56,7 +57,7 @@ def check_choice(choice: SyncChoice) -> None:
 def offsets_by_name(offsets: object, camera_names: Sequence[str], where: str) -> list[float]:
     """Offsets (s) per camera in ``camera_names`` order from a mapping keyed by camera or view name."""
     if not isinstance(offsets, Mapping) or not all(
-        isinstance(v, (int, float)) and not isinstance(v, bool) for v in offsets.values()
+        isinstance(v, numbers.Real) and not isinstance(v, bool) for v in offsets.values()
     ):
         raise InputError(f"{where}: expected a JSON object of camera name -> offset in seconds")
     try:

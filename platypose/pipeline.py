@@ -147,6 +147,7 @@ def lift_take(
     progress: Callable[[list[int] | str, int, int], None] | None = None,
     log: JobLog | None = None,
     floor: Floor | str | None = None,
+    everyone: np.ndarray | None = None,
 ) -> LiftResult:
     """The LiftResult of a take: keypoints (C, T, P, 17, 3) on ``times`` (T,) of persons ``track_ids`` (P,),
     seen by ``cameras``, each person's root path known (T, 3) or None (solved per hypothesis).
@@ -156,8 +157,9 @@ def lift_take(
     or ``QUICK_LIFT`` for the windows of the floor's quick lift).
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
     sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
-    and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor. The
-    result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
+    and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor.
+    ``everyone`` (1, T, P', 17, 3): the keypoints of everyone in the take when ``keypoints`` hold only the persons
+    chosen, so the estimated floor does not depend on whom the user chose. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
     person, :mod:`platypose.lifting.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
     :func:`platypose.lifting.rigid.rigid_person`: every hypothesis and the median get one length per bone over
     the clip); the caller adds its own. With an estimated floor every output is moved into the estimated world
@@ -169,9 +171,16 @@ def lift_take(
     absent = ~presence(keypoints, times)  # (P, T)
     floor_meta = None
     if floor == ESTIMATE:
-        floor, floor_meta = quick_floor(
-            prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress
-        )
+        if everyone is None:
+            floor, floor_meta = quick_floor(
+                prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress
+            )
+        else:
+            missing = ~presence(everyone, times)
+            others = [None] * everyone.shape[2]  # solved: a known root path belongs to a chosen person only
+            floor, floor_meta = quick_floor(
+                prior, everyone, times, missing, cameras, others, sampler, windows, fps, log, progress
+            )
     if isinstance(floor, Floor):
         sampler = replace(sampler, floor=floor.plane)
         floor_meta = floor_meta or floor.as_dict()

@@ -11,7 +11,7 @@
 5. one clock: persons matched across views, the ``persons`` choice (:func:`platypose.detectors.take.take_keypoints`);
 6. roots: each person's pelvis path given, triangulated or solved (:func:`platypose.lifting.take.root_paths`);
 7. lift, rigid people, the reprojection report and plausibility (:func:`platypose.pipeline.lift_take`);
-8. meta: version, input, arguments, sync, roots, timings, warnings.
+8. meta: version, input, arguments, which rule picked whom (``persons``), sync, roots, timings, warnings.
 """
 
 from __future__ import annotations
@@ -55,9 +55,10 @@ def run_take(
     input, before any lifting.
     """
     from platypose import __version__
+    from platypose.detectors.person_choice import describe_choice
     from platypose.detectors.take import take_keypoints
     from platypose.detectors.view_agreement import disagreeing_views
-    from platypose.lifting.floor import floor_for_lift, parse_floor
+    from platypose.lifting.floor import ESTIMATE, floor_for_lift, parse_floor
     from platypose.lifting.sync_choice import synchronise
     from platypose.lifting.take import root_kinds
 
@@ -73,10 +74,14 @@ def run_take(
         take.sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
     )
     keypoints, times, track_ids = take_keypoints(tracks, synced.cameras, take.persons, what)
+    everyone = None  # an estimated floor comes from everyone in the take, not only from the persons chosen
+    if floor == ESTIMATE and len(synced.cameras) == 1 and take.persons != "all":
+        everyone = take_keypoints(tracks, synced.cameras, "all", what)[0]
     swapped = disagreeing_views(keypoints, [c.name for c in synced.cameras])
     if swapped:
         log.warning(swapped)
-    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (persons {take.persons})")
+    chosen = describe_choice(take.persons, [int(t) for t in track_ids])
+    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) ({chosen})")
     roots = _roots(keypoints, times, synced.cameras, take, log)
     bundle = prior()
     started = time.perf_counter()
@@ -93,6 +98,7 @@ def run_take(
         progress,
         log,
         floor,
+        everyone,
     )
     timings["lift_s"] = time.perf_counter() - started
     meta = {
@@ -100,6 +106,7 @@ def run_take(
         "input": what,
         "arguments": arguments if arguments is not None else {},
         **result.meta,
+        "persons": chosen,
         "sync": synced.record(),
         "root": root_kinds(roots, take.root_trajectory is not None),
         "timings": timings,

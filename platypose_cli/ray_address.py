@@ -24,7 +24,12 @@ def host_port(address: str) -> tuple[str, int]:
     rest = address.removeprefix("ray://")
     host, _, port = rest.rpartition(":")
     host = host.strip("[]")
-    if not host or not port.isdigit() or not 0 < int(port) < 65536 or any(c.isspace() for c in host):
+    if (
+        not host
+        or not (port.isascii() and port.isdigit())
+        or not 0 < int(port) < 65536
+        or any(c.isspace() for c in host)
+    ):
         raise InputError(f"--ray-address {address}: not an address (expected auto, HOST:PORT or ray://HOST:PORT)")
     return host, int(port)
 
