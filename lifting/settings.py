@@ -98,6 +98,9 @@ def require(checks: list[tuple[bool, str, str]]) -> None:
             raise InputError(message, option=name)
 
 
+MAX_SAMPLER_VALUE = 1e6  # any number of the sampler's settings; float32 squares stay finite under 3.4e38
+
+
 @dataclass(frozen=True)
 class SamplerConfig:
     """Every knob of the sampler; defaults follow the paper (T=10, S=2, k=10) except where noted.
@@ -144,6 +147,12 @@ class SamplerConfig:
 
     def __post_init__(self) -> None:
         check_types(self)
+        for f in dataclasses.fields(self):  # the sampler computes in float32: products of two stay finite
+            value = getattr(self, f.name)
+            if isinstance(value, float) and abs(value) > MAX_SAMPLER_VALUE:
+                raise InputError(
+                    f"{f.name} must be at most {MAX_SAMPLER_VALUE:g} in size, got {value:g}", option=f.name
+                )
         require(
             [
                 (self.samples >= 1, "samples", f"samples must be at least 1, got {self.samples}"),
