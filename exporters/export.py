@@ -119,6 +119,12 @@ def export(
         check_videos(result, {k: Path(v) for k, v in (video_paths or {}).items()}, rrd_video)
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
+    collapsed = result.collapsed() if set(formats) & set(FILLED_FORMATS) else []
+    for track in collapsed:
+        say(
+            f"{name}: person {track}: every frame's joints lie within a few centimetres of one point (a collapsed "
+            f"lift, no body): no {', '.join(f for f in formats if f in FILLED_FORMATS)} written for this person"
+        )
     if "bvh" in formats:
         say(f"{name}: BVH ({bvh})")
         paths, errors = _write_bvhs(result, out_dir, name, bvh)

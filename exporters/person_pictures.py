@@ -1,6 +1,6 @@
 """Who is who: each person's image box and a thumbnail from a good frame, for the report and the recording.
 
-A good frame of a person is one where a camera sees most of their joints (at least ``GOOD_JOINTS`` of 17, else the
+A good frame of a person is one where a camera sees most of their joints inside its image (at least ``GOOD_JOINTS`` of 17, else the
 most seen) and, among those, their box is tallest (nearest, least hidden). The box is that of the confident joints,
 widened by ``BOX_MARGIN`` of its size on every side and twice that above (a head and feet reach past their
 keypoints). The thumbnail is
@@ -41,8 +41,12 @@ class GoodFrame:
 
 def good_frame(keypoints2d: np.ndarray, image_sizes: list[tuple[int, int]]) -> GoodFrame | None:
     """The good frame of one person's keypoints ``(C, T, 17, 3)`` (x, y, confidence) seen by cameras of
-    ``image_sizes`` (height, width); None when no camera sees 4 of their joints."""
-    seen = np.nan_to_num(keypoints2d[..., 2]) > 0  # (C, T, 17)
+    ``image_sizes`` (height, width); None when no camera sees 4 of their joints inside its image (a joint outside
+    the image, allowed in the keypoints, is not in any picture)."""
+    sizes = np.asarray(image_sizes, dtype=np.float64).reshape(-1, 1, 1, 2)[..., ::-1]  # (C, 1, 1, 2) width, height
+    with np.errstate(invalid="ignore"):
+        inside = ((keypoints2d[..., :2] >= 0) & (keypoints2d[..., :2] <= sizes - 1)).all(axis=-1)
+    seen = (np.nan_to_num(keypoints2d[..., 2]) > 0) & inside  # (C, T, 17)
     count = seen.sum(axis=-1)
     if count.max(initial=0) < 4:
         return None
