@@ -23,6 +23,17 @@ PLAYABLE_CONTAINERS = frozenset({"mov,mp4,m4a,3gp,3g2,mj2"})
 TIME_BASE = Fraction(1, 90000)  # output timestamps, fine enough for any frame rate
 
 
+def check_video_size(path: Path, camera_name: str, camera_size: tuple[int, int]) -> None:
+    """InputError unless the video ``path`` (upright) has the image size ``camera_size`` (height, width) of the
+    result's camera ``camera_name``: a resized copy would show the keypoints and thumbnails in the wrong place."""
+    height, width = video_info(path).image_size
+    if (height, width) != tuple(camera_size):
+        raise InputError(
+            f"{path}: the video is {width}x{height} pixels but camera {camera_name} of the result saw "
+            f"{camera_size[1]}x{camera_size[0]}: not the video it was lifted from (a resized copy?)"
+        )
+
+
 def needs_reencode(path: Path) -> bool:
     """True when ``path`` is not an upright MP4 with a codec rerun plays (H.264 or AV1)."""
     with open_video(path) as container:
