@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from platypose.cli.detection import image_size_option
+from platypose.cli.ray_address import host_port
 from platypose.detectors.person_choice import parse_persons
 from platypose.detectors.tracking import persons_to_keep
 from platypose.detectors.types import PoseTrack2D
@@ -18,8 +20,6 @@ from platypose.lifting.calibration import load_calibration, save_calibration
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings import TakeSettings
 from platypose.take_pipeline import take_settings
-from platypose_cli.detection import image_size_option
-from platypose_cli.ray_address import host_port
 
 CALIB = Path(__file__).resolve().parents[2] / "data/video/pose2sim-balancing/calib_pose2sim.toml"
 
