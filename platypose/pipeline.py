@@ -102,15 +102,22 @@ def view_cameras(
     log: JobLog,
     calibration_word: str = "cams",
 ) -> list[Camera]:
-    """The matched ``cameras`` checked against the views' image sizes (height, width), or without a calibration
+    """The matched ``cameras`` checked against the views' image sizes (height, width), each image at least
+    ``MIN_IMAGE_SIDE`` a side and each focal length warned about when no lens has it, or without a calibration
     the default camera of a single view (a note: one uncalibrated phone is the common case, not a fault); InputError
     for several views without one.
 
     ``calibration_word`` is how the messages name the missing calibration (the CLI says ``--cams``).
     """
+    from platypose.lifting.calibration.plausible import camera_doubts, check_image_side
+
+    for size, source in zip(image_sizes, sources):
+        check_image_side(size, source)
     if cameras is not None:
         for camera, size, source in zip(cameras, image_sizes, sources):
             check_image_size(camera, size, source, log)
+        for doubt in (line for camera in cameras for line in camera_doubts(camera)):
+            log.warning(doubt)
         return list(cameras)
     if len(names) > 1:
         raise InputError(f"{what}: {len(names)} views need {calibration_word} to place the cameras")

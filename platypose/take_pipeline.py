@@ -3,7 +3,8 @@
 
 :func:`run_take` runs them in order, each saying what it did through a :class:`~platypose.pipeline.JobLog`:
 
-1. cameras: the calibration's camera of each view, matched by name before anything is read;
+1. cameras: the calibration's camera of each view, matched by name before anything is read, and checked against
+   each video's image size (read from its header) before anything is detected;
 2. 2D: each view read or detected by the caller's ``read`` (the command caches detections and shows progress,
    the API does neither); a view's notes (a truncated video) become warnings;
 3. the cameras checked against the views' image sizes (or one view's default camera);
@@ -26,7 +27,7 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.settings import TakeSettings
-from platypose.pipeline import JobLog, lift_take, match_cameras, numpy_arrays, view_cameras
+from platypose.pipeline import JobLog, check_image_size, lift_take, match_cameras, numpy_arrays, view_cameras
 
 Reader = Callable[[Path], tuple[PoseTrack2D, str]]  # a view's source -> its tracks and how they were obtained
 
@@ -64,6 +65,11 @@ def run_take(
 
     names, sources = [name for name, _ in views], [source for _, source in views]
     cameras = None if calibration is None else match_cameras(calibration, names, what, described)
+    if cameras is not None:  # a wrong calibration is found before anything is detected: sizes from video headers
+        for camera, source in zip(cameras, sources):
+            size = _video_size(source)
+            if size is not None:
+                check_image_size(camera, size, str(source), JobLog())  # raises for a mismatch; small ones warn later
     floor = floor_for_lift(parse_floor(take.floor), None if calibration is None else calibration.meta)
     started = time.perf_counter()
     tracks = [_read_view(read, name, source, log) for name, source in views]
@@ -124,6 +130,17 @@ def take_settings(**values: object) -> TakeSettings:
     take = TakeSettings(**values)
     persons_count(take.persons)
     return take
+
+
+def _video_size(source: Path) -> tuple[int, int] | None:
+    """A video view's upright image size (height, width) from its header and first frame; None for keypoints."""
+    from platypose.detectors.sources import is_keypoint_source
+    from platypose.media import video_info
+
+    path = Path(source)
+    if is_keypoint_source(path) or not path.is_file():
+        return None
+    return video_info(path).image_size
 
 
 def _read_view(read: Reader, name: str, source: Path, log: JobLog) -> PoseTrack2D:
