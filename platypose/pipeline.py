@@ -216,7 +216,7 @@ def lift_take(
             f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
         )
     report = report_reprojection(median, keypoints, cameras, log)
-    persons = plausibility(hypotheses, keypoints, floor, fps, median=median)
+    persons = plausibility(hypotheses, keypoints, floor, fps, median=median, cameras=cameras)
     for track, person in zip(track_ids, persons):
         person["track_id"] = int(track)
     for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
