@@ -204,6 +204,8 @@ def load_amc(path: Path, fps: float | None = None, asf: Path | None = None) -> l
     asf = Path(asf) if asf is not None else find_asf(path)
     try:
         skeleton = read_asf(asf)
+    except InputError:
+        raise  # already one line naming the file
     except (ValueError, KeyError, IndexError) as err:
         raise InputError(f"{asf}: broken ASF skeleton ({type(err).__name__}: {err})") from None
     motion = read_amc(path)

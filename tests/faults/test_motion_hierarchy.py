@@ -41,8 +41,9 @@ def edited_take(folder: Path, change) -> Path:
 def test_a_hierarchy_that_is_not_a_tree_is_refused(tmp_path: Path, change, words: str) -> None:
     amc = edited_take(tmp_path, change)
     started = time.perf_counter()
-    with pytest.raises(InputError, match=re.escape(words)):
+    with pytest.raises(InputError, match=re.escape(words)) as err:
         load_motion(amc)
+    assert "InputError" not in str(err.value) and str(err.value).startswith(f"{amc.parent / 'test.asf'}: hierarchy")
     assert time.perf_counter() - started < 5
 
 
