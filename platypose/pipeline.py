@@ -24,7 +24,7 @@ import numpy as np
 
 from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
-from platypose.lifting.camera import Camera
+from platypose.lifting.camera import SIZE_TOLERANCE, Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.flags import person_lines
 from platypose.lifting.floor import ESTIMATE, Floor, floor_under
@@ -36,8 +36,6 @@ from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.steady_depth import steady_person
 from platypose.lifting.take import lift_persons, reprojection_report
 from platypose.lifting.world import level_on_floor
-
-SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
 
 
 class JobLog:
