@@ -16,6 +16,7 @@ import numpy as np
 from platypose.detectors.keypoint_checks import (
     check_fps,
     check_frame_numbers,
+    check_frame_span,
     check_image_size,
     check_people_count,
     check_points,
@@ -67,6 +68,7 @@ def assemble_tracks(
         check_people_count(source, number, len(people))
         if people:
             check_points(source, np.stack([p.keypoints for p in people]), image_size, f"frame {number}: ")
+    check_frame_span(source, min(frames), max(frames), max(len(people) for people in frames.values()))
     numbers = np.arange(min(frames), max(frames) + 1)
     times = (numbers - time_origin) / fps
     detections = [

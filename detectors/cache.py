@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.lifting.atomic import atomic_open
+from platypose.lifting.npz_limits import check_npz_sizes
 
 CACHE_VERSION = 2  # 2: detections in the detector's own layout
 
@@ -31,6 +32,7 @@ def cache_key(video: Path, detector_name: str, stride: int, max_frames: int | No
 
 def read_detections(path: Path) -> tuple[str, list[np.ndarray], np.ndarray]:
     """A detections file -> (its key, per-frame detections (N_t, S, 3) in the detector's layout, frame indices (T,))."""
+    check_npz_sizes(path)
     with np.load(path, allow_pickle=False) as data:
         key, counts, flat, indices = str(data["key"]), data["counts"], data["keypoints"], data["frame_indices"]
     return key, (np.split(flat, np.cumsum(counts)[:-1]) if len(counts) else []), indices

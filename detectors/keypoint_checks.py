@@ -6,6 +6,9 @@ Bounds (stated here, tested in tests/test_keypoint_checks.py):
 - frame numbers: whole numbers; two files (or entries) in a row may be at most ``MAX_GAP_FRAMES``
   frames apart (a longer gap is a mis-numbered file, and would be stored as that many empty frames);
 - at most ``MAX_PEOPLE`` people in one frame (crowds beyond that are not what the lifter is for);
+- at most ``MAX_SPAN_FRAMES`` frames from the first to the last, and at most ``MAX_PERSON_FRAMES`` frames times the
+  most people in one frame: the tracks are stored densely (frames x persons), so this bounds their memory before
+  any of it is taken;
 - a point with confidence above 0 must be finite and lie within one image size of the image
   (x in [-W, 2W], y in [-H, 2H]): farther out it is a broken value or the wrong image size;
 - frame times finite and strictly increasing.
@@ -25,6 +28,8 @@ MAX_IMAGE_SIDE = 100_000
 MAX_FPS = 10_000.0
 MAX_GAP_FRAMES = 100_000
 MAX_PEOPLE = 100
+MAX_SPAN_FRAMES = 1_000_000  # 4.6 hours at 60 fps
+MAX_PERSON_FRAMES = 5_000_000  # frames x persons: 1 GiB of float32 keypoints (T, P, 17, 3)
 
 
 def describe_parse_error(err: Exception) -> str:
@@ -81,6 +86,22 @@ def check_frame_numbers(source: str, numbers: Sequence[int], names: Mapping[int,
         raise InputError(
             f"{source}: {where} comes {int(gaps[at])} frames after frame {int(ordered[at])}, the one before it "
             f"(more than {MAX_GAP_FRAMES} frames: a mis-numbered file?)"
+        )
+
+
+def check_frame_span(source: str, first: int, last: int, most_people: int) -> None:
+    """InputError when frames ``first`` to ``last`` are more than ``MAX_SPAN_FRAMES``, or with ``most_people`` in a
+    frame more than ``MAX_PERSON_FRAMES`` person-frames (the dense tracks' memory), before anything is allocated."""
+    span = last - first + 1
+    if span > MAX_SPAN_FRAMES:
+        raise InputError(
+            f"{source}: frames {first} to {last} span {span} frames; at most {MAX_SPAN_FRAMES} are supported "
+            "(mis-numbered files?)"
+        )
+    if span * max(most_people, 1) > MAX_PERSON_FRAMES:
+        raise InputError(
+            f"{source}: {span} frames with up to {most_people} people in one frame are {span * most_people} "
+            f"person-frames; at most {MAX_PERSON_FRAMES} are supported (split the take, or lift fewer people)"
         )
 
 

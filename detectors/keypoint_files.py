@@ -28,6 +28,7 @@ from platypose.detectors.types import PoseTrack2D
 from platypose.detectors.video import timing_from_video
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.errors import InputError
+from platypose.lifting.npz_limits import check_npz_sizes
 from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 
 CSV_HEADER = ("person", "frame", "time", "joint", "x", "y", "confidence")
@@ -53,6 +54,7 @@ def read_keypoints_npz(path: str | Path, camera: int = 0) -> PoseTrack2D:
     """Read our 2D npz (or one camera of a lift result npz) into tracks."""
     path = Path(path)
     try:
+        check_npz_sizes(path)
         with np.load(path, allow_pickle=False) as data:
             if "keypoints2d" not in data.files:
                 raise ValueError("no 'keypoints2d' field: not a platypose keypoint or result file")

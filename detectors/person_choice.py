@@ -1,45 +1,92 @@
 """The ``--persons`` choice: which tracks of a take are lifted.
 
 - ``all``: every track;
-- ``largest`` or ``N``: the largest one or the N largest, by size summed over frames and views;
-- ids ``0,2`` (a single one as ``2,``): the tracks with those ids, as the outputs name them (``p0``, ``p2``: the
-  CSV's ``person`` column, the BVH file names, the report's rows, the recording's labels);
+- ``largest`` or ``largest:N``: the largest one or the N largest, by size summed over frames and views;
+- ids ``id:0,2`` (also ``0,2``, and one id as ``id:2`` or ``2,``): the tracks with those ids, as the outputs name
+  them (``p0``, ``p2``: the CSV's ``person`` column, the BVH file names, the report's rows, the recording's labels);
 - a point ``@X,Y`` (pixels of the first view): the track nearest that point in the first frame it is seen, e.g.
-  the person a user clicked on in a video player.
+  the person a user clicked on in a video player; a point outside the first view's image is refused.
+
+A plain number (``1``) is refused: it read as "the N largest" beside ids that read as "the track with that id", and
+picked another person than the one meant. Numbers are ASCII digits only (``str.isdigit`` takes ``²``).
 """
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 
 from platypose.lifting.errors import InputError
 
 MIN_JOINTS = 4  # joints seen for a track to count as seen in a frame
-CHOICES = "'all', 'largest', a number N (the N largest), ids such as 0,2 (one id: 2,) or a pixel @X,Y"
+CHOICES = (
+    "'all', 'largest', 'largest:N' (the N largest), ids such as id:0,2 or 0,2 (one id: id:2 or 2,) or a pixel @X,Y"
+)
+_NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?", re.ASCII)
+
+
+def _whole(text: str) -> int:
+    """A whole number written in ASCII digits; ValueError otherwise (``int`` takes ``'٣'`` and ``'1_0'``)."""
+    text = text.strip()
+    if not (text.isascii() and text.isdigit()):
+        raise ValueError(text)
+    return int(text)
+
+
+def _pixel(text: str) -> float:
+    """A finite number written in ASCII (``float`` takes other scripts' digits, ``'1_0'`` and ``'inf'``)."""
+    text = text.strip()
+    if not _NUMBER.fullmatch(text):
+        raise ValueError(text)
+    return float(text)
 
 
 def parse_persons(text: str) -> tuple[str, object]:
     """``("all", None)``, ``("count", N)`` (largest: 1), ``("ids", [id, ...])`` or ``("point", (x, y))``;
-    InputError naming the option otherwise."""
+    InputError naming the option otherwise, and for a plain number (a count or an id: it says both)."""
     spec = text.strip()
     if spec == "all":
         return "all", None
     if spec == "largest":
         return "count", 1
-    if spec.isdigit() and int(spec) > 0:
-        return "count", int(spec)
+    if spec.isascii() and spec.isdigit():
+        raise InputError(
+            f"persons {spec}: a plain number is ambiguous; write largest:{spec} for the {spec} largest person(s) "
+            f"or id:{spec} for the track p{spec}",
+            option="persons",
+        )
     try:
-        if spec.startswith("@"):
-            x, y = (float(v) for v in spec[1:].split(","))
+        if spec.startswith("largest:"):
+            count = _whole(spec.removeprefix("largest:"))
+            if count > 0:
+                return "count", count
+        elif spec.startswith("@"):
+            x, y = (_pixel(v) for v in spec[1:].split(","))
             if np.isfinite([x, y]).all():
                 return "point", (x, y)
-        elif "," in spec:
-            ids = [int(v) for v in spec.split(",") if v.strip()]
-            if ids and min(ids) >= 0:
+        elif spec.startswith("id:") or "," in spec:
+            ids = [_whole(v) for v in spec.removeprefix("id:").split(",") if v.strip()]
+            if ids:
                 return "ids", sorted(set(ids))
     except ValueError:
         pass
     raise InputError(f"persons must be {CHOICES}, got {text!r}", option="persons")
+
+
+def describe_choice(text: str, track_ids: list[int]) -> str:
+    """Which rule of the ``persons`` choice ``text`` picked the tracks ``track_ids``, in words."""
+    kind, value = parse_persons(text)
+    picked = ", ".join(f"p{t}" for t in track_ids) or "nobody"
+    if kind == "all":
+        rule = "every track"
+    elif kind == "count":
+        rule = "the largest track" if value == 1 else f"the {value} largest by size summed over frames and views"
+    elif kind == "ids":
+        rule = "the tracks with these ids"
+    else:
+        rule = f"the track nearest pixel {value[0]:g},{value[1]:g} of the first view where it is first seen"
+    return f"persons {text}: {rule}: {picked}"
 
 
 def indices_of_ids(track_ids: np.ndarray, ids: list[int]) -> np.ndarray:
@@ -50,6 +97,17 @@ def indices_of_ids(track_ids: np.ndarray, ids: list[int]) -> np.ndarray:
         found = ", ".join(str(t) for t in known) or "none"
         raise InputError(f"persons: no track with id {', '.join(map(str, missing))} (ids: {found})", option="persons")
     return np.array(sorted(known.index(i) for i in ids), dtype=np.intp)
+
+
+def check_point_in_image(point: tuple[float, float], image_size: tuple[int, int]) -> None:
+    """InputError unless ``point`` (x, y pixels) lies in an image of ``image_size`` (height, width)."""
+    height, width = image_size
+    if not (0 <= point[0] <= width and 0 <= point[1] <= height):
+        raise InputError(
+            f"persons @{point[0]:g},{point[1]:g}: the point is outside the first view's image "
+            f"({width}x{height} pixels: x from 0 to {width}, y from 0 to {height})",
+            option="persons",
+        )
 
 
 def nearest_track(keypoints: np.ndarray, point: tuple[float, float]) -> int:

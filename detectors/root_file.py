@@ -13,17 +13,19 @@ from pathlib import Path
 import numpy as np
 
 from platypose.lifting.errors import InputError
+from platypose.lifting.npz_limits import check_npz_sizes
 from platypose.lifting.timebase import interpolate
 
 
 def _from_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
     try:
+        check_npz_sizes(path)
         with np.load(path, allow_pickle=False) as data:
             times, root = np.asarray(data["frame_times"], float), np.asarray(data["root"], float)
     except KeyError as err:
         raise InputError(f"{path}: root trajectory npz needs 'frame_times' and 'root' (missing {err})") from None
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile):
-        raise InputError(f"{path}: not a readable npz file") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
+        raise InputError(f"{path}: not a readable npz file ({err})") from None
     return times, root[None] if root.ndim == 2 else root
 
 

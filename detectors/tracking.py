@@ -23,7 +23,7 @@ from scipy.optimize import linear_sum_assignment
 
 from platypose.detectors.id_repair import SwitchRepairConfig, repair_id_switches
 from platypose.detectors.keypoints import missing_persons
-from platypose.detectors.person_choice import indices_of_ids, nearest_track, parse_persons
+from platypose.detectors.person_choice import check_point_in_image, indices_of_ids, nearest_track, parse_persons
 from platypose.detectors.pose_metrics import person_size, pose_distance
 from platypose.detectors.types import PoseTrack2D
 
@@ -168,7 +168,7 @@ def track_detections(
 
 def persons_count(persons: str) -> int | None:
     """Check a ``persons`` choice (:func:`platypose.detectors.person_choice.parse_persons`; InputError if bad): N for
-    ``largest`` (1) or ``N``, None for the others (all, ids, a point)."""
+    ``largest`` (1) or ``largest:N``, None for the others (all, ids, a point)."""
     kind, value = parse_persons(persons)
     return value if kind == "count" else None
 
@@ -183,13 +183,14 @@ def persons_to_keep(views: Sequence[PoseTrack2D], persons: str) -> np.ndarray | 
     if kind == "ids":
         return indices_of_ids(views[0].track_ids, value)
     if kind == "point":
+        check_point_in_image(value, views[0].image_size)
         return np.array([nearest_track(views[0].keypoints, value)], dtype=np.intp)
     score = sum(np.nansum(person_size(view.keypoints), axis=0) for view in views)
     return np.sort(np.argsort(-score, kind="stable")[:value])
 
 
 def select_persons(tracks: PoseTrack2D, persons: str) -> PoseTrack2D:
-    """Keep ``all`` tracks, the ``largest`` one, or the N largest (``persons`` = "N"), by size summed over frames."""
+    """Keep the tracks of the ``persons`` choice (:func:`persons_to_keep`) of ``tracks``."""
     keep = persons_to_keep([tracks], persons)
     return tracks if keep is None else tracks.select(keep)
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, local_euler
 from platypose.exporters.frames import Lead, frame_chunks
-from platypose.exporters.gaps import fill_frames, fill_plan
+from platypose.exporters.gaps import fill_frames, fill_plan, present_frames
 from platypose.exporters.ik import (
     CHILDREN,
     body_directions,
@@ -202,12 +202,12 @@ def _head_bone(joints: np.ndarray) -> np.ndarray:
 def write_bvh(joints: np.ndarray | Lead, fps: float, path: Path | str, frame_times: np.ndarray | None = None) -> BvhFit:
     """Fit and write world joints (T, 17, 3) metres at ``fps`` to ``path`` atomically; return the fit error.
 
-    Absent (NaN) frames are filled by the gap rule of :mod:`exporters.gaps` (interpolated in ``frame_times``,
+    Absent (NaN) frames, and frames collapsed to a point, are filled by the gap rule of :mod:`exporters.gaps` (interpolated in ``frame_times``,
     default ``frame / fps``, held at the ends); the fit error is measured on present frames. ``joints`` is
     read a chunk of frames at a time (it may be a view of a file, see :mod:`exporters.frames`).
     """
     T = len(joints)
-    present = np.concatenate([np.isfinite(joints[t]).all(axis=(1, 2)) for t in frame_chunks(T)])
+    present = np.concatenate([present_frames(joints[t]) for t in frame_chunks(T)])
     if not present.any():
         raise ValueError(f"{path}: no frame to write, the person is absent throughout")
     plan = fill_plan(present, np.arange(T) / fps if frame_times is None else frame_times)

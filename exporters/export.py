@@ -113,12 +113,19 @@ def export(
         from platypose.exporters.mot import load_opensim
 
         load_opensim()  # the one-line error before anything is written
-    if "rrd" in formats:
+    if "rrd" in formats or "report" in formats:  # both cut pictures from the videos: checked before writing
         from platypose.exporters.rrd import check_videos
 
-        check_videos(result, {k: Path(v) for k, v in (video_paths or {}).items()}, rrd_video)
+        videos = {k: Path(v) for k, v in (video_paths or {}).items()}
+        check_videos(result, videos, rrd_video if "rrd" in formats else "asset")
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
+    collapsed = result.collapsed() if set(formats) & set(FILLED_FORMATS) else []
+    for track in collapsed:
+        say(
+            f"{name}: person {track}: every frame's joints lie within a few centimetres of one point (a collapsed "
+            f"lift, no body): no {', '.join(f for f in formats if f in FILLED_FORMATS)} written for this person"
+        )
     if "bvh" in formats:
         say(f"{name}: BVH ({bvh})")
         paths, errors = _write_bvhs(result, out_dir, name, bvh)

@@ -7,10 +7,11 @@ refused with the field named, before ``info`` or ``export`` works on them; NaN s
 
 from __future__ import annotations
 
-import zipfile
 from pathlib import Path
 
 import numpy as np
+
+from platypose.lifting.npz_limits import check_npz_sizes
 
 MAX_FIELD_BYTES = 2**30  # one array of a result, as loaded
 MAX_RESULT_BYTES = 5 * 2**28  # all of them (1.25 GiB: 20 hypotheses of one person over 70 minutes at 60 fps)
@@ -20,31 +21,8 @@ MAX_COORDINATE_M = 1000.0  # a pose farther than this from the world origin is n
 
 def check_field_sizes(path: Path) -> None:
     """ValueError naming the first ``.npy`` member whose header claims more than ``MAX_FIELD_BYTES``, or when
-    all of them claim more than ``MAX_RESULT_BYTES``."""
-    if not zipfile.is_zipfile(path):
-        return  # an empty, truncated or non-npz file: numpy's reader says which
-    total = 0
-    with zipfile.ZipFile(path) as archive:
-        for info in archive.infolist():
-            if not info.filename.endswith(".npy"):
-                continue
-            with archive.open(info) as member:
-                version = np.lib.format.read_magic(member)
-                if version == (1, 0):
-                    shape, _, dtype = np.lib.format.read_array_header_1_0(member)
-                else:
-                    shape, _, dtype = np.lib.format.read_array_header_2_0(member)
-            size = int(np.prod(shape, dtype=object)) * dtype.itemsize
-            if size > MAX_FIELD_BYTES:
-                raise ValueError(
-                    f"field {info.filename[:-4]!r} claims shape {shape} ({size / 2**30:.1f} GiB), "
-                    f"over the {MAX_FIELD_BYTES / 2**30:.0f} GiB a result field may hold"
-                )
-            total += size
-    if total > MAX_RESULT_BYTES:
-        raise ValueError(
-            f"its fields claim {total / 2**30:.1f} GiB, over the {MAX_RESULT_BYTES / 2**30:.1f} GiB a result may hold"
-        )
+    all of them claim more than ``MAX_RESULT_BYTES`` (:func:`platypose.lifting.npz_limits.check_npz_sizes`)."""
+    check_npz_sizes(path, MAX_FIELD_BYTES, MAX_RESULT_BYTES)
 
 
 def check_coordinates(name: str, values: np.ndarray) -> None:

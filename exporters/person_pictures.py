@@ -1,6 +1,6 @@
 """Who is who: each person's image box and a thumbnail from a good frame, for the report and the recording.
 
-A good frame of a person is one where a camera sees most of their joints (at least ``GOOD_JOINTS`` of 17, else the
+A good frame of a person is one where a camera sees most of their joints inside its image (at least ``GOOD_JOINTS`` of 17, else the
 most seen), where no other person covers more than ``MAX_SHARED`` of their box (when there is such a frame: two
 people overlapping would otherwise get the same picture) and, among those, their box is tallest (nearest, least
 hidden). The box is that of the confident joints,
@@ -42,10 +42,11 @@ class GoodFrame:
         }
 
 
-def joint_boxes(keypoints2d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Corners ``low``, ``high`` ``(..., 2)`` of the boxes of the seen joints of keypoints ``(..., 17, 3)``; NaN where
-    no joint is seen."""
-    seen = np.nan_to_num(keypoints2d[..., 2]) > 0
+def joint_boxes(keypoints2d: np.ndarray, seen: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Corners ``low``, ``high`` ``(..., 2)`` of the boxes of the seen joints of keypoints ``(..., 17, 3)`` (``seen``
+    ``(..., 17)``, by default the confident ones); NaN where no joint is seen."""
+    if seen is None:
+        seen = np.nan_to_num(keypoints2d[..., 2]) > 0
     xy = np.where(seen[..., None], keypoints2d[..., :2], np.nan)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN frames: no joint seen
@@ -72,11 +73,16 @@ def good_frame(
 ) -> GoodFrame | None:
     """The good frame of one person's keypoints ``(C, T, 17, 3)`` (x, y, confidence) seen by cameras of
     ``image_sizes`` (height, width), avoiding frames where others cover over ``MAX_SHARED`` of them (``covered``
-    ``(C, T)``, :func:`shared`) when it can; None when no camera sees 4 of their joints."""
-    count = (np.nan_to_num(keypoints2d[..., 2]) > 0).sum(axis=-1)  # (C, T)
+    ``(C, T)``, :func:`shared`) when it can; None when no camera sees 4 of their joints inside its image (a joint
+    outside the image, allowed in the keypoints, is not in any picture)."""
+    sizes = np.asarray(image_sizes, dtype=np.float64).reshape(-1, 1, 1, 2)[..., ::-1]  # (C, 1, 1, 2) width, height
+    with np.errstate(invalid="ignore"):
+        inside = ((keypoints2d[..., :2] >= 0) & (keypoints2d[..., :2] <= sizes - 1)).all(axis=-1)
+    seen = (np.nan_to_num(keypoints2d[..., 2]) > 0) & inside  # (C, T, 17)
+    count = seen.sum(axis=-1)
     if count.max(initial=0) < 4:
         return None
-    low, high = joint_boxes(keypoints2d)  # (C, T, 2)
+    low, high = joint_boxes(keypoints2d, seen)  # (C, T, 2)
     tall = np.nan_to_num(high[..., 1] - low[..., 1])
     enough = count >= min(GOOD_JOINTS, int(count.max()))
     if covered is not None and (enough & (covered <= MAX_SHARED)).any():

@@ -77,10 +77,19 @@ class LiftResult:
         return self.hypotheses.shape[2]
 
     def present(self) -> np.ndarray:
-        """Frames where each person is present, (P, T) bool."""
-        return np.concatenate(
-            [np.isfinite(self.median[:, t]).all(axis=(-1, -2)) for t in frame_chunks(self.num_frames)], axis=1
-        )
+        """Frames where each person is present, (P, T) bool: the median finite and a body, not collapsed to a point
+        (:func:`platypose.exporters.gaps.present_frames`)."""
+        from platypose.exporters.gaps import present_frames
+
+        return np.concatenate([present_frames(self.median[:, t]) for t in frame_chunks(self.num_frames)], axis=1)
+
+    def collapsed(self) -> list[int]:
+        """Track ids of persons whose median is finite in some frame but a body in none (collapsed to a point)."""
+        present = self.present().any(axis=1)
+        finite = np.zeros(self.num_persons, dtype=bool)
+        for t in frame_chunks(self.num_frames):
+            finite |= np.isfinite(self.median[:, t]).all(axis=(-1, -2)).any(axis=1)
+        return [int(track) for track, on, seen in zip(self.track_ids, present, finite) if seen and not on]
 
     def with_meta(self, **updates: object) -> LiftResult:
         """A copy with ``meta`` updated by ``updates``."""

@@ -35,7 +35,7 @@ from platypose.exporters import rerun_adapter as rra
 from platypose.exporters.frames import frame_chunks
 from platypose.exporters.result import LiftResult
 from platypose.exporters.rrd_floor import log_floor_and_plausibility, log_who
-from platypose.exporters.video import jpeg_frames, needs_reencode, reencode_h264
+from platypose.exporters.video import check_video_size, jpeg_frames, needs_reencode, reencode_h264
 from platypose.exporters.video_clock import video_stamps
 from platypose.exporters.watched_writer import run_watched
 from platypose.lifting.atomic import atomic_path
@@ -308,15 +308,18 @@ def people_centre(result: LiftResult) -> np.ndarray:
 
 
 def check_videos(result: LiftResult, video_paths: Mapping[str, Path], mode: str) -> None:
-    """Raise InputError for an unknown mode, a video without a camera, or a missing video file."""
+    """Raise InputError for an unknown mode, a video without a camera, or (unless ``mode`` is none) a missing video
+    file or one whose image size is not its camera's (:func:`platypose.exporters.video.check_video_size`)."""
     if mode not in VIDEO_MODES:
         raise InputError(f"rrd video must be one of {', '.join(VIDEO_MODES)}, got {mode!r}", option="rrd video")
-    names = {c.name for c in result.cameras}
+    sizes = {c.name: tuple(c.size) for c in result.cameras}
     for name, path in video_paths.items():
-        if name not in names:
-            raise InputError(f"{path}: no camera named {name!r} in the result (cameras: {', '.join(sorted(names))})")
+        if name not in sizes:
+            raise InputError(f"{path}: no camera named {name!r} in the result (cameras: {', '.join(sorted(sizes))})")
         if mode != "none" and not Path(path).is_file():
             raise InputError(f"{path}: no such video file")
+        if mode != "none":
+            check_video_size(Path(path), name, sizes[name])
 
 
 def write_rrd(

@@ -14,6 +14,7 @@ import av
 import cv2
 import numpy as np
 
+from platypose.lifting.camera import SIZE_TOLERANCE
 from platypose.lifting.errors import InputError
 from platypose.media import iter_timed_frames, open_video, video_info
 
@@ -21,6 +22,18 @@ from platypose.media import iter_timed_frames, open_video, video_info
 PLAYABLE_CODECS = frozenset({"h264", "av1"})
 PLAYABLE_CONTAINERS = frozenset({"mov,mp4,m4a,3gp,3g2,mj2"})
 TIME_BASE = Fraction(1, 90000)  # output timestamps, fine enough for any frame rate
+
+
+def check_video_size(path: Path, camera_name: str, camera_size: tuple[int, int]) -> None:
+    """InputError unless the video ``path`` (upright) has the image size ``camera_size`` (height, width) of the
+    result's camera ``camera_name``, within ``SIZE_TOLERANCE`` as the lift takes it: a resized copy would show the
+    keypoints and thumbnails in the wrong place."""
+    height, width = video_info(path).image_size
+    if max(abs(a - b) / b for a, b in zip((height, width), camera_size)) > SIZE_TOLERANCE:
+        raise InputError(
+            f"{path}: the video is {width}x{height} pixels but camera {camera_name} of the result saw "
+            f"{camera_size[1]}x{camera_size[0]}: not the video it was lifted from (a resized copy?)"
+        )
 
 
 def needs_reencode(path: Path) -> bool:

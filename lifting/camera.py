@@ -14,6 +14,9 @@ import cv2
 import numpy as np
 import torch
 
+SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference taken as the same image (with a warning)
+MAX_TIME_OFFSET_S = 24 * 3600.0  # a camera's clock offset larger than a day is no clock difference of one take
+
 
 @dataclass(frozen=True)
 class Camera:

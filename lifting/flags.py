@@ -35,6 +35,12 @@ def _detail(flag: str, report: dict) -> str:
             "of frames"
             for name, entry in report["angles_out"].items()
         )
+    if flag == "behind camera":
+        return (
+            f"the pelvis lies behind a camera that sees them in {report['behind_camera_share']:.0%} of frames, "
+            f"median depth {report['pelvis_depth_median_m']:.1f} m: impossible geometry (keypoints upside down, "
+            "or a wrong calibration?)"
+        )
     raise ValueError(f"unknown flag {flag!r}")
 
 

@@ -12,7 +12,11 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
 - ``spread``: the hypotheses' pelvises lie more than ``SPREAD`` from their median (90 % of them, median
   over frames);
 - ``bone lengths`` and ``joint angles``: the median motion's limb bones outside human lengths, its joints outside
-  human range (:mod:`lifting.body_checks`).
+  human range (:mod:`lifting.body_checks`);
+- ``behind camera``: in more than ``BEHIND_SHARE`` of the frames a camera sees a person (4 joints or more), the median
+  motion's pelvis lies less than ``MIN_DEPTH`` in front of that camera, or behind it (camera-frame z). No camera sees
+  what is behind it: keypoints upside down, or all at one pixel, can still be reprojected by a body placed behind
+  the lens (the projection flips twice), so the depth's sign, not the reprojection, tells.
 
 Being seen by fewer than two cameras in most frames present is not a flag but the report's ``one_view``. The report's
 ``flag_text`` says every flag with its figure in one sentence (:func:`lifting.flags.flag_text`).
@@ -26,11 +30,12 @@ which several views can measure).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
 from platypose.lifting.body_checks import angles_out_of_range, bone_lengths_out_of_range
+from platypose.lifting.camera import Camera
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
 
 UNDER_FLOOR = 0.03  # metres below the floor
@@ -44,6 +49,9 @@ STANDING_QUANTILE = 10  # percentile of the lower ankle's height there: its stan
 SUPPORT_STEP = 0.15  # metres: the support changes level where it moves this far from the level's running mean
 MIN_LEVEL = 0.5  # seconds: a level held shorter is not reported (steps, landings)
 ON_FLOOR = SUPPORT_STEP  # metres: a level nearer the floor than a change of level (a stair) is the floor
+
+MIN_DEPTH = 0.1  # metres in front of a camera's centre: a person seen by it is farther
+BEHIND_SHARE = 0.05  # of the camera-frames seeing a person
 
 CHUNK = 1024  # frames read at a time
 HYPOTHESES_AT_ONCE = 64  # hypotheses whose standing heights are found at a time
@@ -195,6 +203,23 @@ def body_plausibility(report: dict, median: np.ndarray) -> dict:
     return {**report, "bone_lengths_out": bones, "angles_out": angles, "flags": flags}
 
 
+def camera_depths(median: np.ndarray, seen: np.ndarray, cameras: Sequence[Camera]) -> dict:
+    """``behind_camera_share`` and ``pelvis_depth_median_m`` of a person's median motion ``(T, 17, 3)`` in the
+    frames each camera sees them (``seen`` ``(C, T)`` bool): camera-frame z of the pelvis; empty when no camera
+    sees them in a frame with a pelvis."""
+    depths = []
+    pelvis = median[:, 0]
+    finite = np.isfinite(pelvis).all(axis=-1)
+    for camera, frames in zip(cameras, seen):
+        on = frames & finite
+        if on.any():
+            depths.append(pelvis[on] @ np.asarray(camera.R, np.float64)[2] + float(camera.t[2]))
+    if not depths:
+        return {}
+    z = np.concatenate(depths)
+    return {"behind_camera_share": float(np.mean(z < MIN_DEPTH)), "pelvis_depth_median_m": float(np.median(z))}
+
+
 def plausibility(
     hypotheses,
     keypoints: np.ndarray,
@@ -202,14 +227,17 @@ def plausibility(
     fps: float = 30.0,
     chunk: int = CHUNK,
     median=None,
+    cameras: Sequence[Camera] | None = None,
 ) -> list[dict]:
     """:func:`person_plausibility` of every person: hypotheses ``(P, N, T, 17, 3)`` (an array, or anything indexed
     like one, read ``chunk`` frames at a time) at ``fps``, keypoints ``(C, T, P, 17, 3)`` (x, y, confidence) on the
-    same frames; given their ``median`` ``(P, T, 17, 3)``, with its :func:`body_plausibility` too. Each report
-    ends with its ``flag_text`` (:func:`lifting.flags.flag_text`)."""
+    same frames; given their ``median`` ``(P, T, 17, 3)``, with its :func:`body_plausibility` too, and with the
+    ``cameras`` too, its :func:`camera_depths` (flagged ``behind camera``). Each report ends with its ``flag_text``
+    (:func:`lifting.flags.flag_text`)."""
     from platypose.lifting.flags import flag_text
 
-    seen = ((np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= 4).sum(axis=0)  # (T, P) cameras seeing 4+ joints
+    by_camera = (np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= 4  # (C, T, P) cameras seeing 4+ joints
+    seen = by_camera.sum(axis=0)  # (T, P)
     P, T = hypotheses.shape[0], hypotheses.shape[2]
     reports = []
     for p in range(P):
@@ -217,5 +245,9 @@ def plausibility(
         report = person_plausibility(blocks, seen[:, p], floor, fps)
         if median is not None and report["frames"]:
             report = body_plausibility(report, np.asarray(median[p], np.float64))
+            if cameras is not None:
+                report.update(camera_depths(np.asarray(median[p], np.float64), by_camera[:, :, p], cameras))
+                if report.get("behind_camera_share", 0.0) > BEHIND_SHARE:
+                    report["flags"] = [*report["flags"], "behind camera"]
         reports.append({**report, "flag_text": flag_text(report)})
     return reports

@@ -27,7 +27,9 @@ from platypose.lifting.prior_checks import (
     check_config,
     check_config_type,
     check_config_value,
+    check_joint_names,
     check_manifest,
+    check_weights,
 )
 from platypose.lifting.representation import FEATURES_PER_FRAME, Normalizer
 from platypose.lifting.schedule import TRAIN_STEPS
@@ -203,6 +205,12 @@ def _check_finite(path: Path, model: MotionPrior, normalizer: Normalizer) -> Non
         raise InputError(f"{path}: prior normalisation holds NaN, infinite or non-positive values")
 
 
+def _weight_shapes(config: PriorConfig) -> dict[str, tuple[int, ...]]:
+    """The weights' names and shapes of the network ``config`` describes, without allocating them."""
+    with torch.device("meta"):
+        return {name: tuple(value.shape) for name, value in MotionPrior(config).state_dict().items()}
+
+
 def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu") -> tuple[PriorBundle, dict]:
     """Load a checkpoint strictly (default: the shipped prior); returns the bundle and the ``extra`` dict.
 
@@ -220,10 +228,10 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
         raise InputError(f"{path}: not a platypose prior checkpoint (no '{CHECKPOINT_FORMAT}' header)")
     if payload.get("version") != CHECKPOINT_VERSION:
         raise InputError(f"{path}: prior checkpoint version {payload.get('version')} is not supported")
-    if list(payload["joint_names"]) != list(JOINT_NAMES):
-        raise InputError(f"{path}: prior was trained on another joint set")
     try:
+        check_joint_names(payload.get("joint_names"), list(JOINT_NAMES))
         config = PriorConfig(**check_config(payload["config"]))
+        check_weights(_weight_shapes(config), payload["state_dict"])
         model = MotionPrior(config).to(device)
         model.load_state_dict(payload["state_dict"], strict=True)
         normalizer = Normalizer(

@@ -58,6 +58,36 @@ def check_config(config: Any) -> dict:
     return config
 
 
+MAX_PARAMETERS = 2**28  # weights of a prior (1 GiB in float32); the shipped one has a few million
+
+
+def check_joint_names(names: Any, expected: list[str]) -> None:
+    """ValueError unless ``names`` is the list of joint names ``expected`` (the prior's skeleton)."""
+    if not _list_of(names, str):
+        raise ValueError(f"joint_names must be a list of joint names, got {type(names).__name__}")
+    if list(names) != expected:
+        raise ValueError("the prior was trained on another joint set")
+
+
+def check_weights(expected: dict[str, tuple[int, ...]], state: Any) -> None:
+    """ValueError unless the network ``expected`` (weight name -> shape, from the config) has at most
+    ``MAX_PARAMETERS`` weights and ``state`` (the checkpoint's weights) holds exactly those names and shapes:
+    checked before the network is built, so a config asking for a huge network costs nothing."""
+    total = sum(math.prod(shape) for shape in expected.values())
+    if total > MAX_PARAMETERS:
+        raise ValueError(f"the config asks for {total:,} weights, over the {MAX_PARAMETERS:,} a prior may have")
+    if not isinstance(state, dict):
+        raise ValueError("state_dict is not a table of weights")
+    missing = sorted(set(expected) - set(state))
+    unknown = sorted(str(k) for k in set(state) - set(expected))
+    if missing or unknown:
+        raise ValueError(f"the weights do not match the config (missing {missing[:3]}, unexpected {unknown[:3]})")
+    for name, shape in expected.items():
+        found = tuple(getattr(state[name], "shape", ()))
+        if found != shape:
+            raise ValueError(f"weights {name!r} have shape {found}, the config asks for {shape}")
+
+
 def _list_of(value: Any, kind: type) -> bool:
     return isinstance(value, list) and all(isinstance(v, kind) and not isinstance(v, bool) for v in value)
 

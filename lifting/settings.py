@@ -98,6 +98,9 @@ def require(checks: list[tuple[bool, str, str]]) -> None:
             raise InputError(message, option=name)
 
 
+MAX_SAMPLER_VALUE = 1e6  # any number of the sampler's settings; float32 squares stay finite under 3.4e38
+
+
 @dataclass(frozen=True)
 class SamplerConfig:
     """Every knob of the sampler; defaults follow the paper (T=10, S=2, k=10) except where noted.
@@ -144,6 +147,12 @@ class SamplerConfig:
 
     def __post_init__(self) -> None:
         check_types(self)
+        for f in dataclasses.fields(self):  # the sampler computes in float32: products of two stay finite
+            value = getattr(self, f.name)
+            if isinstance(value, float) and abs(value) > MAX_SAMPLER_VALUE:
+                raise InputError(
+                    f"{f.name} must be at most {MAX_SAMPLER_VALUE:g} in size, got {value:g}", option=f.name
+                )
         require(
             [
                 (self.samples >= 1, "samples", f"samples must be at least 1, got {self.samples}"),
@@ -247,11 +256,13 @@ class PriorSettings:
 class TakeSettings:
     """How one take is lifted besides its inputs and prior: who, their roots, the floor, the clock, the sampler.
 
-    Natural Python values are accepted and stored in the command's spelling: ``persons`` 2 as "2", ``floor``
+    Natural Python values are accepted and stored in the command's spelling: ``persons`` 2 as "largest:2", ``floor``
     None as "none" and four numbers as "nx,ny,nz,d", ``sync`` None as "none".
     """
 
-    persons: str = setting("all", "Who to lift: all, largest, or N (the N largest).")
+    persons: str = setting(
+        "all", "Who to lift: all, largest, largest:N (the N largest), ids id:0,2 (or 0,2; one id: id:2 or 2,), or @X,Y."
+    )
     root: str = setting("auto", "Root path: auto (triangulated with 2+ views, else solved), triangulate, solve.")
     root_trajectory: Path | None = setting(None, "Known pelvis path: npz (frame_times, root) or CSV (time,x,y,z).")
     floor: str = setting(
@@ -271,9 +282,11 @@ class TakeSettings:
     def __post_init__(self) -> None:
         persons, floor, sync = self.persons, self.floor, self.sync
         if isinstance(persons, numbers.Integral) and not isinstance(persons, bool):
-            persons = str(persons) if persons > 0 else persons
+            persons = f"largest:{persons}" if persons > 0 else persons
         if floor is None:
             floor = "none"
+        elif isinstance(floor, (tuple, list)) and any(isinstance(v, bool) for v in floor):
+            raise InputError(f"floor must be auto, none, z=H or four numbers nx,ny,nz,d; got {floor!r}", option="floor")
         elif isinstance(floor, (tuple, list)) and all(isinstance(v, numbers.Real) for v in floor):
             floor = ",".join(repr(float(v)) for v in floor)
         sync = "none" if sync is None else str(sync) if isinstance(sync, os.PathLike) else sync

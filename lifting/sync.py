@@ -20,13 +20,24 @@ reference gets +0.5 (its frame times plus the offset are on the reference's cloc
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import warnings
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.triangulation import reprojection_errors, triangulate
+
+
+@contextlib.contextmanager
+def _quiet() -> Iterator[None]:
+    """NumPy's floating-point and all-NaN warnings off: frames where a view sees nobody are NaN by design."""
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        yield
+
 
 MIN_CONFIDENCE = 0.3  # joints below this confidence are not used
 SMOOTH_S = 0.05  # moving-average width of the motion signal
@@ -78,13 +89,13 @@ def main_person(keypoints: np.ndarray) -> np.ndarray:
 def motion_signal(keypoints: np.ndarray, times: np.ndarray) -> np.ndarray:
     """Vertical image speed (T,) of one person (T, J, 3), in person heights per second; NaN where unseen."""
     y = np.where(keypoints[..., 2] >= MIN_CONFIDENCE, keypoints[..., 1], np.nan)
-    with np.errstate(all="ignore"):
+    with _quiet():
         height = np.nanmedian(np.nanmax(y, axis=1) - np.nanmin(y, axis=1))
     if not np.isfinite(height) or height <= 0:
         return np.full(len(times), np.nan)
     velocity = np.gradient(y, times, axis=0) if len(times) > 1 else np.zeros_like(y)
     weight = np.where(np.isfinite(velocity), keypoints[..., 2], 0.0)
-    with np.errstate(all="ignore"):
+    with _quiet():
         signal = np.nansum(np.abs(np.nan_to_num(velocity)) * weight, axis=1) / weight.sum(1)
     return signal / height
 
@@ -103,7 +114,7 @@ def _resample(times: np.ndarray, signal: np.ndarray, rate: float) -> np.ndarray:
         kernel = np.ones(width) / width
         filled = np.nan_to_num(out)
         counts = np.convolve(np.isfinite(out).astype(float), kernel, mode="same")
-        with np.errstate(all="ignore"):
+        with _quiet():
             out = np.where(np.isfinite(out), np.convolve(filled, kernel, mode="same") / counts, np.nan)
     return out
 
@@ -211,7 +222,7 @@ def estimate_offsets(
     views = [np.asarray(v, dtype=np.float64) for v in views]
     rate = 1.0 / float(np.median(np.diff(times[0]))) if len(times[0]) > 1 else 1.0
     raw = [motion_signal(v, t) for v, t in zip(views, times)]
-    with np.errstate(all="ignore"):
+    with _quiet():
         motion = np.array([np.nanmedian(r) if np.isfinite(r).any() else 0.0 for r in raw])
     signals = [_resample(t, r, rate) for r, t in zip(raw, times)]
     shortest = min(t[-1] - t[0] for t in times)

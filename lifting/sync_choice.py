@@ -4,7 +4,8 @@ Shared by ``platypose lift --sync`` / ``calib check --sync`` and ``platypose.lif
 
 - ``none``: the calibration's ``time_offset_s`` as it is;
 - ``auto``: each view's offset estimated from its 2D keypoints (:mod:`platypose.lifting.sync`),
-  logged with its confidence (a low one, or a search stopped at its bound, is a warning);
+  logged with its confidence; an estimate of low confidence, or a large one of middling confidence, is not applied
+  (the calibration's offset is kept, and that is a warning); a search stopped at its bound is a warning;
 - a JSON file ``{"cam01": 0.0, "cam02": 0.12}`` (or the ``offsets_s`` of a file written by ``auto``),
   or the same mapping given directly: seconds added to each view's frame times, by camera or view name.
 """
@@ -12,6 +13,7 @@ Shared by ``platypose lift --sync`` / ``calib check --sync`` and ``platypose.lif
 from __future__ import annotations
 
 import json
+import numbers
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,12 +22,14 @@ from typing import Any
 import numpy as np
 
 from platypose.lifting.calibration.matching import match_views
-from platypose.lifting.camera import Camera
+from platypose.lifting.camera import MAX_TIME_OFFSET_S, Camera
 from platypose.lifting.errors import InputError
 
-LOW_CONFIDENCE = 0.2  # below this an estimated offset is reported as unreliable
+LOW_CONFIDENCE = 0.2  # below this an estimated offset is not applied
+HIGH_CONFIDENCE = 0.5  # an offset over LARGE_SHARE of the clip is applied only from this confidence up
+LARGE_SHARE = 0.1  # of the shortest clip's duration
 SHORT_CLIP_S = 1.5  # estimates from less motion than this can be frames off
-MAX_OFFSET_S = 24 * 3600.0  # larger offsets are not a clock difference of one take
+MAX_OFFSET_S = MAX_TIME_OFFSET_S  # larger offsets are not a clock difference of one take (as in a calibration)
 SyncChoice = str | Path | Mapping[str, float]
 
 
@@ -56,7 +60,7 @@ def check_choice(choice: SyncChoice) -> None:
 def offsets_by_name(offsets: object, camera_names: Sequence[str], where: str) -> list[float]:
     """Offsets (s) per camera in ``camera_names`` order from a mapping keyed by camera or view name."""
     if not isinstance(offsets, Mapping) or not all(
-        isinstance(v, (int, float)) and not isinstance(v, bool) for v in offsets.values()
+        isinstance(v, numbers.Real) and not isinstance(v, bool) for v in offsets.values()
     ):
         raise InputError(f"{where}: expected a JSON object of camera name -> offset in seconds")
     try:
@@ -131,8 +135,9 @@ def synchronise(
         check_overlap(synced, frame_times, str(choice))
         return Synced(synced, "offsets")
     estimate = estimate_offsets([main_person(k) for k in keypoints], frame_times, cameras)
-    synced = with_offsets(cameras, estimate.offsets_s)
     shortest = min(float(t[-1] - t[0]) if len(t) else 0.0 for t in frame_times)
+    offsets = trusted_offsets(estimate, cameras, shortest, warn)
+    synced = with_offsets(cameras, offsets)
     if shortest < SHORT_CLIP_S:
         warn(
             f"sync: only {shortest:.1f} s of frames; offsets estimated from under {SHORT_CLIP_S:g} s of motion can "
@@ -148,18 +153,44 @@ def synchronise(
         if index == 0:
             continue
         log(
-            f"sync {camera.name}: {camera.time_offset_s:+.3f} s ({frames:+.1f} frames) after {synced[0].name}, "
-            f"confidence {confidence:.2f}"
+            f"sync {camera.name}: estimated {frames / estimate.rate:+.3f} s ({frames:+.1f} frames) after "
+            f"{synced[0].name}, confidence {confidence:.2f}; {camera.time_offset_s:+.3f} s used"
         )
-        if confidence < LOW_CONFIDENCE and motion >= MIN_MOTION:
-            warn(f"sync {camera.name}: low confidence {confidence:.2f}; check the offset or pass an offsets.json")
-        if at_limit:
+        if at_limit and camera.time_offset_s == estimate.offsets_s[index]:
             warn(
                 f"sync {camera.name}: the reprojection error still falls at 2 frames from the motion estimate, "
                 "where the search stops: the offset or the calibration may be off by that much"
             )
     log(
         f"sync: median reprojection error {estimate.error_before_px:.1f} px as recorded, "
-        f"{estimate.error_after_px:.1f} px with the offsets"
+        f"{estimate.error_after_px:.1f} px with the estimated offsets"
     )
     return Synced(synced, "auto", [float(v) for v in estimate.confidence])
+
+
+def trusted_offsets(
+    estimate: Any, cameras: Sequence[Camera], shortest_s: float, warn: Callable[[str], None]
+) -> list[float]:
+    """Each camera's offset: the estimate (:class:`platypose.lifting.sync.SyncEstimate`) where it can be trusted,
+    else the calibration's (said once per camera): an estimate under ``LOW_CONFIDENCE`` is not applied, nor one
+    moving a view by more than ``LARGE_SHARE`` of the shortest clip (``shortest_s``) under ``HIGH_CONFIDENCE``."""
+    offsets = [float(v) for v in estimate.offsets_s]
+    for c in range(1, len(cameras)):
+        recorded, confidence = cameras[c].time_offset_s, float(estimate.confidence[c])
+        shift = abs(offsets[c] - recorded)
+        if confidence < LOW_CONFIDENCE:
+            reason = f"its confidence {confidence:.2f} is under {LOW_CONFIDENCE:g}"
+        elif shift > LARGE_SHARE * shortest_s and confidence < HIGH_CONFIDENCE:
+            reason = (
+                f"it moves the view by {shift:.3f} s, over {LARGE_SHARE:.0%} of the {shortest_s:.1f} s clip, "
+                f"which needs confidence {HIGH_CONFIDENCE:g} (got {confidence:.2f})"
+            )
+        else:
+            continue
+        warn(
+            f"sync {cameras[c].name}: the estimated offset {offsets[c]:+.3f} s ({offsets[c] * estimate.rate:+.1f} "
+            f"frames) is not applied: {reason}; the calibration's {recorded:+.3f} s is kept (check it, or pass an "
+            "offsets .json)"
+        )
+        offsets[c] = recorded
+    return offsets

@@ -73,7 +73,7 @@ def lift(
     :class:`Prior` (load it once for many takes) or a checkpoint path (None: the shipped
     prior). ``sampler`` / ``windows``: settings objects; keyword arguments named after
     :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
-    ``persons``: "all", "largest" or N (an int or its digits); ``root``: auto, triangulate or solve;
+    ``persons``: "all", "largest", "largest:N" or N as an int (the N largest), ids "id:0,2", a pixel "@X,Y"; ``root``: auto, triangulate or solve;
     ``root_trajectory``: a known pelvis path file. ``floor``: "auto" (the calibration's z = 0; without one,
     one camera: estimated under a quick lift, then grounded on), "z=H", "nx,ny,nz,d" or four numbers, "none" or
     None, as ``--floor``. ``sync``: how the views are put on one clock, as ``--sync``: "none" or None (the

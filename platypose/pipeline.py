@@ -24,7 +24,7 @@ import numpy as np
 
 from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
-from platypose.lifting.camera import CODEC_BLOCK, Camera, codec_padded
+from platypose.lifting.camera import CODEC_BLOCK, SIZE_TOLERANCE, Camera, codec_padded
 from platypose.lifting.errors import InputError
 from platypose.lifting.flags import person_lines
 from platypose.lifting.floor import ESTIMATE, Floor, floor_under
@@ -36,8 +36,6 @@ from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.steady_depth import steady_person
 from platypose.lifting.take import lift_persons, reprojection_report
 from platypose.lifting.world import level_on_floor
-
-SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference accepted with a warning
 
 
 class JobLog:
@@ -102,15 +100,22 @@ def view_cameras(
     log: JobLog,
     calibration_word: str = "cams",
 ) -> list[Camera]:
-    """The matched ``cameras`` checked against the views' image sizes (height, width), or without a calibration
+    """The matched ``cameras`` checked against the views' image sizes (height, width), each image at least
+    ``MIN_IMAGE_SIDE`` a side and each focal length warned about when no lens has it, or without a calibration
     the default camera of a single view (a note: one uncalibrated phone is the common case, not a fault); InputError
     for several views without one.
 
     ``calibration_word`` is how the messages name the missing calibration (the CLI says ``--cams``).
     """
+    from platypose.lifting.calibration.plausible import camera_doubts, check_image_side
+
+    for size, source in zip(image_sizes, sources):
+        check_image_side(size, source)
     if cameras is not None:
         for camera, size, source in zip(cameras, image_sizes, sources):
             check_image_size(camera, size, source, log)
+        for doubt in (line for camera in cameras for line in camera_doubts(camera)):
+            log.warning(doubt)
         return list(cameras)
     if len(names) > 1:
         raise InputError(f"{what}: {len(names)} views need {calibration_word} to place the cameras")
@@ -152,6 +157,7 @@ def lift_take(
     progress: Callable[[list[int] | str, int, int], None] | None = None,
     log: JobLog | None = None,
     floor: Floor | str | None = None,
+    everyone: np.ndarray | None = None,
 ) -> LiftResult:
     """The LiftResult of a take: keypoints (C, T, P, 17, 3) on ``times`` (T,) of persons ``track_ids`` (P,),
     seen by ``cameras``, each person's root path known (T, 3) or None (solved per hypothesis).
@@ -161,8 +167,9 @@ def lift_take(
     or ``QUICK_LIFT`` for the windows of the floor's quick lift).
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
     sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
-    and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor. The
-    result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
+    and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor.
+    ``everyone`` (1, T, P', 17, 3): the keypoints of everyone in the take when ``keypoints`` hold only the persons
+    chosen, so the estimated floor does not depend on whom the user chose. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
     person, :mod:`platypose.lifting.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
     :func:`platypose.lifting.rigid.rigid_person`: every hypothesis and the median get one length per bone over
     the clip); the caller adds its own. With an estimated floor every output is moved into the estimated world
@@ -174,9 +181,16 @@ def lift_take(
     absent = ~presence(keypoints, times)  # (P, T)
     floor_meta = None
     if floor == ESTIMATE:
-        floor, floor_meta = quick_floor(
-            prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress
-        )
+        if everyone is None:
+            floor, floor_meta = quick_floor(
+                prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress
+            )
+        else:
+            missing = ~presence(everyone, times)
+            others = [None] * everyone.shape[2]  # solved: a known root path belongs to a chosen person only
+            floor, floor_meta = quick_floor(
+                prior, everyone, times, missing, cameras, others, sampler, windows, fps, log, progress
+            )
     if isinstance(floor, Floor):
         sampler = replace(sampler, floor=floor.plane)
         floor_meta = floor_meta or floor.as_dict()
@@ -205,7 +219,7 @@ def lift_take(
             f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
         )
     report = report_reprojection(median, keypoints, cameras, log)
-    persons = plausibility(hypotheses, keypoints, floor, fps, median=median)
+    persons = plausibility(hypotheses, keypoints, floor, fps, median=median, cameras=cameras)
     for track, person in zip(track_ids, persons):
         person["track_id"] = int(track)
     for line in person_lines(persons, track_ids):  # said once: the console shows them from the result

@@ -3,7 +3,8 @@
 
 :func:`run_take` runs them in order, each saying what it did through a :class:`~platypose.pipeline.JobLog`:
 
-1. cameras: the calibration's camera of each view, matched by name before anything is read;
+1. cameras: the calibration's camera of each view, matched by name before anything is read, and checked against
+   each video's image size (read from its header) before anything is detected;
 2. 2D: each view read or detected by the caller's ``read`` (the command caches detections and shows progress,
    the API does neither); a view's notes (a truncated video) become warnings;
 3. the cameras checked against the views' image sizes (or one view's default camera);
@@ -11,7 +12,7 @@
 5. one clock: persons matched across views, the ``persons`` choice (:func:`platypose.detectors.take.take_keypoints`);
 6. roots: each person's pelvis path given, triangulated or solved (:func:`platypose.lifting.take.root_paths`);
 7. lift, rigid people, the reprojection report and plausibility (:func:`platypose.pipeline.lift_take`);
-8. meta: version, input, arguments, sync, roots, timings, warnings.
+8. meta: version, input, arguments, which rule picked whom (``persons``), sync, roots, timings, warnings.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.settings import TakeSettings
-from platypose.pipeline import JobLog, lift_take, match_cameras, numpy_arrays, view_cameras
+from platypose.pipeline import JobLog, check_image_size, lift_take, match_cameras, numpy_arrays, view_cameras
 
 Reader = Callable[[Path], tuple[PoseTrack2D, str]]  # a view's source -> its tracks and how they were obtained
 
@@ -55,14 +56,20 @@ def run_take(
     input, before any lifting.
     """
     from platypose import __version__
+    from platypose.detectors.person_choice import describe_choice
     from platypose.detectors.take import take_keypoints
     from platypose.detectors.view_agreement import disagreeing_views
-    from platypose.lifting.floor import floor_for_lift, parse_floor
+    from platypose.lifting.floor import ESTIMATE, floor_for_lift, parse_floor
     from platypose.lifting.sync_choice import synchronise
     from platypose.lifting.take import root_kinds
 
     names, sources = [name for name, _ in views], [source for _, source in views]
     cameras = None if calibration is None else match_cameras(calibration, names, what, described)
+    if cameras is not None:  # a wrong calibration is found before anything is detected: sizes from video headers
+        for camera, source in zip(cameras, sources):
+            size = _video_size(source)
+            if size is not None:
+                check_image_size(camera, size, str(source), JobLog())  # raises for a mismatch; small ones warn later
     floor = floor_for_lift(parse_floor(take.floor), None if calibration is None else calibration.meta)
     started = time.perf_counter()
     tracks = [_read_view(read, name, source, log) for name, source in views]
@@ -73,10 +80,14 @@ def run_take(
         take.sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
     )
     keypoints, times, track_ids = take_keypoints(tracks, synced.cameras, take.persons, what)
+    everyone = None  # an estimated floor comes from everyone in the take, not only from the persons chosen
+    if floor == ESTIMATE and len(synced.cameras) == 1 and take.persons != "all":
+        everyone = take_keypoints(tracks, synced.cameras, "all", what)[0]
     swapped = disagreeing_views(keypoints, [c.name for c in synced.cameras])
     if swapped:
         log.warning(swapped)
-    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) (persons {take.persons})")
+    chosen = describe_choice(take.persons, [int(t) for t in track_ids])
+    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) ({chosen})")
     roots = _roots(keypoints, times, synced.cameras, take, log)
     bundle = prior()
     started = time.perf_counter()
@@ -93,6 +104,7 @@ def run_take(
         progress,
         log,
         floor,
+        everyone,
     )
     timings["lift_s"] = time.perf_counter() - started
     meta = {
@@ -100,6 +112,7 @@ def run_take(
         "input": what,
         "arguments": arguments if arguments is not None else {},
         **result.meta,
+        "persons": chosen,
         "sync": synced.record(),
         "root": root_kinds(roots, take.root_trajectory is not None),
         "timings": timings,
@@ -117,6 +130,17 @@ def take_settings(**values: object) -> TakeSettings:
     take = TakeSettings(**values)
     persons_count(take.persons)
     return take
+
+
+def _video_size(source: Path) -> tuple[int, int] | None:
+    """A video view's upright image size (height, width) from its header and first frame; None for keypoints."""
+    from platypose.detectors.sources import is_keypoint_source
+    from platypose.media import video_info
+
+    path = Path(source)
+    if is_keypoint_source(path) or not path.is_file():
+        return None
+    return video_info(path).image_size
 
 
 def _read_view(read: Reader, name: str, source: Path, log: JobLog) -> PoseTrack2D:

@@ -192,7 +192,7 @@ def bench(
     clip_seconds: float = typer.Option(60.0, "--clip-seconds", help="Length of the end-to-end clip (30 fps)."),
     video: Path = typer.Option(DEMO_VIDEO, "--video", help="Video looped into the end-to-end clip."),
     persons: str = typer.Option(
-        "largest", "--persons", help="Tracks of the clip lifted: largest, all, or the N largest (as lift)."
+        "largest", "--persons", help="Tracks of the clip lifted: largest, all, or largest:N (the N largest; as lift)."
     ),
     json_path: Path | None = typer.Option(None, "--json", help="Also write the report as JSON here."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),

@@ -88,7 +88,9 @@ def detect(
     ),
     threads: int | None = typer.Option(None, "--threads", help="onnxruntime intra-op threads (default: all cores)."),
     provider: str = typer.Option("CPUExecutionProvider", "--provider", help="onnxruntime execution provider."),
-    persons: str = typer.Option("all", "--persons", help="Who to keep: all, largest, or N (the N largest)."),
+    persons: str = typer.Option(
+        "all", "--persons", help="Who to keep: all, largest, largest:N (the N largest), ids id:0,2, or @X,Y."
+    ),
     stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame."),
     max_frames: int | None = typer.Option(None, "--max-frames", min=1, help="Stop after this many processed frames."),
     fps: float | None = typer.Option(

@@ -18,7 +18,7 @@ def image_size_option(value: str | None) -> tuple[int, int] | None:
     if value is None:
         return None
     height, sep, width = value.lower().partition("x")
-    if not sep or not height.isdigit() or not width.isdigit():
+    if not sep or not (height + width).isascii() or not height.isdigit() or not width.isdigit():
         raise InputError(f"--image-size {value}: give HEIGHTxWIDTH in pixels, e.g. 1080x1920")
     return int(height), int(width)
 

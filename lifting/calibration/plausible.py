@@ -3,6 +3,8 @@
 Both guesses rest on how capture rigs are built: cameras stand between a few decimetres and some
 tens of metres apart, and are mounted roughly upright (the image's up is near the world's up).
 Each guess returns a sentence for ``meta["assumptions"]`` so the user sees what was decided.
+:func:`camera_doubts` says what a camera states that no real one has (a field of view wider than a fisheye's
+usable part) and :func:`check_image_side` refuses images too small to show a person's joints.
 """
 
 from __future__ import annotations
@@ -12,10 +14,36 @@ from collections.abc import Sequence
 import numpy as np
 
 from platypose.lifting.camera import Camera
+from platypose.lifting.errors import InputError
 
 MAX_RIG_SPREAD_M = 50.0  # a larger median spacing in file units means the file is not in metres
 MAX_UP_ANGLE_DEG = 35.0  # the mean image-up must lie this close to one world axis to be taken as up
 AXIS_NAMES = ("x", "y", "z")
+MAX_FIELD_OF_VIEW_DEG = 150.0  # horizontal; a pinhole model wider than this is a wrong focal length
+MIN_IMAGE_SIDE = 32  # pixels: fewer cannot show 17 joints of a person apart
+
+
+def camera_doubts(camera: Camera) -> list[str]:
+    """Warnings about ``camera``: a focal length that makes its horizontal field of view wider than
+    ``MAX_FIELD_OF_VIEW_DEG`` (a focal length in another unit, or of another image size)."""
+    fov = float(np.degrees(2 * np.arctan2(camera.width / 2, camera.K[0, 0])))
+    if fov <= MAX_FIELD_OF_VIEW_DEG:
+        return []
+    return [
+        f"camera {camera.name}: focal length {camera.K[0, 0]:g} px on a {camera.width} px wide image is a "
+        f"{fov:.0f} degree field of view, wider than any lens the pinhole model fits: check the calibration's "
+        "focal length (pixels, of this image size)"
+    ]
+
+
+def check_image_side(image_size: tuple[int, int], source: str) -> None:
+    """InputError when an image (height, width) is under ``MIN_IMAGE_SIDE`` pixels on a side."""
+    height, width = image_size
+    if min(height, width) < MIN_IMAGE_SIDE:
+        raise InputError(
+            f"{source}: the image is {width}x{height} pixels; a person's joints need at least {MIN_IMAGE_SIDE} "
+            "pixels a side (wrong --image-size?)"
+        )
 
 
 def camera_spread(cameras: Sequence[Camera]) -> float | None:

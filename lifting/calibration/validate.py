@@ -12,7 +12,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from platypose.lifting.camera import Camera
+from platypose.lifting.camera import MAX_TIME_OFFSET_S, Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.file_reads import read_regular
 
@@ -129,10 +129,16 @@ def check_camera_count(count: int, source: str) -> None:
 
 
 def check_cameras(cameras: Sequence[Camera], source: str) -> tuple[Camera, ...]:
-    """At least one camera and at most ``MAX_CAMERAS``, unique names; returns them as a tuple."""
+    """At least one camera and at most ``MAX_CAMERAS``, unique names, distortion and time offsets in range; returns
+    them as a tuple."""
     check_camera_count(len(cameras), source)
     for camera in cameras:
         check_distortion(camera.dist, source, f"camera {camera.name!r}")
+        if not abs(camera.time_offset_s) <= MAX_TIME_OFFSET_S:  # NaN fails too
+            raise InputError(
+                f"{source}: camera {camera.name!r} time_offset_s {camera.time_offset_s:g} is out of range "
+                f"(a finite number of seconds, at most {MAX_TIME_OFFSET_S:g} in size, as --sync offsets)"
+            )
     counts = Counter(c.name for c in cameras)
     duplicates = sorted(n for n, k in counts.items() if k > 1)
     if duplicates:

@@ -96,6 +96,7 @@ def read_asf(path: Path) -> AsfSkeleton:
     unknown = [b for kids in children.values() for b in kids if b not in bones]
     if unknown:
         raise InputError(f"{path}: hierarchy names bones without bonedata: {unknown}")
+    _check_tree(path, children)
     return AsfSkeleton(
         bones=bones,
         children=children,
@@ -105,6 +106,24 @@ def read_asf(path: Path) -> AsfSkeleton:
         metres_per_unit=INCH_M / float(units.get("length", 1.0)),
         degrees=units.get("angle", "deg").lower().startswith("deg"),
     )
+
+
+def _check_tree(path: Path, children: dict[str, list[str]]) -> None:
+    """InputError unless the hierarchy ``children`` is a tree under ``root``: no bone its own child, none listed
+    twice (under one parent or two: a cycle needs a bone with two parents once it hangs from the root), the root
+    nobody's child. One pass over the links, so walking from the root then visits each bone once."""
+    parent_of: dict[str, str] = {}
+    for parent, kids in children.items():
+        for kid in kids:
+            if kid == parent:
+                raise InputError(f"{path}: hierarchy lists bone {kid!r} as its own child")
+            if kid == "root":
+                raise InputError(f"{path}: hierarchy lists the root as a child of {parent!r}")
+            if kid in parent_of:
+                raise InputError(
+                    f"{path}: hierarchy lists bone {kid!r} twice (under {parent_of[kid]!r} and {parent!r}): not a tree"
+                )
+            parent_of[kid] = parent
 
 
 def read_amc(path: Path) -> dict[str, np.ndarray]:
@@ -185,6 +204,8 @@ def load_amc(path: Path, fps: float | None = None, asf: Path | None = None) -> l
     asf = Path(asf) if asf is not None else find_asf(path)
     try:
         skeleton = read_asf(asf)
+    except InputError:
+        raise  # already one line naming the file
     except (ValueError, KeyError, IndexError) as err:
         raise InputError(f"{asf}: broken ASF skeleton ({type(err).__name__}: {err})") from None
     motion = read_amc(path)

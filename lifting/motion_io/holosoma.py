@@ -9,6 +9,7 @@ import numpy as np
 from platypose.lifting.errors import InputError
 from platypose.lifting.joint_maps import HOLOSOMA_MOCAP_NAMES, HOLOSOMA_MOCAP_RECIPE, apply_recipe
 from platypose.lifting.motion import Motion
+from platypose.lifting.npz_limits import check_npy_size
 
 # The files store no rate; hand (~1.9 m/s) and foot (~3.2 m/s) peak speeds are
 # plausible for climbing only at 120 frames per second.
@@ -18,6 +19,7 @@ DEFAULT_FPS = 120.0
 def load_holosoma(path: Path, fps: float | None = None) -> list[Motion]:
     """One clip from a holosoma ``(T, 53, 3)`` npy file, at ``fps`` (default 120)."""
     try:
+        check_npy_size(path)
         points = np.load(path, allow_pickle=False)
     except (OSError, ValueError) as err:
         raise InputError(f"{path}: not a readable .npy array ({err})") from None

@@ -3,7 +3,9 @@
 A pickle stream can ask for an array of any shape in a few bytes (``ndarray((2**40,))``), and a list that holds
 itself twice, nested 40 deep, is 40 objects in the file but 2**40 when walked. Arrays are checked before they are
 allocated (constructor arguments, and the state set on them), and the loaded object is copied into plain
-containers while counting every element reached (shared references count each time), to a nesting depth.
+containers while counting every element reached (shared references count each time), to a nesting depth, and the
+bytes of every array reached at its full size: forty views of one buffer with zero strides cost nothing in the file
+and nothing when loaded, but each becomes a full array when it is used.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from typing import Any
 import numpy as np
 
 MAX_ARRAY_BYTES = 2**30  # one array; also the largest pickle stream read
+MAX_TOTAL_BYTES = 3 * 2**29  # all arrays of one loaded object, each counted at its full size (views too)
 MAX_ELEMENTS = 1_000_000  # containers and values reached when the loaded object is walked as a tree
 MAX_DEPTH = 32  # nesting of containers
 
@@ -58,8 +61,8 @@ def bounded_reconstruct(reconstruct: Any) -> Any:
 
 def plain_copy(obj: Any) -> Any:
     """``obj`` with its arrays as plain ndarrays and its containers copied, each element counted; UnpicklingError
-    past ``MAX_ELEMENTS`` elements or ``MAX_DEPTH`` levels."""
-    count = [0]
+    past ``MAX_ELEMENTS`` elements, ``MAX_DEPTH`` levels or ``MAX_TOTAL_BYTES`` of arrays at their full sizes."""
+    count, size = [0], [0]
 
     def copy(value: Any, depth: int) -> Any:
         count[0] += 1
@@ -72,6 +75,11 @@ def plain_copy(obj: Any) -> Any:
         if isinstance(value, (list, tuple)):
             return type(value)(copy(v, depth + 1) for v in value)
         if isinstance(value, np.ndarray):
+            size[0] += value.size * value.dtype.itemsize  # as materialised, whatever the strides
+            if size[0] > MAX_TOTAL_BYTES:
+                raise pickle.UnpicklingError(
+                    f"its arrays come to more than {MAX_TOTAL_BYTES / 2**30:.1f} GiB when materialised"
+                )
             array = value.view(np.ndarray)
             if array.dtype.hasobject:
                 flat = [copy(v, depth + 1) for v in array.ravel()]

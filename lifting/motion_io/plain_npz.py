@@ -9,6 +9,7 @@ import numpy as np
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.motion import Motion
+from platypose.lifting.npz_limits import check_npz_sizes
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
 
 
@@ -28,10 +29,14 @@ def is_plain_npz(path: Path) -> bool:
 
 def load_plain_npz(path: Path, fps: float | None = None) -> list[Motion]:
     """One clip; joints are reordered to ours when ``joint_names`` lists our names in another order."""
-    with np.load(path, allow_pickle=False) as data:
-        joints = np.asarray(data["joints"], dtype=np.float64)
-        file_fps = float(data["fps"]) if "fps" in data else None
-        names = [str(n) for n in data["joint_names"]] if "joint_names" in data else list(JOINT_NAMES)
+    try:
+        check_npz_sizes(path)
+        with np.load(path, allow_pickle=False) as data:
+            joints = np.asarray(data["joints"], dtype=np.float64)
+            file_fps = float(data["fps"]) if "fps" in data else None
+            names = [str(n) for n in data["joint_names"]] if "joint_names" in data else list(JOINT_NAMES)
+    except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile) as err:
+        raise InputError(f"{path}: not a readable motion npz ({err})") from None
     if joints.ndim != 3 or joints.shape[1:] != (NUM_JOINTS, 3) or joints.shape[0] == 0:
         raise InputError(f"{path}: 'joints' must be (T, {NUM_JOINTS}, 3), got {joints.shape}")
     if sorted(names) != sorted(JOINT_NAMES):

@@ -76,7 +76,7 @@ def test_natural_values_are_taken_as_the_command_spells_them():
     from platypose.lifting.settings import TakeSettings
 
     take = TakeSettings(persons=1, floor=None, sync=None)
-    assert (take.persons, take.floor, take.sync) == ("1", "none", "none")
+    assert (take.persons, take.floor, take.sync) == ("largest:1", "none", "none")
     assert TakeSettings(floor=(0, 0, 1, 0)).floor == "0.0,0.0,1.0,0.0"
     assert TakeSettings(sync={"cam01": 0}).sync == {"cam01": 0}
     assert TakeSettings(root_trajectory="p.csv").root_trajectory.name == "p.csv"
@@ -91,7 +91,7 @@ def test_natural_values_lift(tiny_default_prior):
     )
     assert result.hypotheses.shape[:2] == (1, 2)
     assert result.meta["floor"] is None and result.meta["sync"]["mode"] == "none"
-    assert result.meta["arguments"]["persons"] == "1" and result.meta["arguments"]["floor"] == "none"
+    assert result.meta["arguments"]["persons"] == "largest:1" and result.meta["arguments"]["floor"] == "none"
 
 
 @pytest.fixture

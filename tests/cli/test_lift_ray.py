@@ -44,6 +44,16 @@ def cluster():
     nodes.shutdown()
 
 
+def test_the_address_probe_passes_a_real_cluster(cluster) -> None:
+    """The probe's GetClusterId call is answered by a real Ray GCS, at its address and at 127.0.0.1 (which Ray
+    dials as this machine's address)."""
+    from platypose.cli.ray_address import check_ray_address
+
+    port = cluster.address.rsplit(":", 1)[1]
+    check_ray_address(cluster.address, timeout_s=5)
+    check_ray_address(f"127.0.0.1:{port}", timeout_s=5)
+
+
 def batch_args(batch_folder, prior_file, out, *extra: str) -> tuple[str, ...]:
     common = ("--prior", prior_file, "--samples", "4", "--seed", "3", "--threads", "1", "--persons", "largest")
     return ("lift", str(batch_folder), *common, "--out", str(out), "--quiet", *extra)

@@ -84,7 +84,7 @@ def test_person_selection(demo_detections) -> None:
     assert largest.num_persons == 1
     sizes = [np.nansum(np.ptp(tracks.keypoints[:, p, :, 1], axis=1)) for p in range(2)]
     assert largest.track_ids[0] == tracks.track_ids[int(np.argmax(sizes))]
-    assert select_persons(tracks, "5").num_persons == 2
+    assert select_persons(tracks, "largest:5").num_persons == 2
     with pytest.raises(InputError, match="persons must be"):
         select_persons(tracks, "tallest")
 

@@ -163,8 +163,9 @@ def test_ray_address_is_checked_with_a_deadline(run_cli, batch_folder, prior_fil
     with pytest.raises(InputError, match="answers but not as a Ray cluster"):
         check_ray_address(f"127.0.0.1:{port}", timeout_s=2)
     stop.set()
-    port, stop = _server(b"\x00\x00\x00\x04\x00\x00\x00\x00\x00")  # a gRPC server's first frame: SETTINGS
-    check_ray_address(f"ray://127.0.0.1:{port}", timeout_s=2)
+    port, stop = _server(b"\x00\x00\x00\x04\x00\x00\x00\x00\x00")  # an HTTP/2 greeting alone is not Ray (round 3)
+    with pytest.raises(InputError, match="answers but not as a Ray cluster"):
+        check_ray_address(f"ray://127.0.0.1:{port}", timeout_s=2)
     stop.set()
     started = time.monotonic()
     for address in (f"127.0.0.1:{_closed_port()}", "nonsense"):

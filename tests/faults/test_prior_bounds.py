@@ -1,0 +1,64 @@
+"""A prior checkpoint is checked before its network is built: its joint names are a list of ours, its weights'
+names and shapes are those its config asks for, and the config asks for a bounded network. Sampler numbers are
+bounded so float32 arithmetic stays finite."""
+
+from __future__ import annotations
+
+import resource
+
+import numpy as np
+import pytest
+import torch
+
+from platypose.lifting.errors import InputError
+from platypose.lifting.prior import load_prior, save_prior
+from platypose.lifting.settings import SamplerConfig
+
+
+def _edited(tiny_prior, tmp_path, change) -> str:
+    path = tmp_path / "edited.pt"
+    save_prior(path, tiny_prior)
+    payload = torch.load(path, weights_only=True)
+    change(payload)
+    torch.save(payload, path)
+    return str(path)
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (lambda p: p.pop("joint_names"), "joint_names must be a list of joint names, got NoneType"),
+        (lambda p: p.update(joint_names=5), "joint_names must be a list of joint names, got int"),
+        (lambda p: p.update(joint_names=["a"] * 17), "the prior was trained on another joint set"),
+    ],
+)
+def test_joint_names_are_checked(tiny_prior, tmp_path, run_cli, change, words) -> None:
+    path = _edited(tiny_prior, tmp_path, change)
+    with pytest.raises(InputError, match=f"edited.pt: not a valid platypose prior \\({words}\\)"):
+        load_prior(path)
+    code, _, err = run_cli("prior-info", path)
+    assert code == 2 and err.strip() == f"error: {path}: not a valid platypose prior ({words})"
+
+
+def test_a_huge_config_is_refused_before_the_network_is_built(tiny_prior, tmp_path) -> None:
+    """64 layers of width 4096 (each within its bound) is 12.9 billion weights: refused in seconds, no memory."""
+    path = _edited(tiny_prior, tmp_path, lambda p: p["config"].update(layers=64, width=4096, heads=64, ff_width=16384))
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    with pytest.raises(InputError, match=r"the config asks for 12,922,302,515 weights, over the 268,435,456"):
+        load_prior(path)
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 500_000  # kB: under 0.5 GB grown
+
+
+def test_weights_of_another_shape_are_named(tiny_prior, tmp_path) -> None:
+    path = _edited(tiny_prior, tmp_path, lambda p: p["config"].update(width=128, ff_width=256))
+    with pytest.raises(
+        InputError, match=r"weights 'input.weight' have shape \(64, 51\), the config asks for \(128, 51\)"
+    ):
+        load_prior(path)
+
+
+@pytest.mark.parametrize("value", [1e308, np.float64(1e308), 1e7])
+def test_sampler_numbers_are_bounded(value) -> None:
+    with pytest.raises(InputError, match=r"energy_scale must be at most 1e\+06 in size, got") as err:
+        SamplerConfig(energy_scale=value)
+    assert err.value.option == "energy_scale"

@@ -1,0 +1,98 @@
+"""The ``--ray-address`` probe asks Ray's own gRPC call: an HTTP/2 or gRPC server that is not Ray is refused, and
+a local address is also probed where Ray really dials it (this machine's address in place of 127.0.0.1)."""
+
+from __future__ import annotations
+
+import socket
+import threading
+
+import pytest
+
+from platypose.cli import ray_address
+from platypose.cli.ray_address import check_ray_address
+from platypose.lifting.errors import InputError
+
+
+def frame(kind: int, flags: int, stream: int, payload: bytes = b"") -> bytes:
+    return len(payload).to_bytes(3, "big") + bytes([kind, flags]) + stream.to_bytes(4, "big") + payload
+
+
+SETTINGS = frame(0x4, 0, 0)
+STATUS_200 = frame(0x1, 0x4, 1, b"\x88")  # HPACK static entry 8: ":status 200"
+HTML = b"<html><body>It works!</body></html>"
+CLUSTER_ID = bytes([0x12, 28]) + b"c" * 28  # GetClusterIdReply.cluster_id
+TRAILERS = frame(0x1, 0x5, 1, b"\x00\x0bgrpc-status\x010")
+
+
+def serve(reply: bytes, host: str = "127.0.0.1") -> tuple[int, threading.Event]:
+    """A server on ``host`` answering each connection's first bytes with ``reply`` (then holding it open a moment)."""
+    listener = socket.create_server((host, 0))
+    listener.settimeout(0.2)
+    stop = threading.Event()
+
+    def run() -> None:
+        while not stop.is_set():
+            try:
+                conn, _ = listener.accept()
+            except TimeoutError:
+                continue
+            with conn:
+                conn.recv(4096)
+                conn.sendall(reply)
+                conn.settimeout(1.0)
+                try:
+                    conn.recv(4096)
+                except OSError:
+                    pass
+
+    threading.Thread(target=run, daemon=True).start()
+    return listener.getsockname()[1], stop
+
+
+@pytest.mark.parametrize(
+    "reply",
+    [
+        SETTINGS,  # an HTTP/2 greeting and nothing more
+        SETTINGS + STATUS_200 + frame(0x0, 0x1, 1, HTML),  # a web server speaking HTTP/2
+        SETTINGS + frame(0x1, 0x5, 1, b"\x88\x00\x0bgrpc-status\x0212"),  # gRPC: no such call (UNIMPLEMENTED)
+        SETTINGS + frame(0x7, 0, 0, bytes(8)),  # GOAWAY
+    ],
+    ids=["greeting-only", "web-server", "other-grpc", "goaway"],
+)
+@pytest.mark.parametrize("scheme", ["", "ray://"])
+def test_an_http2_server_that_is_not_ray_is_refused(reply: bytes, scheme: str, monkeypatch) -> None:
+    monkeypatch.delenv("RAY_AUTH_MODE", raising=False)
+    port, stop = serve(reply)
+    call = "ClusterInfo" if scheme else "GetClusterId"
+    try:
+        with pytest.raises(
+            InputError, match=f"127.0.0.1:{port} answers but not as a Ray cluster .*Ray's {call} in 2 s"
+        ):
+            check_ray_address(f"{scheme}127.0.0.1:{port}", timeout_s=2)
+    finally:
+        stop.set()
+
+
+def test_a_gcs_reply_passes_and_ray_s_dialled_address_is_probed_too(monkeypatch) -> None:
+    ray_like = SETTINGS + STATUS_200 + frame(0x0, 0, 1, b"\x00" + len(CLUSTER_ID).to_bytes(4, "big") + CLUSTER_ID)
+    port, stop = serve(ray_like + TRAILERS, host="127.0.0.1")
+    try:
+        monkeypatch.setattr(ray_address, "dialled_host", lambda host: host)
+        check_ray_address(f"127.0.0.1:{port}", timeout_s=2)
+        monkeypatch.setattr(ray_address, "dialled_host", lambda host: "127.0.0.2")  # bound to 127.0.0.1 only
+        expected = (
+            f"Ray dials 127.0.0.2:{port} (this machine's address, in place of 127.0.0.1) and no Ray cluster answers "
+            "there: a port-forward to 127.0.0.1 only?"
+        )
+        with pytest.raises(InputError, match=expected.replace("(", r"\(").replace(")", r"\)").replace(".", r"\.")):
+            check_ray_address(f"127.0.0.1:{port}", timeout_s=2)
+    finally:
+        stop.set()
+
+
+def test_ray_dials_this_machine_for_a_local_host() -> None:
+    pytest.importorskip("ray")
+    from ray._private.services import get_node_ip_address
+
+    assert ray_address.dialled_host("127.0.0.1") == get_node_ip_address()
+    assert ray_address.dialled_host("head.example") == "head.example"
