@@ -3,7 +3,8 @@
 Numbers are written with the shortest text that reads back to the same float32
 (positions) or float64 (times), so the CSV holds the same numbers as the npz.
 Every frame of a person seen at least once is written; frames where the person
-is absent are filled by the rule of :mod:`exporters.gaps` and have ``filled`` 1.
+is absent are filled by the rule of :mod:`exporters.gaps`; they, and the frames the prior filled through a
+detection gap, have ``filled`` 1.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from platypose.exporters.frames import Lead, frame_chunks
-from platypose.exporters.gaps import FillPlan, fill_frames, fill_plan
+from platypose.exporters.gaps import fill_frames, person_plans
 from platypose.exporters.result import LiftResult
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
@@ -43,18 +44,12 @@ def _joint_column(count: int) -> pa.DictionaryArray:
     return pa.DictionaryArray.from_arrays(indices, pa.array(JOINT_NAMES))
 
 
-def _plans(result: LiftResult) -> dict[int, FillPlan]:
-    """The gap-filling plan of each person index seen in at least one frame."""
-    present = result.present()
-    return {p: fill_plan(present[p], result.frame_times) for p in range(result.num_persons) if present[p].any()}
-
-
 def long_tables(result: LiftResult) -> Iterator[pa.Table]:
     """Rows ``person, hypothesis, frame, time_s, joint, x_m, y_m, z_m, filled`` over all frames, a chunk at a time.
 
     Rows are ordered by person, hypothesis, frame and joint.
     """
-    for p, plan in _plans(result).items():
+    for p, plan in person_plans(result).items():
         track = result.track_ids[p]
         for n in range(result.num_hypotheses):
             for t in frame_chunks(result.num_frames):
@@ -70,7 +65,7 @@ def long_tables(result: LiftResult) -> Iterator[pa.Table]:
                         "x_m": xyz[:, 0],
                         "y_m": xyz[:, 1],
                         "z_m": xyz[:, 2],
-                        "filled": np.repeat(~plan.present[t], NUM_JOINTS).astype(np.int8),
+                        "filled": np.repeat(plan.filled[t], NUM_JOINTS).astype(np.int8),
                     }
                 )
 
@@ -83,7 +78,7 @@ def summary_arrays(hypotheses: np.ndarray, median: np.ndarray) -> dict[str, np.n
 
 def summary_tables(result: LiftResult) -> Iterator[pa.Table]:
     """Rows ``person, frame, time_s, joint, median_{x,y,z}_m, q05_..., q95_..., filled`` over all frames, in chunks."""
-    for p, plan in _plans(result).items():
+    for p, plan in person_plans(result).items():
         for t in frame_chunks(result.num_frames):
             frames = np.arange(t.start, t.stop)
             hyp = fill_frames(Lead(result.hypotheses, p), plan, t, axis=1)
@@ -98,7 +93,7 @@ def summary_tables(result: LiftResult) -> Iterator[pa.Table]:
                 values = stats[label].reshape(-1, 3)
                 for axis, name in enumerate("xyz"):
                     columns[f"{label}_{name}_m"] = values[:, axis]
-            columns["filled"] = np.repeat(~plan.present[t], NUM_JOINTS).astype(np.int8)
+            columns["filled"] = np.repeat(plan.filled[t], NUM_JOINTS).astype(np.int8)
             yield pa.table(columns)
 
 

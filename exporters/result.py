@@ -18,6 +18,7 @@ import numpy as np
 
 from platypose.exporters.frames import FrameArray, frame_chunks
 from platypose.lifting.camera import Camera
+from platypose.lifting.root import seen_frames
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
 
 
@@ -81,6 +82,11 @@ class LiftResult:
         return np.concatenate(
             [np.isfinite(self.median[:, t]).all(axis=(-1, -2)) for t in frame_chunks(self.num_frames)], axis=1
         )
+
+    def seen(self) -> np.ndarray:
+        """Frames where some view sees each person, (P, T) bool: a present frame that is not seen was filled by
+        the prior (a detection gap lifted through)."""
+        return seen_frames(np.moveaxis(self.keypoints2d, 1, 2))
 
     def with_meta(self, **updates: object) -> LiftResult:
         """A copy with ``meta`` updated by ``updates``."""

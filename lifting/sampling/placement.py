@@ -32,33 +32,43 @@ class Anchor:
     ``joints`` (B, N, F, 17, 3) world metres; ``mask`` (B, F) is 1 where a frame is
     anchored, 0 elsewhere, and frame 0 must be anchored. Anchored frames are in-painted
     (their features replace the prediction's at every step, so the network continues
-    them) and held by an energy of ``weight`` per squared metre.
+    them) and held by an energy of ``weight`` per squared metre. ``seen`` (B, F), if given, is 1 on frames with
+    keypoints in some view: the continued placement is kept until the first of them after the anchored frames
+    (:func:`continuation_ramp`), so a window inside a detection gap carries the track on instead of placing it.
     """
 
     joints: torch.Tensor
     mask: torch.Tensor
     weight: float = 100.0
+    seen: torch.Tensor | None = None
 
 
-def continuation_ramp(mask: torch.Tensor) -> torch.Tensor:
+def continuation_ramp(mask: torch.Tensor, seen: torch.Tensor | None = None) -> torch.Tensor:
     """Weights ``(B, F)``: 1 over each row's anchored first frames, then falling linearly to 0 at the last frame.
 
     Blending the continued placement (weight 1) into the rays' own placement with
     these weights joins a window to the one before without letting the placement
     drift from window to window (with one camera, windows that only continue their
-    predecessor drift, e.g. towards the camera).
+    predecessor drift, e.g. towards the camera). With ``seen`` (B, F) the weight stays 1 up to the first seen
+    frame after the anchored ones (none seen: 1 throughout): frames of a detection gap have no placement of
+    their own, and the track is carried across it from where it was.
     """
     F = mask.shape[-1]
     frames = torch.arange(F, dtype=mask.dtype, device=mask.device)
-    last_anchored = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
-    return ((F - 1 - frames) / (F - 1 - last_anchored).clamp(min=1)).clamp(0, 1)
+    last_held = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+    if seen is not None:
+        later = (seen > 0) & (frames > last_held)
+        first_seen = torch.where(later, frames, torch.full_like(frames, float(F))).amin(-1, keepdim=True)
+        last_held = torch.maximum(last_held, first_seen - 1)
+    ramp = ((F - 1 - frames) / (F - 1 - last_held).clamp(min=1)).clamp(0, 1)
+    return torch.where(frames <= last_held, torch.ones_like(ramp), ramp)
 
 
 def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) -> torch.Tensor:
     """Offsets ``(B, N, F, 3)`` of poses ``local`` ``(B, N, F, 17, 3)`` that start on the ``anchor``'s first
     pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`)."""
     continued = anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
-    ramp = continuation_ramp(anchor.mask)[:, None, :, None]
+    ramp = continuation_ramp(anchor.mask, anchor.seen)[:, None, :, None]
     return ramp * continued + (1 - ramp) * offset
 
 
