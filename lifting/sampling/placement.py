@@ -49,19 +49,26 @@ def continuation_ramp(mask: torch.Tensor, seen: torch.Tensor | None = None) -> t
     Blending the continued placement (weight 1) into the rays' own placement with
     these weights joins a window to the one before without letting the placement
     drift from window to window (with one camera, windows that only continue their
-    predecessor drift, e.g. towards the camera). With ``seen`` (B, F) the weight stays 1 up to the first seen
-    frame after the anchored ones (none seen: 1 throughout): frames of a detection gap have no placement of
-    their own, and the track is carried across it from where it was.
+    predecessor drift, e.g. towards the camera). With ``seen`` (B, F): a row with no seen frame after its anchored
+    ones (a window inside a detection gap) keeps weight 1 throughout, the track carried on from where it was; a
+    row with a gap after its anchored frames reaches 0 at the first frame seen after that gap, so across
+    the gap the rays' smoothed placement takes the track to where it is seen again (ramping over the whole window
+    instead left the track behind in the gap and made it jump at the window's next seen frames).
     """
     F = mask.shape[-1]
     frames = torch.arange(F, dtype=mask.dtype, device=mask.device)
     last_held = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+    end = torch.full_like(last_held, float(F - 1))
     if seen is not None:
-        later = (seen > 0) & (frames > last_held)
-        first_seen = torch.where(later, frames, torch.full_like(frames, float(F))).amin(-1, keepdim=True)
-        last_held = torch.maximum(last_held, first_seen - 1)
-    ramp = ((F - 1 - frames) / (F - 1 - last_held).clamp(min=1)).clamp(0, 1)
-    return torch.where(frames <= last_held, torch.ones_like(ramp), ramp)
+        never = torch.full_like(frames, float(F))
+        first_unseen = torch.where((seen <= 0) & (frames > last_held), frames, never).amin(-1, keepdim=True)
+        back = torch.where((seen > 0) & (frames > first_unseen), frames, never).amin(-1, keepdim=True)
+        start = torch.where(first_unseen > last_held + 1, first_unseen, back)  # the gap's start, or its end
+        end = torch.where(back < F, start, end)  # seen again after a gap: the rays place the track across it
+    ramp = ((end - frames) / (end - last_held).clamp(min=1)).clamp(0, 1)
+    if seen is None:
+        return ramp
+    return torch.where(((seen > 0) & (frames > last_held)).any(-1, keepdim=True), ramp, torch.ones_like(ramp))
 
 
 def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) -> torch.Tensor:
