@@ -49,25 +49,28 @@ def continuation_ramp(mask: torch.Tensor, seen: torch.Tensor | None = None) -> t
     Blending the continued placement (weight 1) into the rays' own placement with
     these weights joins a window to the one before without letting the placement
     drift from window to window (with one camera, windows that only continue their
-    predecessor drift, e.g. towards the camera). With ``seen`` (B, F): a row with no seen frame after its anchored
-    ones (a window inside a detection gap) keeps weight 1 throughout, the track carried on from where it was; a
-    row with a gap after its anchored frames reaches 0 at the first frame seen after that gap, so across
-    the gap the rays' smoothed placement takes the track to where it is seen again (ramping over the whole window
-    instead left the track behind in the gap and made it jump at the window's next seen frames).
+    predecessor drift, e.g. towards the camera). With ``seen`` (B, F), rows around a detection gap:
+
+    - seen after its anchored frames, then a gap, then seen again: 0 from the gap's start, so the rays' smoothed
+      placement, which has the person on both sides, takes the track across the gap (ramping over the whole window
+      left the track 0.3-0.4 m behind in the gap, and it jumped where the person was seen again);
+    - a gap right after the anchored frames: 1 up to the first seen frame (the rays' placement would be
+      extrapolated from the frames after the gap alone), then falling to 0 at the last frame;
+    - nothing seen after the anchored frames (a window inside a gap): 1 throughout, the track carried on.
     """
     F = mask.shape[-1]
     frames = torch.arange(F, dtype=mask.dtype, device=mask.device)
     last_held = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
-    end = torch.full_like(last_held, float(F - 1))
-    if seen is not None:
-        never = torch.full_like(frames, float(F))
-        first_unseen = torch.where((seen <= 0) & (frames > last_held), frames, never).amin(-1, keepdim=True)
-        back = torch.where((seen > 0) & (frames > first_unseen), frames, never).amin(-1, keepdim=True)
-        start = torch.where(first_unseen > last_held + 1, first_unseen, back)  # the gap's start, or its end
-        end = torch.where(back < F, start, end)  # seen again after a gap: the rays place the track across it
-    ramp = ((end - frames) / (end - last_held).clamp(min=1)).clamp(0, 1)
     if seen is None:
-        return ramp
+        return ((F - 1 - frames) / (F - 1 - last_held).clamp(min=1)).clamp(0, 1)
+    never = torch.full_like(frames, float(F))
+    first_unseen = torch.where((seen <= 0) & (frames > last_held), frames, never).amin(-1, keepdim=True)
+    back = torch.where((seen > 0) & (frames > first_unseen), frames, never).amin(-1, keepdim=True)
+    seen_first = first_unseen > last_held + 1  # seen between the anchored frames and the gap
+    held = torch.where(seen_first | (back >= F), last_held, back - 1)  # the carried placement is kept up to here
+    end = torch.where(seen_first & (back < F), first_unseen, torch.full_like(last_held, float(F - 1)))
+    ramp = ((end - frames) / (end - held).clamp(min=1)).clamp(0, 1)
+    ramp = torch.where(frames <= held, torch.ones_like(ramp), ramp)
     return torch.where(((seen > 0) & (frames > last_held)).any(-1, keepdim=True), ramp, torch.ones_like(ramp))
 
 
