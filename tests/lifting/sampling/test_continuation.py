@@ -39,6 +39,14 @@ def test_a_gap_right_after_the_anchor_is_carried_until_the_person_is_seen_again(
     torch.testing.assert_close(ramp, torch.tensor([1.0] * 7 + [0.8, 0.6, 0.4, 0.2, 0.0]))
 
 
+def test_a_gap_right_after_the_anchor_with_enough_seen_after_it_is_placed_by_the_rays_across_it():
+    """Seen again for longer than the gap lasts in the window: the rays' placement is extrapolated back no farther
+    than its data spans, and takes the track across the gap (carried, the Sports2D man stepped 0.59 m on landing)."""
+    mask, seen = _rows([[0, 1, *range(5, 12)]])
+    ramp = continuation_ramp(mask, seen)[0]
+    torch.testing.assert_close(ramp, torch.tensor([1.0, 1.0, 0.75, 0.5, 0.25, *[0.0] * 7]))
+
+
 def test_a_window_inside_a_gap_carries_the_track_on():
     mask, seen = _rows([[0, 1], []])
     assert (continuation_ramp(mask, seen) == 1).all()
