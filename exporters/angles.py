@@ -238,16 +238,17 @@ def angle_series(result: LiftResult) -> dict[int, np.ndarray]:
 def write_angles_csv(result: LiftResult, series: dict[int, np.ndarray], path: Path | str) -> Path:
     """Write ``person,frame,time_s,angle,median_deg,q05_deg,q50_deg,q95_deg,filled`` rows atomically.
 
-    Every frame of each person in ``series``; ``filled`` is 1 where the person is absent (:mod:`exporters.gaps`).
+    Every frame of each person in ``series``; ``filled`` is 1 where the person is absent or unseen (filled by the
+    prior; :mod:`exporters.gaps`).
     """
     path = Path(path)
-    present = result.present()
+    filled = ~result.present() | ~result.seen()
     with atomic_open(path, "w", encoding="ascii", newline="\n") as f:
         f.write("person,frame,time_s,angle,median_deg,q05_deg,q50_deg,q95_deg,filled\n")
         for p, values in series.items():
             track = int(result.track_ids[p])
             for t in np.flatnonzero(np.isfinite(values[:, 0, 0])):
-                time, flag = repr(float(result.frame_times[t])), int(not present[p, t])
+                time, flag = repr(float(result.frame_times[t])), int(filled[p, t])
                 for a, name in enumerate(ANGLE_NAMES):
                     numbers = ",".join(f"{v:.3f}" for v in values[t, a])
                     f.write(f"{track},{t},{time},{name},{numbers},{flag}\n")

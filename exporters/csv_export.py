@@ -4,7 +4,8 @@ spread around it) and, on request, the long file (one row per person, hypothesis
 The people's file rounds to the millimetre (the hypotheses spread by centimetres; the npz keeps every digit). The
 long file writes the shortest text that reads back to the same float32 (positions) or float64 (times), so it holds
 the npz's numbers. Both hold every frame of a person seen at least once; frames where the person is absent are
-filled by the rule of :mod:`exporters.gaps` and have ``filled`` 1.
+filled by the rule of :mod:`exporters.gaps`; they, and the frames the prior filled through a detection gap,
+have ``filled`` 1.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from platypose.exporters.frames import Lead, frame_chunks
-from platypose.exporters.gaps import FillPlan, fill_frames, fill_plan
+from platypose.exporters.gaps import fill_frames, person_plans
 from platypose.exporters.result import LiftResult
 from platypose.lifting.atomic import atomic_open
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
@@ -46,18 +47,12 @@ def _joint_column(count: int) -> pa.DictionaryArray:
     return pa.DictionaryArray.from_arrays(indices, pa.array(JOINT_NAMES))
 
 
-def _plans(result: LiftResult) -> dict[int, FillPlan]:
-    """The gap-filling plan of each person index seen in at least one frame."""
-    present = result.present()
-    return {p: fill_plan(present[p], result.frame_times) for p in range(result.num_persons) if present[p].any()}
-
-
 def long_tables(result: LiftResult) -> Iterator[pa.Table]:
     """Rows ``person, hypothesis, frame, time_s, joint, x_m, y_m, z_m, filled`` over all frames, a chunk at a time.
 
     Rows are ordered by person, hypothesis, frame and joint.
     """
-    for p, plan in _plans(result).items():
+    for p, plan in person_plans(result).items():
         track = result.track_ids[p]
         for n in range(result.num_hypotheses):
             for t in frame_chunks(result.num_frames):
@@ -73,7 +68,7 @@ def long_tables(result: LiftResult) -> Iterator[pa.Table]:
                         "x_m": xyz[:, 0],
                         "y_m": xyz[:, 1],
                         "z_m": xyz[:, 2],
-                        "filled": np.repeat(~plan.present[t], NUM_JOINTS).astype(np.int8),
+                        "filled": np.repeat(plan.filled[t], NUM_JOINTS).astype(np.int8),
                     }
                 )
 
@@ -92,7 +87,7 @@ def _rounded(values: np.ndarray, decimals: int) -> np.ndarray:
 def people_tables(result: LiftResult) -> Iterator[pa.Table]:
     """Rows ``person, frame, time_s, filled`` then per joint ``<joint>_x_m, _y_m, _z_m, _r90_m`` (the answer, the
     npz ``median``, and the radius holding 90 % of the hypotheses), millimetres, over all frames, in chunks."""
-    for p, plan in _plans(result).items():
+    for p, plan in person_plans(result).items():
         for t in frame_chunks(result.num_frames):
             frames = np.arange(t.start, t.stop)
             answer = fill_frames(Lead(result.median, p), plan, t)
@@ -102,7 +97,7 @@ def people_tables(result: LiftResult) -> Iterator[pa.Table]:
                 "person": np.full(len(frames), result.track_ids[p]),
                 "frame": frames,
                 "time_s": _rounded(result.frame_times[t], TIME_DECIMALS),
-                "filled": (~plan.present[t]).astype(np.int8),
+                "filled": plan.filled[t].astype(np.int8),
             }
             for k, name in enumerate(PEOPLE_COLUMNS[4:]):
                 columns[name] = _rounded(values[:, k], DECIMALS)

@@ -59,34 +59,30 @@ def _write_bvhs(result: LiftResult, out_dir: Path, name: str, mode: str) -> tupl
 def _write_markers(result: LiftResult, out_dir: Path, name: str, formats: tuple[str, ...]) -> list[Path]:
     """TRC and/or C3D files per person: the median motion, gaps filled by the rule of :mod:`exporters.gaps`."""
     from platypose.exporters.c3d_export import write_c3d
-    from platypose.exporters.gaps import fill_frames, fill_plan
+    from platypose.exporters.gaps import fill_frames, person_plans
     from platypose.exporters.markers import read_frames
     from platypose.exporters.trc import write_trc
 
     paths: list[Path] = []
-    present = result.present()
-    for p, track in enumerate(result.track_ids):
-        if not present[p].any():
-            continue
-        joints = read_frames(Lead(result.median, p))
-        filled = fill_frames(joints, fill_plan(present[p], result.frame_times), slice(None))
+    for p, plan in person_plans(result).items():
+        track = result.track_ids[p]
+        filled = fill_frames(read_frames(Lead(result.median, p)), plan, slice(None))
         if "trc" in formats:
             paths.append(write_trc(filled, result.frame_times, result.fps, out_dir / f"{name}_p{track}.trc"))
         if "c3d" in formats:
-            paths.append(write_c3d(filled, present[p], result.fps, out_dir / f"{name}_p{track}.c3d"))
+            paths.append(write_c3d(filled, ~plan.filled, result.fps, out_dir / f"{name}_p{track}.c3d"))
     return paths
 
 
 def _write_gaps(result: LiftResult, out_dir: Path, name: str, say: Callable[[str], None]) -> Path:
     """The gaps sidecar ``<name>_gaps.json`` (every person's filled frames), each person's gaps logged."""
-    from platypose.exporters.gaps import describe_gaps, fill_plan, find_gaps, gaps_sidecar
+    from platypose.exporters.gaps import describe_gaps, find_gaps, gaps_sidecar, person_plans
 
     gaps = {}
-    for p, on in enumerate(result.present()):
-        if on.any():
-            track = int(result.track_ids[p])
-            gaps[f"p{track}"] = find_gaps(fill_plan(on, result.frame_times), result.frame_times)
-            say(f"{name}: person {track} gaps: {describe_gaps(gaps[f'p{track}'])}")
+    for p, plan in person_plans(result).items():
+        track = int(result.track_ids[p])
+        gaps[f"p{track}"] = find_gaps(plan, result.frame_times)
+        say(f"{name}: person {track} gaps: {describe_gaps(gaps[f'p{track}'])}")
     return gaps_sidecar(out_dir / f"{name}_gaps.json", gaps)
 
 

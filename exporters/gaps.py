@@ -10,7 +10,11 @@ holds every frame of the clip for every person it writes, filled by one rule:
   seen again elsewhere glides there; nothing jumps);
 - a gap at the start or the end of the clip holds the first or last present frame.
 
-Tables carry a ``filled`` column (1 on filled frames), the C3D a residual of 0, and
+A person unseen for at most ``--max-gap`` seconds between seen frames is present: the lift carried the
+motion through (each hypothesis continues its own motion, the prior's spread their uncertainty), and those
+frames are written as lifted, but marked as **filled by the prior** (``how`` "prior").
+
+Tables carry a ``filled`` column (1 on filled frames, either way), the C3D a residual of 0, and
 ``<name>_gaps.json`` lists each person's gaps (:func:`gaps_sidecar`).
 """
 
@@ -23,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.frames import Lead
+from platypose.exporters.result import LiftResult
 from platypose.lifting.atomic import write_text_atomic
 
 MIN_BODY_EXTENT_M = 0.05  # a person whose 17 joints fit in a box this wide (any axis) is no body
@@ -45,7 +50,7 @@ class Gap:
     last: int
     start_s: float
     end_s: float
-    how: str  # "interpolated" between present frames, or "held" at the start or end of the clip
+    how: str  # "interpolated" between present frames, "held" at the start or end of the clip, or "prior" (lifted)
 
     def as_dict(self) -> dict:
         """JSON-ready form."""
@@ -69,11 +74,19 @@ class FillPlan:
     after: np.ndarray
     weight: np.ndarray
     present: np.ndarray
+    prior: np.ndarray  # (T,) present frames no view saw: lifted through a detection gap, filled by the prior
+
+    @property
+    def filled(self) -> np.ndarray:
+        """Frames ``(T,)`` not seen: absent (filled by this rule) or filled by the prior."""
+        return ~self.present | self.prior
 
 
-def fill_plan(present: np.ndarray, frame_times: np.ndarray) -> FillPlan:
-    """The :class:`FillPlan` of presence ``present`` (T,) bool at ``frame_times`` (T,) s; ValueError if none is present."""
+def fill_plan(present: np.ndarray, frame_times: np.ndarray, seen: np.ndarray | None = None) -> FillPlan:
+    """The :class:`FillPlan` of presence ``present`` (T,) bool at ``frame_times`` (T,) s, ``seen`` (T,) the frames a
+    view saw (default: every present one; :meth:`exporters.result.LiftResult.seen`); ValueError if none is present."""
     present = np.asarray(present, dtype=bool)
+    prior = np.zeros_like(present) if seen is None else present & ~np.asarray(seen, dtype=bool)
     if not present.any():
         raise ValueError("the person is absent throughout")
     on = np.flatnonzero(present)
@@ -85,7 +98,14 @@ def fill_plan(present: np.ndarray, frame_times: np.ndarray) -> FillPlan:
     times = np.asarray(frame_times, dtype=np.float64)
     span = times[after] - times[before]
     weight = np.where(span > 0, (times - times[before]) / np.where(span > 0, span, 1.0), 0.0)
-    return FillPlan(before, after, np.clip(weight, 0.0, 1.0), present)
+    return FillPlan(before, after, np.clip(weight, 0.0, 1.0), present, prior)
+
+
+def person_plans(result: LiftResult) -> dict[int, FillPlan]:
+    """The :class:`FillPlan` of each person index of ``result`` present in at least one frame, frames no view saw
+    marked as filled by the prior."""
+    present, seen = result.present(), result.seen()
+    return {p: fill_plan(present[p], result.frame_times, seen[p]) for p in range(len(present)) if present[p].any()}
 
 
 def fill_frames(values: np.ndarray | Lead, plan: FillPlan, frames: slice, axis: int = 0) -> np.ndarray:
@@ -107,15 +127,16 @@ def fill_frames(values: np.ndarray | Lead, plan: FillPlan, frames: slice, axis: 
 
 
 def find_gaps(plan: FillPlan, frame_times: np.ndarray) -> list[Gap]:
-    """The runs of absent frames of ``plan``, each with how it is filled."""
-    present = plan.present
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], (~present).astype(np.int8), [0]])))
+    """The runs of absent frames of ``plan``, each with how it is filled, and the runs filled by the prior; in
+    frame order."""
+    T = len(plan.present)
     gaps = []
-    for first, stop in zip(edges[::2], edges[1::2]):
-        last = stop - 1
-        how = "held" if first == 0 or stop == len(present) else "interpolated"
-        gaps.append(Gap(int(first), int(last), float(frame_times[first]), float(frame_times[last]), how))
-    return gaps
+    for run, kind in ((~plan.present, None), (plan.prior, "prior")):
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], run.astype(np.int8), [0]])))
+        for first, stop in zip(edges[::2], edges[1::2]):
+            how = kind or ("held" if first == 0 or stop == T else "interpolated")
+            gaps.append(Gap(int(first), int(stop - 1), float(frame_times[first]), float(frame_times[stop - 1]), how))
+    return sorted(gaps, key=lambda gap: gap.first)
 
 
 def gaps_sidecar(path: Path, gaps_by_person: dict[str, list[Gap]]) -> Path:
@@ -125,7 +146,7 @@ def gaps_sidecar(path: Path, gaps_by_person: dict[str, list[Gap]]) -> Path:
 
 
 def describe_gaps(gaps: list[Gap]) -> str:
-    """A short line such as ``2 gaps, 37 frames filled (frames 0-9 held, 50-76 interpolated)``."""
+    """A short line such as ``2 gaps, 37 frames filled (frames 0-9 held, 50-76 prior)``."""
     if not gaps:
         return "no gap"
     frames = sum(g.last - g.first + 1 for g in gaps)

@@ -92,6 +92,14 @@ def _plot_angles(ax, times: np.ndarray, series: np.ndarray, names: tuple[str, ..
     ax.legend(fontsize=7, loc="upper right")
 
 
+def _shade_prior(ax, times: np.ndarray, prior: np.ndarray) -> None:
+    """Grey spans over the frames ``prior`` (T,) where the person was unseen and the lift filled by the prior."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], prior.astype(np.int8), [0]])))
+    for k, (first, stop) in enumerate(zip(edges[::2], edges[1::2])):
+        label = "unseen: filled by the prior" if k == 0 else None
+        ax.axvspan(times[first], times[stop - 1], color="0.5", alpha=0.2, linewidth=0, label=label)
+
+
 def write_report(
     result: LiftResult,
     series: dict[int, np.ndarray],
@@ -118,6 +126,7 @@ def write_report(
     axes = grid[:, shown:]
     times = result.frame_times
     cams = _camera_centres(result)
+    prior = result.present() & ~result.seen()
     title = f"{name}: {result.num_persons} person(s), {result.num_hypotheses} hypotheses, "
     title += f"{result.num_frames} frames at {result.fps:g} fps, {len(result.cameras)} camera(s)"
     fig.suptitle(
@@ -130,6 +139,8 @@ def write_report(
         s = series[p]
         if shown:
             _draw_who(grid[row, 0], result, p, *(part.get(p) for part in who))
+        for ax in axes[row, [0, 1, 3]]:
+            _shade_prior(ax, times, prior[p])
         _plot_angles(axes[row, 0], times, s, LEG_ANGLES)
         _row_title(axes[row, 0], f"person {track}: hips and knees", _flag_text(result, p))
         _plot_angles(axes[row, 1], times, s, UPPER_ANGLES)

@@ -273,9 +273,10 @@ def send_labels_3d(
     label: str,
     rgba: tuple[int, int, int, int],
 ) -> None:
-    """One labelled point per frame (T, 3), e.g. a person's name floating above the head."""
-    rec.log(entity, rr.Points3D.from_fields(labels=[label], colors=[rgba], radii=0.01, show_labels=True), static=True)
-    columns = rr.Points3D.columns(positions=np.asarray(points, dtype=np.float32))
+    """One labelled point per frame (T, 3), e.g. a person's name floating above the head; the label is logged on
+    these frames (another call may label other frames otherwise)."""
+    rec.log(entity, rr.Points3D.from_fields(colors=[rgba], radii=0.01, show_labels=True), static=True)
+    columns = rr.Points3D.columns(positions=np.asarray(points, dtype=np.float32), labels=[label] * len(points))
     rr.send_columns(entity, indexes=_indexes(times, frames), columns=columns, recording=rec)
 
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from platypose.exporters.frames import FrameArray, frame_chunks
 from platypose.lifting.camera import Camera
+from platypose.lifting.root import seen_frames
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
 
 
@@ -90,6 +91,11 @@ class LiftResult:
         for t in frame_chunks(self.num_frames):
             finite |= np.isfinite(self.median[:, t]).all(axis=(-1, -2)).any(axis=1)
         return [int(track) for track, on, seen in zip(self.track_ids, present, finite) if seen and not on]
+
+    def seen(self) -> np.ndarray:
+        """Frames where some view sees each person, (P, T) bool: a present frame that is not seen was filled by
+        the prior (a detection gap lifted through)."""
+        return seen_frames(np.moveaxis(self.keypoints2d, 1, 2))
 
     def with_meta(self, **updates: object) -> LiftResult:
         """A copy with ``meta`` updated by ``updates``."""

@@ -46,6 +46,7 @@ VIDEO_MODES = ("asset", "frames", "none")
 KEYPOINTS_CLASS = 0
 ENERGY_SHADES = (0.55, 1.0, 0.55)  # value of the 5 %, median and 95 % lines in the person's hue
 LABEL_HEIGHT_M = 0.25  # the name floats this far above the head
+PRIOR_LABEL = "(unseen: filled by the prior)"  # appended to the label on frames lifted through a detection gap
 # The camera views share a region of about this aspect (width / height) beside the 3D view.
 CAMERA_REGION = (800.0, 700.0)
 
@@ -123,12 +124,13 @@ def _log_person(rec, result: LiftResult, p: int, slot: int, label: str) -> None:
     ]
     classes.append(rra.ClassStyle(result.num_hypotheses, f"p{track} median", colour))
     rra.log_annotations(rec, f"world/people/p{track}", classes, JOINT_NAMES, BONES)
-    present = result.present()[p]
+    present, seen = result.present()[p], result.seen()[p]
     for t in frame_chunks(result.num_frames):
-        on = np.flatnonzero(present[t])
-        if len(on):
-            _log_person_frames(rec, result, p, t.start + on, result.hypotheses[p, :, t][:, on], colour, label)
-            rra.flush(rec)
+        for frames, text in ((present & seen, label), (present & ~seen, f"{label} {PRIOR_LABEL}")):
+            on = np.flatnonzero(frames[t])
+            if len(on):
+                _log_person_frames(rec, result, p, t.start + on, result.hypotheses[p, :, t][:, on], colour, text)
+        rra.flush(rec)
 
 
 def _log_person_frames(
@@ -284,10 +286,13 @@ def _mean_spread(result: LiftResult, p: int) -> float:
 def quality_text(result: LiftResult, flags: dict[int, list[str]]) -> str:
     """Markdown: per person frames, spread, BVH fit, flags and ``meta["plausibility"]`` entry; the lift's warnings."""
     lines = ["# Quality", ""]
-    present = result.present()
+    present, seen = result.present(), result.seen()
     for p, track in enumerate(result.track_ids):
         fit = result.meta.get("bvh_fit_error", {}).get(f"p{track}", {}).get("median")
         line = f"- **p{track}**: present in {present[p].sum()} / {result.num_frames} frames"
+        prior = int((present[p] & ~seen[p]).sum())
+        if prior:
+            line += f" ({prior} of them unseen, filled by the prior)"
         if present[p].any():
             line += f", mean joint spread {1000 * _mean_spread(result, p):.0f} mm"
         if fit:

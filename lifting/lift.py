@@ -98,7 +98,7 @@ def lift_stream(
     frame_times = np.asarray(frame_times, dtype=np.float64)
     clock = prior_clock(frame_times, prior.fps)
     length = min(settings.window, prior.config.max_frames)
-    spans = person_spans(keypoints, frame_times, clock, length, min(settings.overlap, length // 2))
+    spans = person_spans(keypoints, frame_times, clock, length, min(settings.overlap, length // 2), settings.max_gap)
     per_window = KeypointWindows(keypoints, frame_times, clock)
     roots = None
     if root_trajectory is not None:
@@ -142,15 +142,21 @@ class Span:
 
 
 def person_spans(
-    keypoints: np.ndarray, frame_times: np.ndarray, clock: np.ndarray, length: int, overlap: int
+    keypoints: np.ndarray,
+    frame_times: np.ndarray,
+    clock: np.ndarray,
+    length: int,
+    overlap: int,
+    max_gap: float = WindowSettings.max_gap,
 ) -> list[Span]:
-    """The spans where each person of keypoints ``(C, T, P, 17, 3)`` is present (:func:`lifting.root.presence`),
-    person by person in time order, each planned in windows of ``length`` prior frames sharing ``overlap``.
+    """The spans where each person of keypoints ``(C, T, P, 17, 3)`` is present (:func:`lifting.root.presence`:
+    seen, or unseen for at most ``max_gap`` seconds between seen frames), person by person in time order, each
+    planned in windows of ``length`` prior frames sharing ``overlap``.
 
     A span covers the prior frames from the last one at or before its first input frame to the first one at or
     after its last, so every input frame of the span lies between two of them.
     """
-    present = presence(keypoints, frame_times)  # (P, T)
+    present = presence(keypoints, frame_times, max_gap)  # (P, T)
     spans = []
     for person in range(present.shape[0]):
         edges = np.diff(np.concatenate([[0], present[person].astype(np.int8), [0]]))
@@ -336,7 +342,10 @@ class _WindowRunner:
         if windows[0][2] is not None:
             joints = torch.as_tensor(np.concatenate([a[0] for _, _, a in windows]), dtype=dtype, device=device)
             mask = torch.as_tensor(np.stack([a[1] for _, _, a in windows]), dtype=dtype, device=device)
-            held = Anchor(joints, mask, self.settings.anchor_weight)
+            seen = torch.as_tensor(
+                (np.nan_to_num(kp[..., 2]) > 0).any(axis=(0, -1)), dtype=dtype, device=device
+            )  # (B, F): frames with keypoints
+            held = Anchor(joints, mask, self.settings.anchor_weight, seen)
         return sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
 
 

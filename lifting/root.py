@@ -33,10 +33,21 @@ def fill_gaps(path: np.ndarray, times: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(times, times[known], path[known, d]) for d in range(path.shape[-1])], axis=-1)
 
 
-def presence(keypoints: np.ndarray, times: np.ndarray, max_gap_s: float = 1.0, min_joints: int = 4) -> np.ndarray:
-    """Frames ``(P, T)`` where a person is present: seen (``min_joints`` joints with confidence > 0 in some view),
-    or inside a gap of at most ``max_gap_s`` between two seen frames."""
-    seen = ((keypoints[..., 2] > 0).sum(axis=-1) >= min_joints).any(axis=0).T  # (P, T)
+MIN_SEEN_JOINTS = 4  # joints with confidence > 0 a view must have for a person to be seen in a frame
+
+
+def seen_frames(keypoints: np.ndarray, min_joints: int = MIN_SEEN_JOINTS) -> np.ndarray:
+    """Frames ``(P, T)`` where some view of keypoints ``(C, T, P, 17, 3)`` sees a person: ``min_joints`` joints
+    with confidence > 0. A present frame that is not seen is filled by the prior."""
+    return ((np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= min_joints).any(axis=0).T
+
+
+def presence(
+    keypoints: np.ndarray, times: np.ndarray, max_gap_s: float = 1.0, min_joints: int = MIN_SEEN_JOINTS
+) -> np.ndarray:
+    """Frames ``(P, T)`` where a person is present: seen (:func:`seen_frames`), or inside a gap of at most
+    ``max_gap_s`` between two seen frames (lifted through: the prior fills it)."""
+    seen = seen_frames(keypoints, min_joints)  # (P, T)
     present = seen.copy()
     for p in range(seen.shape[0]):
         frames = np.nonzero(seen[p])[0]

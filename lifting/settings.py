@@ -208,6 +208,11 @@ class WindowSettings:
     window: int = setting(64, "Window length in prior frames (capped by the prior).", option=True)
     overlap: int = setting(16, "Frames shared by consecutive windows.", option=True)
     anchor_weight: float = setting(100.0, "Weight holding a window's overlap on the window before.")
+    max_gap: float = setting(
+        5.0,
+        "Seconds a person may go unseen and still be lifted through as one motion (the prior fills the gap).",
+        option=True,
+    )
 
     def __post_init__(self) -> None:
         check_types(self)
@@ -220,6 +225,11 @@ class WindowSettings:
                     f"overlap must be in 0..window/2, got {self.overlap}",
                 ),
                 (self.anchor_weight >= 0, "anchor_weight", f"anchor_weight must be >= 0, got {self.anchor_weight}"),
+                (
+                    math.isfinite(self.max_gap) and self.max_gap >= 0,
+                    "max_gap",
+                    f"max_gap must be a number of seconds >= 0, got {self.max_gap}",
+                ),
             ]
         )
 

@@ -178,7 +178,7 @@ def lift_take(
     """
     log = log if log is not None else JobLog()
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
-    absent = ~presence(keypoints, times)  # (P, T)
+    absent = ~presence(keypoints, times, windows.max_gap)  # (P, T): unseen up to windows.max_gap is lifted through
     floor_meta = None
     if floor == ESTIMATE:
         if everyone is None:

@@ -47,6 +47,11 @@ def evaluate_command(
     heldout: bool = typer.Option(False, "--heldout", help="Only clips the prior held out of training (its manifest)."),
     baseline: bool = typer.Option(True, help="Also run the frame-by-frame baseline."),
     rigid: bool = typer.Option(True, help="Make hypotheses rigid as platypose lift does (--no-rigid: as sampled)."),
+    gap: float = typer.Option(
+        0.0,
+        help="Also lift every window with a centred gap of this many seconds no camera sees, and score the frames "
+        "inside and outside the gap apart (0: no gap rows).",
+    ),
     json_out: Path = typer.Option(None, "--json", help="Also write the table as JSON here."),
     floor: str = typer.Option(
         "auto",
@@ -72,6 +77,8 @@ def evaluate_command(
         raise InputError(f"--windows {windows}: cut at least 1 window from each clip")
     if not (math.isfinite(noise_px) and noise_px >= 0):
         raise InputError(f"--noise-px {noise_px}: must be a finite number of pixels, 0 or more")
+    if not (math.isfinite(gap) and gap >= 0):
+        raise InputError(f"--gap {gap}: must be a finite number of seconds, 0 or more")
     if json_out is not None:
         check_writable(json_out)  # before the evaluation, not after it
     frames_list = int_list(frames, "--frames")
@@ -123,6 +130,7 @@ def evaluate_command(
         baseline,
         progress=typer.echo,
         rigid=rigid,
+        gap_s=gap,
     )
     if json_out:
         payload = {
@@ -130,6 +138,7 @@ def evaluate_command(
             "cameras": len(cameras),
             "noise_px": noise_px,
             "rigid": rigid,
+            "gap_s": gap,
             "config": config.__dict__,
             "rows": [r.as_dict() for r in rows],
         }

@@ -145,37 +145,50 @@ def lift_windows(
     frame_by_frame: bool,
     batch_windows: int = 8,
     rigid: bool = True,
+    hidden: np.ndarray | None = None,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` for true windows ``(B, F, 17, 3)`` seen by ``cameras``; ``rigid``: made
-    rigid as ``platypose lift`` makes its output (not the frame-by-frame baseline)."""
+    rigid as ``platypose lift`` makes its output (not the frame-by-frame baseline). ``hidden`` (F,): frames no
+    camera sees (a detection gap: no keypoints, no reprojection energy; the prior fills them)."""
     rng = np.random.default_rng(config.seed + 1)
     pixels = np.stack([project(windows, c) for c in cameras])  # (C, B, F, 17, 2)
     pixels = pixels + rng.normal(0.0, noise_px, pixels.shape) if noise_px > 0 else pixels
     B, F = windows.shape[:2]
+    confidence = np.ones(pixels.shape[:-1])
+    if hidden is not None:
+        confidence[:, :, hidden] = 0.0
+        pixels[:, :, hidden] = np.nan
     if frame_by_frame:
         pixels = pixels.reshape(len(cameras), B * F, 1, 17, 2)
+        confidence = confidence.reshape(len(cameras), B * F, 1, 17)
     out = []
     chunk = batch_windows * (F if frame_by_frame else 1)
     for start in range(0, pixels.shape[1], chunk):
-        part = pixels[:, start : start + chunk]
-        obs, rays = cameras_and_rays(list(cameras), part, np.ones(part.shape[:-1]), device=prior.device)
+        part, weight = pixels[:, start : start + chunk], confidence[:, start : start + chunk]
+        obs, rays = cameras_and_rays(list(cameras), part, weight, device=prior.device)
         out.append(sample(prior, obs, rays, config, frames=part.shape[2]).joints)
     joints = np.concatenate(out)  # (B or B*F, N, F or 1, 17, 3)
     if frame_by_frame:
         joints = joints.reshape(B, F, config.samples, 17, 3).transpose(0, 2, 1, 3, 4)
     elif rigid:
-        joints = rigid_windows(joints, cameras, prior.fps, config.floor)
+        joints = rigid_windows(joints, cameras, prior.fps, config.floor, hidden)
     return joints
 
 
 def rigid_windows(
-    hypotheses: np.ndarray, cameras: Sequence[Camera], fps: float, floor: tuple[float, float, float, float] | None
+    hypotheses: np.ndarray,
+    cameras: Sequence[Camera],
+    fps: float,
+    floor: tuple[float, float, float, float] | None,
+    hidden: np.ndarray | None = None,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.rigid.rigid_paths`, each
     hypothesis on its own shape over its window, :func:`lifting.rigid.person_shape`), every view seeing every
-    joint."""
+    joint but on the ``hidden`` frames (F,)."""
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
+    if hidden is not None:
+        seen[hidden] = False
     out = np.empty_like(hypotheses)
     for b, window in enumerate(np.asarray(hypotheses, np.float64)):
         out[b] = rigid_paths(window, person_shape(window, len(cameras)), centres, seen, fps, floor)
@@ -188,11 +201,13 @@ def single_answers(
     fps: float,
     floor: tuple[float, float, float, float] | None,
     rigid: bool,
+    hidden: np.ndarray | None = None,
 ) -> np.ndarray:
     """The motion a lift would export for each window ``(B, F, 17, 3)`` (:func:`lifting.representative.median_motion`
-    of its hypotheses ``(B, N, F, 17, 3)``, made rigid on its own shape as the lift's is)."""
+    of its hypotheses ``(B, N, F, 17, 3)``, made rigid on its own shape as the lift's is; ``hidden`` frames (F,)
+    unseen)."""
     answers = np.stack([median_motion(np.asarray(h, np.float64)) for h in hypotheses])
-    return rigid_windows(answers[:, None], cameras, fps, floor)[:, 0] if rigid else answers
+    return rigid_windows(answers[:, None], cameras, fps, floor, hidden)[:, 0] if rigid else answers
 
 
 def evaluate(
@@ -207,11 +222,14 @@ def evaluate(
     baseline: bool = True,
     progress: Callable[[str], None] | None = None,
     rigid: bool = True,
+    gap_s: float = 0.0,
 ) -> list[EvalRow]:
     """The evaluation table: one row per method x frames x samples for these cameras.
 
     With ``config.floor`` set (a level floor), every window stands on it (the clips' floor is z = 0) and is
     moved only along it. ``rigid``: hypotheses made rigid as the lift's output is (:mod:`lifting.rigid`).
+    ``gap_s`` > 0: each window is also lifted with a centred gap of that many seconds no camera sees, scored
+    apart on the frames inside the gap and on those outside it (:func:`gap_rows`).
     """
     target = look_target(cameras)
     height = floor_height(config.floor)
@@ -234,6 +252,48 @@ def evaluate(
                 rows.append(row)
                 if progress:
                     progress(format_row(row))
+            if gap_s > 0 and frames > 2:
+                for row in gap_rows(
+                    prior, cameras, truth, clip_of_window, replace(config, samples=samples), noise_px, rigid, gap_s
+                ):
+                    rows.append(row)
+                    if progress:
+                        progress(format_row(row))
+    return rows
+
+
+def centred_gap(frames: int, gap_s: float, fps: float) -> np.ndarray:
+    """Frames ``(frames,)`` of a window hidden by a centred gap of ``gap_s`` seconds at ``fps`` (at least one
+    frame seen on either side)."""
+    length = min(max(int(round(gap_s * fps)), 1), frames - 2)
+    hidden = np.zeros(frames, dtype=bool)
+    first = (frames - length) // 2
+    hidden[first : first + length] = True
+    return hidden
+
+
+def gap_rows(
+    prior: PriorBundle,
+    cameras: Sequence[Camera],
+    truth: np.ndarray,
+    clip_of_window: np.ndarray,
+    config: SamplerConfig,
+    noise_px: float,
+    rigid: bool,
+    gap_s: float,
+) -> list[EvalRow]:
+    """Windows ``truth`` ``(B, F, 17, 3)`` lifted with a centred gap (:func:`centred_gap`) no camera sees; two rows,
+    the metrics on the frames inside the gap ("gap inside") and on those outside it ("gap outside")."""
+    began = time.time()
+    F = truth.shape[1]
+    hidden = centred_gap(F, gap_s, prior.fps)
+    hyps = lift_windows(prior, cameras, truth, config, noise_px, False, rigid=rigid, hidden=hidden)
+    answers = single_answers(hyps, cameras, prior.fps, config.floor, rigid, hidden)
+    seconds = time.time() - began
+    rows = []
+    for name, frames in (("gap inside", hidden), ("gap outside", ~hidden)):
+        values = score_windows(hyps[:, :, frames], truth[:, frames], clip_of_window, answers[:, frames])
+        rows.append(EvalRow(f"{name} {gap_s:g}s", len(cameras), F, config.samples, len(truth), values, seconds))
     return rows
 
 

@@ -32,33 +32,60 @@ class Anchor:
     ``joints`` (B, N, F, 17, 3) world metres; ``mask`` (B, F) is 1 where a frame is
     anchored, 0 elsewhere, and frame 0 must be anchored. Anchored frames are in-painted
     (their features replace the prediction's at every step, so the network continues
-    them) and held by an energy of ``weight`` per squared metre.
+    them) and held by an energy of ``weight`` per squared metre. ``seen`` (B, F), if given, is 1 on frames with
+    keypoints in some view: the continued placement is kept until the first of them after the anchored frames
+    (:func:`continuation_ramp`), so a window inside a detection gap carries the track on instead of placing it.
     """
 
     joints: torch.Tensor
     mask: torch.Tensor
     weight: float = 100.0
+    seen: torch.Tensor | None = None
 
 
-def continuation_ramp(mask: torch.Tensor) -> torch.Tensor:
+def continuation_ramp(mask: torch.Tensor, seen: torch.Tensor | None = None) -> torch.Tensor:
     """Weights ``(B, F)``: 1 over each row's anchored first frames, then falling linearly to 0 at the last frame.
 
     Blending the continued placement (weight 1) into the rays' own placement with
     these weights joins a window to the one before without letting the placement
     drift from window to window (with one camera, windows that only continue their
-    predecessor drift, e.g. towards the camera).
+    predecessor drift, e.g. towards the camera). With ``seen`` (B, F), rows around a detection gap:
+
+    - seen after its anchored frames, then a gap, then seen again: 0 from the gap's start, so the rays' smoothed
+      placement, which has the person on both sides, takes the track across the gap (ramping over the whole window
+      left the track 0.3-0.4 m behind in the gap, and it jumped where the person was seen again);
+    - a gap right after the anchored frames: 0 from the first frame seen after it when the person is seen there
+      for at least as many frames as the gap lasts in the window (the rays' placement, extrapolated back over the
+      gap, then spans no more than its data: 0.28 m largest pelvis step of the Sports2D man against 0.59 m);
+      otherwise 1 up to that frame, then falling to 0 at the last frame (extrapolated back from a few frames
+      after the gap, the rays' placement stepped 13 m);
+    - nothing seen after the anchored frames (a window inside a gap): 1 throughout, the track carried on.
     """
     F = mask.shape[-1]
     frames = torch.arange(F, dtype=mask.dtype, device=mask.device)
-    last_anchored = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
-    return ((F - 1 - frames) / (F - 1 - last_anchored).clamp(min=1)).clamp(0, 1)
+    last_held = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+    if seen is None:
+        return ((F - 1 - frames) / (F - 1 - last_held).clamp(min=1)).clamp(0, 1)
+    never = torch.full_like(frames, float(F))
+    first_unseen = torch.where((seen <= 0) & (frames > last_held), frames, never).amin(-1, keepdim=True)
+    back = torch.where((seen > 0) & (frames > first_unseen), frames, never).amin(-1, keepdim=True)
+    seen_first = first_unseen > last_held + 1  # seen between the anchored frames and the gap
+    after = ((seen > 0) & (frames >= back)).sum(-1, keepdim=True)  # frames seen after the gap
+    reaches = after >= back - last_held  # the rays' placement extrapolated back no farther than its data spans
+    carried = ~seen_first & ~reaches & (back < F)
+    held = torch.where(carried, back - 1, last_held)  # the carried placement is kept up to here
+    end = torch.where(seen_first & (back < F), first_unseen, torch.full_like(last_held, float(F - 1)))
+    end = torch.where(~seen_first & reaches & (back < F), back, end)
+    ramp = ((end - frames) / (end - held).clamp(min=1)).clamp(0, 1)
+    ramp = torch.where(frames <= held, torch.ones_like(ramp), ramp)
+    return torch.where(((seen > 0) & (frames > last_held)).any(-1, keepdim=True), ramp, torch.ones_like(ramp))
 
 
 def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) -> torch.Tensor:
     """Offsets ``(B, N, F, 3)`` of poses ``local`` ``(B, N, F, 17, 3)`` that start on the ``anchor``'s first
     pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`)."""
     continued = anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
-    ramp = continuation_ramp(anchor.mask)[:, None, :, None]
+    ramp = continuation_ramp(anchor.mask, anchor.seen)[:, None, :, None]
     return ramp * continued + (1 - ramp) * offset
 
 

@@ -71,7 +71,7 @@ def test_each_person_has_its_colour_and_label(result, recording):
         assert classes[result.num_hypotheses]["label"] == f"p{track} median"
         medians.append(classes[result.num_hypotheses]["color"])
         label = entities[f"/world/people/p{track}/label"]
-        assert label["static:Points3D:labels"][0][0].startswith(f"p{track}")
+        assert all(row[0].startswith(f"p{track}") for row in label["Points3D:labels"])
         head = result.median[p][result.present()[p]][:, 10]
         np.testing.assert_allclose(np.array(label["Points3D:positions"])[:, 0, 2], head[:, 2] + 0.25, atol=1e-6)
         kp = entities[f"/world/cameras/cam01/keypoints/p{track}"]["static:AnnotationContext:context"][0][0]

@@ -1,0 +1,56 @@
+"""``platypose eval --gap``: every window also lifted with a centred gap no camera sees, scored inside and outside it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.offline.evaluation import centred_gap, lift_windows, look_target, place_window
+from platypose.lifting.settings import SamplerConfig
+
+WALK = "motion/deepmimic/humanoid3d_walk.txt"
+
+
+def test_the_gap_is_centred_and_leaves_a_seen_frame_on_either_side():
+    assert np.flatnonzero(centred_gap(16, 0.2, 30.0)).tolist() == [5, 6, 7, 8, 9, 10]
+    assert np.flatnonzero(centred_gap(64, 1.0, 30.0)).tolist() == list(range(17, 47))
+    longest = centred_gap(16, 10.0, 30.0)  # longer than the window: all but its first and last frame
+    assert not longest[0] and not longest[-1] and longest.sum() == 14
+
+
+def test_frames_inside_the_gap_give_the_lift_nothing(tiny_prior, heldout_window):
+    """The truth inside the gap may be anything: the hypotheses are the same (no keypoints, no reprojection
+    energy there), and differ from a lift that sees those frames."""
+    cameras = ring_cameras(4)[:1]
+    hidden = centred_gap(16, 0.2, tiny_prior.fps)
+    config = SamplerConfig(samples=4, seed=5)
+    truth = place_window(heldout_window, look_target(cameras))[None]
+    moved = truth.copy()
+    moved[:, hidden] += [0.5, -0.3, 0.2]  # a different motion inside the gap only
+    a = lift_windows(tiny_prior, cameras, truth, config, 0.0, False, hidden=hidden)
+    b = lift_windows(tiny_prior, cameras, moved, config, 0.0, False, hidden=hidden)
+    np.testing.assert_array_equal(a, b)
+    seen = lift_windows(tiny_prior, cameras, moved, config, 0.0, False)
+    assert np.abs(seen[:, :, hidden] - b[:, :, hidden]).max() > 0.1
+
+
+def test_eval_gap_adds_rows_inside_and_outside_the_gap(run_cli, prior_file, data_dir, tmp_path):
+    out_json = tmp_path / "eval.json"
+    args = ["--frames", "16", "--samples", "6", "--windows", "2", "--views", "4", "--no-baseline"]
+    code, out, err = run_cli("eval", data_dir / WALK, "--prior", prior_file, *args, "--gap", "0.2", "--json", out_json)
+    assert code == 0, err
+    assert "gap inside 0.2s" in out and "gap outside 0.2s" in out
+    table = json.loads(out_json.read_text())
+    assert table["gap_s"] == 0.2
+    rows = {r["method"]: r for r in table["rows"]}
+    assert list(rows) == ["platypose", "gap inside 0.2s", "gap outside 0.2s"]
+    assert all(r["frames"] == 16 and r["windows"] == 2 and r["samples"] == 6 for r in rows.values())
+    plain, inside, outside = (rows[m]["values"] for m in rows)
+    assert outside["minMPSPE"] < 15.0  # mm: 4 views, exact 2D on the seen frames
+    assert inside["minMPSPE"] > 2 * outside["minMPSPE"]  # unseen: only the prior there
+    assert inside["minMPSPE"] > plain["minMPSPE"]
+    assert 0 <= inside["ECE"] <= 1
+    code, _, err = run_cli("eval", data_dir / WALK, "--prior", prior_file, "--gap", "-1")
+    assert code == 2 and "--gap -1" in err and len(err.strip().splitlines()) == 1
