@@ -37,6 +37,11 @@ def train(
         help="Distil this prior into a student of --calls network calls (half its own), trained on its training "
         "clips among DATA; the architecture options do not apply.",
     ),
+    hold_out: Path = typer.Option(
+        None,
+        "--hold-out",
+        help="JSON file of unseen sets (data/motion/unseen.json): their files are left out of DATA (docs/prior.md).",
+    ),
     quiet: bool = typer.Option(False, "--quiet", help="No progress output."),
     optimisation: dict = None,
     distil: DistilConfig = None,
@@ -70,6 +75,10 @@ def train(
     if log_file is not None:
         check_writable(log_file)
     teacher = load_prior(distil_from)[0] if distil_from is not None else None
+    if hold_out is not None:
+        from platypose.lifting.offline.unseen_sets import load_sets, without_sets
+
+        data = without_sets(data, load_sets(hold_out))
     motions = load_motion_paths(data)
     if not motions:
         raise InputError(f"{', '.join(map(str, data))}: no motion files found")

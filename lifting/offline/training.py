@@ -189,7 +189,7 @@ def train_prior(
     val_sampler = WindowSampler(validation or train, F, config, np.random.default_rng(config.seed + 1))
     model = MotionPrior(prior_config)
     optimiser = torch.optim.AdamW(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
-    start = 0
+    start, running = 0, None
     if resume:
         normalizer = Normalizer(np.asarray(resume["normalizer_mean"]), np.asarray(resume["normalizer_std"]))
         model.load_state_dict(resume["model"], strict=True)
@@ -198,6 +198,7 @@ def train_prior(
         rng.bit_generator.state = resume["rng"]
         if "torch_rng" in resume:  # checkpoints before it was saved resume on a fresh noise stream
             torch.set_rng_state(resume["torch_rng"])
+        running = resume.get("running")  # the logged loss average goes on where it was
     else:
         normalizer = fit_normalizer(sampler, F)
     if not (np.isfinite(normalizer.mean).all() and np.isfinite(normalizer.std).all()):
@@ -222,12 +223,12 @@ def train_prior(
             "normalizer_std": normalizer.std.tolist(),
             "rng": rng.bit_generator.state,
             "torch_rng": torch.get_rng_state(),  # diffusion steps, noise and dropout: resuming repeats them exactly
+            "running": running,
         }
         bundle.manifest["iterations"] = it
         save_prior(out_path, bundle, extra=extra if it < config.iterations else None)
 
     began = time.time()
-    running = None
     for it in range(start, config.iterations):
         model.train()
         frames = int(rng.integers(1, F + 1))
