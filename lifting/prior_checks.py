@@ -95,3 +95,47 @@ def check_manifest(path: Path, manifest: Any, diffusion_steps: int) -> dict:
     ):
         raise InputError(f"{path}: prior manifest 'clips' must list split, frames, licence and name per clip")
     return manifest
+
+
+PIECES_FORMAT = "platypose-prior-pieces"
+
+
+def is_pieces_index(head: bytes) -> bool:
+    """Whether a checkpoint file starting with ``head`` is the index of a prior written in pieces."""
+    return head.lstrip()[:1] == b"{" and PIECES_FORMAT.encode() in head
+
+
+def join_pieces(path: Path, index_text: bytes) -> bytes:
+    """The checkpoint a pieces index ``path`` names, its pieces (beside it) joined in order and each checked
+    against the index's size and sha256; InputError naming the file and the piece that is missing, truncated or
+    not the one the index names (damaged or out of order)."""
+    import hashlib
+    import json
+
+    try:
+        index = json.loads(index_text)
+        pieces = [(str(p["file"]), int(p["bytes"]), str(p["sha256"])) for p in index["pieces"]]
+        total, checksum = int(index["bytes"]), str(index["sha256"])
+    except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+        raise InputError(f"{path}: damaged index of prior pieces") from None
+    parts = []
+    for number, (name, size, digest) in enumerate(pieces, start=1):
+        piece = path.parent / name
+        if Path(name).name != name or not piece.is_file():
+            raise InputError(f"{path}: piece {number} of {len(pieces)} ({name}) is missing")
+        data = piece.read_bytes()
+        if len(data) != size:
+            raise InputError(
+                f"{path}: piece {number} of {len(pieces)} ({name}) has {len(data)} bytes, the index says {size} "
+                "(truncated or replaced)"
+            )
+        if hashlib.sha256(data).hexdigest() != digest:
+            raise InputError(
+                f"{path}: piece {number} of {len(pieces)} ({name}) is not the piece the index names "
+                "(pieces reordered or damaged)"
+            )
+        parts.append(data)
+    joined = b"".join(parts)
+    if len(joined) != total or hashlib.sha256(joined).hexdigest() != checksum:
+        raise InputError(f"{path}: the joined pieces are not the checkpoint the index names")
+    return joined
