@@ -24,8 +24,10 @@ def load_sets(path: str | Path) -> dict[str, list[Path]]:
         spec = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
         raise InputError(f"{path}: not a readable JSON file of unseen sets ({type(err).__name__})") from None
-    if not isinstance(spec, dict) or not spec or not all(
-        isinstance(v, list) and v and all(isinstance(p, str) for p in v) for v in spec.values()
+    if (
+        not isinstance(spec, dict)
+        or not spec
+        or not all(isinstance(v, list) and v and all(isinstance(p, str) for p in v) for v in spec.values())
     ):
         raise InputError(f"{path}: must map each set's name to a non-empty list of glob patterns")
     sets = {}
