@@ -172,6 +172,17 @@ class PriorBundle:
         """Frame rate the prior runs at."""
         return self.model.config.fps
 
+    def temperature_for(self, frames: int) -> float:
+        """The calibrated one-view temperature for windows of ``frames`` frames (manifest ``temperature``, fitted
+        per window length by ``platypose calibrate-prior``): linear in log frames between the fitted lengths,
+        the nearest one's outside them; 1 for a prior never calibrated."""
+        fitted = self.manifest.get("temperature", {}).get("by_frames", {})
+        if not fitted:
+            return 1.0
+        lengths = sorted(fitted, key=int)
+        x = np.log([int(f) for f in lengths])
+        return float(np.interp(np.log(frames), x, [fitted[f] for f in lengths]))
+
     @property
     def fixed_steps(self) -> np.ndarray | None:
         """The diffusion steps a distilled prior was trained to be called at, noisiest first (None: any steps)."""

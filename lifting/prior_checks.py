@@ -86,6 +86,18 @@ def check_manifest(path: Path, manifest: Any, diffusion_steps: int) -> dict:
         and steps is not None
     ):
         raise InputError(f"{path}: prior manifest 'distilled' is damaged")
+    temperature = manifest.get("temperature")
+    if temperature is not None:
+        fitted = temperature.get("by_frames") if isinstance(temperature, dict) else None
+        if not (
+            isinstance(fitted, dict)
+            and fitted
+            and all(str(k).isdigit() and int(k) >= 1 for k in fitted)
+            and all(isinstance(v, float) and 0.05 <= v <= 4 for v in fitted.values())
+        ):
+            raise InputError(
+                f"{path}: prior manifest 'temperature' must give a temperature in [0.05, 4] per window length"
+            )
     if not _list_of(manifest.get("licences", []), str):
         raise InputError(f"{path}: prior manifest 'licences' must be a list of names")
     clips = manifest.get("clips", [])
