@@ -81,3 +81,19 @@ def test_hold_out_leaves_every_unseen_file_out(run_cli, data_dir, tmp_path):
     names = [m.name for m in read_pack(pack)]
     assert "humanoid3d_run" in names and "humanoid3d_walk" not in names
     assert not any("mocapbank" in m.name for m in read_pack(pack)) and len(names) == 14
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('{"x": ["nothing*"]}', "set 'x': pattern 'nothing*' matches no motion file"),
+        ('{"x": []}', "must map each set's name to a non-empty list of glob patterns"),
+        ("{", "not a readable JSON file of unseen sets"),
+    ],
+)
+def test_a_bad_unseen_file_is_one_line(run_cli, clips, tmp_path, text, message):
+    spec = tmp_path / "unseen.json"
+    spec.write_text(text)
+    code, _, err = run_cli("train", *clips, "--hold-out", spec, "--pack", tmp_path / "pack.npz")
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "pack.npz").exists()
