@@ -9,6 +9,7 @@ is strict and refuses files that are not ours.
 
 from __future__ import annotations
 
+import glob
 import hashlib
 import io
 import json
@@ -24,12 +25,15 @@ from platypose.lifting.atomic import atomic_open
 from platypose.lifting.errors import InputError
 from platypose.lifting.prior_checks import (
     CONFIG_BOUNDS,
+    PIECES_FORMAT,
     check_config,
     check_config_type,
     check_config_value,
     check_joint_names,
     check_manifest,
     check_weights,
+    is_pieces_index,
+    join_pieces,
 )
 from platypose.lifting.representation import FEATURES_PER_FRAME, Normalizer
 from platypose.lifting.schedule import TRAIN_STEPS
@@ -39,6 +43,7 @@ CHECKPOINT_FORMAT = "platypose-prior"
 CHECKPOINT_VERSION = 1
 MAX_WINDOW_FRAMES = 4096
 DEFAULT_PRIOR = Path(__file__).resolve().parent / "priors" / "default.pt"
+PIECE_BYTES = 16 * 2**20  # larger checkpoints are written as pieces of at most this size beside a small index
 
 
 @dataclass(frozen=True)
@@ -169,6 +174,17 @@ class PriorBundle:
         """Frame rate the prior runs at."""
         return self.model.config.fps
 
+    def temperature_for(self, frames: int) -> float:
+        """The calibrated one-view temperature for windows of ``frames`` frames (manifest ``temperature``, fitted
+        per window length by ``platypose calibrate-prior``): linear in log frames between the fitted lengths,
+        the nearest one's outside them; 1 for a prior never calibrated."""
+        fitted = self.manifest.get("temperature", {}).get("by_frames", {})
+        if not fitted:
+            return 1.0
+        lengths = sorted(fitted, key=int)
+        x = np.log([int(f) for f in lengths])
+        return float(np.interp(np.log(frames), x, [fitted[f] for f in lengths]))
+
     @property
     def fixed_steps(self) -> np.ndarray | None:
         """The diffusion steps a distilled prior was trained to be called at, noisiest first (None: any steps)."""
@@ -176,8 +192,9 @@ class PriorBundle:
         return None if steps is None else np.asarray(steps, dtype=np.int64)
 
 
-def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None) -> str:
-    """Write a checkpoint atomically; returns its sha256. ``extra`` holds e.g. optimiser state for resuming."""
+def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None, piece_bytes: int = PIECE_BYTES) -> str:
+    """Write a checkpoint atomically, in pieces of at most ``piece_bytes`` when larger
+    (:func:`write_checkpoint_bytes`); returns its sha256. ``extra`` holds e.g. optimiser state for resuming."""
     payload = {
         "format": CHECKPOINT_FORMAT,
         "version": CHECKPOINT_VERSION,
@@ -190,10 +207,41 @@ def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None)
     }
     buffer = io.BytesIO()
     torch.save(payload, buffer)
-    data = buffer.getvalue()
-    with atomic_open(path, "wb") as stream:
-        stream.write(data)
-    return hashlib.sha256(data).hexdigest()
+    return write_checkpoint_bytes(Path(path), buffer.getvalue(), piece_bytes)
+
+
+def write_checkpoint_bytes(path: Path, data: bytes, piece_bytes: int = PIECE_BYTES) -> str:
+    """Write checkpoint bytes at ``path``: one file, or, over ``piece_bytes``, pieces ``NAME.SHA12.001, ...``
+    beside it and at ``path`` the JSON index naming each piece's size and sha256. Each file is written
+    atomically and the index last, so a checkpoint already there stays loadable until the new one is complete;
+    pieces of earlier checkpoints are then removed. Returns the checkpoint's sha256 (that of the joined bytes)."""
+    checksum = hashlib.sha256(data).hexdigest()
+    earlier = set(path.parent.glob(f"{glob.escape(path.name)}.*.[0-9][0-9][0-9]"))
+    if len(data) <= piece_bytes:
+        with atomic_open(path, "wb") as stream:
+            stream.write(data)
+    else:
+        pieces = []
+        for number, start in enumerate(range(0, len(data), piece_bytes), start=1):
+            chunk = data[start : start + piece_bytes]
+            name = f"{path.name}.{checksum[:12]}.{number:03d}"
+            with atomic_open(path.parent / name, "wb") as stream:
+                stream.write(chunk)
+            pieces.append({"file": name, "bytes": len(chunk), "sha256": hashlib.sha256(chunk).hexdigest()})
+        index = {"format": PIECES_FORMAT, "version": 1, "bytes": len(data), "sha256": checksum, "pieces": pieces}
+        with atomic_open(path, "w") as stream:
+            json.dump(index, stream, indent=1)
+        earlier -= {path.parent / p["file"] for p in pieces}
+    for stale in earlier:
+        stale.unlink(missing_ok=True)
+    return checksum
+
+
+def read_checkpoint_bytes(path: Path) -> bytes:
+    """The bytes of the checkpoint at ``path``: the file itself, or the pieces its index names, joined and checked
+    (:func:`lifting.prior_checks.join_pieces`)."""
+    data = path.read_bytes()
+    return join_pieces(path, data) if is_pieces_index(data[:256]) else data
 
 
 def _check_finite(path: Path, model: MotionPrior, normalizer: Normalizer) -> None:
@@ -219,7 +267,7 @@ def load_prior(path: str | Path | None = None, device: str | torch.device = "cpu
     path = Path(path) if path is not None else DEFAULT_PRIOR
     if not path.is_file():
         raise InputError(f"{path}: prior checkpoint not found")
-    data = path.read_bytes()
+    data = read_checkpoint_bytes(path)
     try:
         payload = torch.load(io.BytesIO(data), map_location=device, weights_only=True)
     except Exception as err:  # torch raises many types for a file that is not a checkpoint

@@ -116,6 +116,18 @@ def check_manifest(path: Path, manifest: Any, diffusion_steps: int) -> dict:
         and steps is not None
     ):
         raise InputError(f"{path}: prior manifest 'distilled' is damaged")
+    temperature = manifest.get("temperature")
+    if temperature is not None:
+        fitted = temperature.get("by_frames") if isinstance(temperature, dict) else None
+        if not (
+            isinstance(fitted, dict)
+            and fitted
+            and all(str(k).isdigit() and int(k) >= 1 for k in fitted)
+            and all(isinstance(v, float) and 0.05 <= v <= 4 for v in fitted.values())
+        ):
+            raise InputError(
+                f"{path}: prior manifest 'temperature' must give a temperature in [0.05, 4] per window length"
+            )
     if not _list_of(manifest.get("licences", []), str):
         raise InputError(f"{path}: prior manifest 'licences' must be a list of names")
     clips = manifest.get("clips", [])
@@ -125,3 +137,47 @@ def check_manifest(path: Path, manifest: Any, diffusion_steps: int) -> dict:
     ):
         raise InputError(f"{path}: prior manifest 'clips' must list split, frames, licence and name per clip")
     return manifest
+
+
+PIECES_FORMAT = "platypose-prior-pieces"
+
+
+def is_pieces_index(head: bytes) -> bool:
+    """Whether a checkpoint file starting with ``head`` is the index of a prior written in pieces."""
+    return head.lstrip()[:1] == b"{" and PIECES_FORMAT.encode() in head
+
+
+def join_pieces(path: Path, index_text: bytes) -> bytes:
+    """The checkpoint a pieces index ``path`` names, its pieces (beside it) joined in order and each checked
+    against the index's size and sha256; InputError naming the file and the piece that is missing, truncated or
+    not the one the index names (damaged or out of order)."""
+    import hashlib
+    import json
+
+    try:
+        index = json.loads(index_text)
+        pieces = [(str(p["file"]), int(p["bytes"]), str(p["sha256"])) for p in index["pieces"]]
+        total, checksum = int(index["bytes"]), str(index["sha256"])
+    except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+        raise InputError(f"{path}: damaged index of prior pieces") from None
+    parts = []
+    for number, (name, size, digest) in enumerate(pieces, start=1):
+        piece = path.parent / name
+        if Path(name).name != name or not piece.is_file():
+            raise InputError(f"{path}: piece {number} of {len(pieces)} ({name}) is missing")
+        data = piece.read_bytes()
+        if len(data) != size:
+            raise InputError(
+                f"{path}: piece {number} of {len(pieces)} ({name}) has {len(data)} bytes, the index says {size} "
+                "(truncated or replaced)"
+            )
+        if hashlib.sha256(data).hexdigest() != digest:
+            raise InputError(
+                f"{path}: piece {number} of {len(pieces)} ({name}) is not the piece the index names "
+                "(pieces reordered or damaged)"
+            )
+        parts.append(data)
+    joined = b"".join(parts)
+    if len(joined) != total or hashlib.sha256(joined).hexdigest() != checksum:
+        raise InputError(f"{path}: the joined pieces are not the checkpoint the index names")
+    return joined

@@ -332,7 +332,7 @@ class TrainConfig:
     global_scale: float = setting(0.10, "Whole-body size augmentation (+-).")
     mirror_probability: float = setting(0.5, "Probability of a left/right mirrored window.")
     checkpoint_every: int = setting(1000, "Write the checkpoint every this many steps.", option=True)
-    validate_every: int = setting(250, "Validate every this many steps.")
+    validate_every: int = setting(250, "Validate (and log) every this many steps.", option=True)
     seed: int = setting(0, "Random seed.", option=True)
 
     def __post_init__(self) -> None:

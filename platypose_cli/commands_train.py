@@ -20,8 +20,19 @@ from platypose.lifting.settings import DistilConfig, TrainConfig
 @settings_options("train", parameter="optimisation", given_only=True)
 @settings_options("distil", only=("calls",))
 def train(
-    data: list[Path] = typer.Argument(..., help="Motion files or folders (BVH, ASF/AMC, npy, DeepMimic, npz, C3D)."),
-    out: Path = typer.Option(..., "--out", help="Checkpoint to write (written periodically, atomically)."),
+    data: list[Path] = typer.Argument(
+        ..., help="Motion files or folders (BVH, ASF/AMC, npy, DeepMimic, npz, C3D), or one motion pack (--pack)."
+    ),
+    out: Path = typer.Option(
+        None, "--out", help="Checkpoint to write (periodically, atomically; over 16 MiB in pieces beside it)."
+    ),
+    pack: Path = typer.Option(
+        None, "--pack", help="Instead of training, write DATA (less --hold-out) packed small into this one .npz file."
+    ),
+    device: str = typer.Option("cpu", help="Train on cpu, cuda, or auto (cuda when torch sees a GPU)."),
+    precision: str = typer.Option(
+        "auto", help="Forward passes in float32 or bfloat16 (autocast); auto: bfloat16 on cuda, float32 on cpu."
+    ),
     layers: int = typer.Option(4, help="Transformer layers."),
     width: int = typer.Option(256, help="Token width."),
     heads: int = typer.Option(4, help="Attention heads."),
@@ -37,6 +48,11 @@ def train(
         help="Distil this prior into a student of --calls network calls (half its own), trained on its training "
         "clips among DATA; the architecture options do not apply.",
     ),
+    hold_out: Path = typer.Option(
+        None,
+        "--hold-out",
+        help="JSON file of unseen sets (data/motion/unseen.json): their files are left out of DATA (docs/prior.md).",
+    ),
     quiet: bool = typer.Option(False, "--quiet", help="No progress output."),
     optimisation: dict = None,
     distil: DistilConfig = None,
@@ -45,8 +61,10 @@ def train(
     from platypose.lifting.atomic import check_writable, same_file
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.offline.distillation import distil_prior
+    from platypose.lifting.offline.motion_pack import is_pack, read_pack, write_pack
     from platypose.lifting.offline.training import TrainingDiverged, train_prior
     from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.runtime import resolve_device
     from platypose.lifting.sampling.sampler import network_steps
     from platypose.lifting.settings import SamplerConfig
 
@@ -64,13 +82,30 @@ def train(
     iterations = (config if distil_from is None else distil).iterations
     if threads < 0:
         raise InputError(f"train: --threads must be 0 (torch's default) or more, got {threads}")
+    if precision not in ("auto", "float32", "bfloat16"):
+        raise InputError(f"train: --precision must be auto, float32 or bfloat16, got {precision!r}")
+    if (out is None) == (pack is None):
+        raise InputError("train: give --out (a checkpoint to train) or --pack (a motion pack to write), not both")
+    if hold_out is not None:
+        from platypose.lifting.offline.unseen_sets import load_sets, without_sets
+
+        data = without_sets(data, load_sets(hold_out))
+    if pack is not None:
+        check_writable(pack)
+        motions = load_motion_paths(data)
+        frames = write_pack(motions, pack, fps)
+        if not quiet:
+            typer.echo(f"packed {len(motions)} clips, {frames / fps / 60:.1f} min at {fps:g} fps into {pack}", err=True)
+        return
+    torch_device = resolve_device(device)
+    bfloat16 = precision == "bfloat16" or (precision == "auto" and torch_device.type == "cuda")
     if distil_from is not None and same_file(out, distil_from):  # before check_writable refuses a link by itself
         raise InputError(f"--out {out}: is the teacher given by --distil-from; it would be overwritten")
     check_writable(out)
     if log_file is not None:
         check_writable(log_file)
     teacher = load_prior(distil_from)[0] if distil_from is not None else None
-    motions = load_motion_paths(data)
+    motions = read_pack(data[0]) if len(data) == 1 and is_pack(data[0]) else load_motion_paths(data)
     if not motions:
         raise InputError(f"{', '.join(map(str, data))}: no motion files found")
     resume_state = None
@@ -105,7 +140,17 @@ def train(
     began = time.time()
     try:
         if teacher is None:
-            train_prior(motions, str(out), prior_config, config, resume=resume_state, log=log, threads=threads or None)
+            train_prior(
+                motions,
+                str(out),
+                prior_config,
+                config,
+                resume=resume_state,
+                log=log,
+                threads=threads or None,
+                device=torch_device,
+                bfloat16=bfloat16,
+            )
         else:
             steps = network_steps(teacher, SamplerConfig())
             try:

@@ -156,21 +156,27 @@ def load_motion(
     return [dataclasses.replace(c, source=source, licence=licence) for c in clips]
 
 
+def motion_files(paths: Iterable[str | Path]) -> list[Path]:
+    """The files ``paths`` name: each file as given, each folder's motion files (recursively, sorted)."""
+    files: list[Path] = []
+    for item in map(Path, paths):
+        if item.is_dir():
+            files.extend(sorted(p for p in item.rglob("*") if p.is_file() and _format_of(p)))
+        elif item.is_file() or not item.exists():
+            files.append(item)
+        else:
+            raise InputError(f"{item}: not a file or folder")
+    return files
+
+
 def load_motion_paths(paths: Iterable[str | Path], fps: float | None = None, **options) -> list[Motion]:
     """Clips of all files and folders (recursively, sorted), skipping files of no motion format.
 
     ``options`` (``name_map``, ``scale``, ...) go to the files whose format takes them.
     """
     clips: list[Motion] = []
-    for item in map(Path, paths):
-        if item.is_dir():
-            files = sorted(p for p in item.rglob("*") if p.is_file() and _format_of(p))
-        elif item.is_file() or not item.exists():
-            files = [item]
-        else:
-            raise InputError(f"{item}: not a file or folder")
-        for file in files:
-            fmt = _format_of(file) if file.is_file() else None
-            taken = {k: v for k, v in options.items() if fmt is not None and k in fmt.options}
-            clips.extend(load_motion(file, fps=fps, **taken))
+    for file in motion_files(paths):
+        fmt = _format_of(file) if file.is_file() else None
+        taken = {k: v for k, v in options.items() if fmt is not None and k in fmt.options}
+        clips.extend(load_motion(file, fps=fps, **taken))
     return clips

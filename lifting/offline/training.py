@@ -47,7 +47,7 @@ def prepare_clips(motions: Sequence[Motion], fps: float, min_frames: int = 2) ->
         joints = m.joints[np.isfinite(m.joints).all(axis=(1, 2))]
         joints = resample(joints, m.fps, fps)
         if len(joints) >= min_frames:
-            clips.append(Clip(joints, m.name, m.source, m.licence, m.fps))
+            clips.append(Clip(joints, m.name, m.source, m.licence, m.extra.get("original_fps", m.fps)))
     return clips
 
 
@@ -168,13 +168,17 @@ def train_prior(
     resume: dict | None = None,
     log: Callable[[dict], None] | None = None,
     threads: int | None = None,
+    device: str | torch.device = "cpu",
+    bfloat16: bool = False,
 ) -> PriorBundle:
     """Train (or resume) a prior on ``motions`` and write checkpoints to ``out_path``; returns the final bundle.
 
     ``resume`` is the ``extra`` dict of a checkpoint (optimiser state, iteration, both RNG states): a resumed
     run ends with the same weights as one never interrupted.
     ``log`` receives dicts with iteration, losses and elapsed seconds. Raises :class:`TrainingDiverged`
-    (before writing anything of that step) when the loss is not finite.
+    (before writing anything of that step) when the loss is not finite. ``device``: where the network trains
+    (windows, steps and noise are drawn on the CPU as always, then moved there); ``bfloat16``: its forward passes
+    under bfloat16 autocast (the loss, weights and optimiser stay float32).
     """
     if threads:
         torch.set_num_threads(threads)
@@ -187,9 +191,10 @@ def train_prior(
     F = prior_config.max_frames
     sampler = WindowSampler(train, F, config, rng)
     val_sampler = WindowSampler(validation or train, F, config, np.random.default_rng(config.seed + 1))
-    model = MotionPrior(prior_config)
+    device = torch.device(device)
+    model = MotionPrior(prior_config).to(device)
     optimiser = torch.optim.AdamW(model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay)
-    start = 0
+    start, running = 0, None
     if resume:
         normalizer = Normalizer(np.asarray(resume["normalizer_mean"]), np.asarray(resume["normalizer_std"]))
         model.load_state_dict(resume["model"], strict=True)
@@ -198,6 +203,9 @@ def train_prior(
         rng.bit_generator.state = resume["rng"]
         if "torch_rng" in resume:  # checkpoints before it was saved resume on a fresh noise stream
             torch.set_rng_state(resume["torch_rng"])
+        running = resume.get("running")  # the logged loss average goes on where it was
+        if "cuda_rng" in resume and device.type == "cuda":
+            torch.cuda.set_rng_state(resume["cuda_rng"].cpu())
     else:
         normalizer = fit_normalizer(sampler, F)
     if not (np.isfinite(normalizer.mean).all() and np.isfinite(normalizer.std).all()):
@@ -210,6 +218,11 @@ def train_prior(
     val_gen = torch.Generator().manual_seed(config.seed)
     val_t = torch.randint(0, prior_config.diffusion_steps, (len(val_batch),), generator=val_gen)
     val_noise = torch.randn(val_batch.shape, generator=val_gen)
+    val_batch, val_t, val_noise = val_batch.to(device), val_t.to(device), val_noise.to(device)
+
+    def predict(x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        with torch.autocast(device.type, dtype=torch.bfloat16, enabled=bfloat16):
+            return model(x_t, t).float()
 
     def checkpoint(it: int) -> None:
         if not all(bool(torch.isfinite(p).all()) for p in model.parameters()):
@@ -222,12 +235,14 @@ def train_prior(
             "normalizer_std": normalizer.std.tolist(),
             "rng": rng.bit_generator.state,
             "torch_rng": torch.get_rng_state(),  # diffusion steps, noise and dropout: resuming repeats them exactly
+            "running": running,
         }
+        if device.type == "cuda":
+            extra["cuda_rng"] = torch.cuda.get_rng_state()  # dropout on the GPU
         bundle.manifest["iterations"] = it
         save_prior(out_path, bundle, extra=extra if it < config.iterations else None)
 
     began = time.time()
-    running = None
     for it in range(start, config.iterations):
         model.train()
         frames = int(rng.integers(1, F + 1))
@@ -235,8 +250,10 @@ def train_prior(
             normalizer.normalize(joints_to_features(sampler.batch(config.batch_size, frames))), dtype=torch.float32
         )
         t = torch.randint(0, prior_config.diffusion_steps, (config.batch_size,))
-        x_t = schedule.add_noise(x0, t, torch.randn_like(x0))
-        loss = ((model(x_t, t) - x0) ** 2).mean()
+        noise = torch.randn_like(x0)
+        x0, t = x0.to(device), t.to(device)
+        x_t = schedule.add_noise(x0, t, noise.to(device))
+        loss = ((predict(x_t, t) - x0) ** 2).mean()
         if not torch.isfinite(loss):
             raise TrainingDiverged(
                 f"training diverged at iteration {it + 1}: the loss is {loss.item()} "
@@ -248,7 +265,7 @@ def train_prior(
         if done % config.validate_every == 0 or done == config.iterations:
             model.eval()
             with torch.no_grad():
-                val_loss = ((model(schedule.add_noise(val_batch, val_t, val_noise), val_t) - val_batch) ** 2).mean()
+                val_loss = ((predict(schedule.add_noise(val_batch, val_t, val_noise), val_t) - val_batch) ** 2).mean()
             if log:
                 log(
                     {

@@ -85,7 +85,8 @@ def sample(
     steps = network_steps(prior, config)
     generator = torch.Generator(device="cpu").manual_seed(config.seed)
     shape = (obs.keypoints.shape[1] * config.samples, frames, prior.config.features)
-    noise = config.temperature * torch.randn(shape, generator=generator, dtype=torch.float32)
+    temperature = config.temperature * (prior.temperature_for(frames) if obs.keypoints.shape[0] == 1 else 1.0)
+    noise = temperature * torch.randn(shape, generator=generator, dtype=torch.float32)
     noise = noise.to(device=device, dtype=dtype)
     sizes = (
         torch.exp(config.size_spread * torch.randn(config.samples, generator=generator))
