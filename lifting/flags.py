@@ -4,7 +4,8 @@ A person's plausibility report (:mod:`lifting.plausibility`) carries ``flags`` (
 :func:`flag_text` turns them into one sentence, which the lift stores in the report as ``flag_text`` so the console,
 ``log.txt``, ``summary.json``, the report picture and the rerun recording all say the same. Only what is wrong is
 flagged: under the floor, sliding, a spread over ``SPREAD``, limb bones outside human lengths, joints outside human
-range. Being seen by one camera is not wrong (depth and size then come from the prior): it is the report's
+range, an OpenSim IK that pins a hinge at its limit or leaves large marker errors (added by ``--formats mot``,
+:func:`exporters.mot.flag_ik`). Being seen by one camera is not wrong (depth and size then come from the prior): it is the report's
 ``one_view`` property. Where a person stands off the floor (a roof, a platform) is said too, flagged or not
 (:func:`support_text`).
 """
@@ -35,6 +36,8 @@ def _detail(flag: str, report: dict) -> str:
             "of frames"
             for name, entry in report["angles_out"].items()
         )
+    if flag == "opensim ik":
+        return "; ".join(report["opensim_ik_warnings"])
     raise ValueError(f"unknown flag {flag!r}")
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import torch
 
+from platypose.lifting.hinges import limit_energy
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.representation import features_to_joints, joints_to_features
 from platypose.lifting.sampling.energy import (
@@ -167,7 +168,7 @@ class GuidedProblem:
         return features_to_joints(grad_x * -self.std).reshape(B, N, F, -1, 3).movedim(-1, 0)
 
     def add_extra_terms(self, joints, energy, grad, curvature, anchor: torch.Tensor | None = None):
-        """Add the structural energies (autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
+        """Add the structural energies and the joint limits (:mod:`lifting.hinges`; autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
         to the reprojection terms.
 
         ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
@@ -175,10 +176,11 @@ class GuidedProblem:
         ``anchor`` (the anchor's joints; both energies are the same in any rigid frame).
         """
         c = self.config
-        if c.bone_weight > 0 or c.symmetry_weight > 0:
+        if c.bone_weight > 0 or c.symmetry_weight > 0 or c.limit_weight > 0:
             with torch.enable_grad():
                 j = joints.detach().requires_grad_(True)
                 extra = c.bone_weight * bone_constancy_energy(j) + c.symmetry_weight * symmetry_energy(j)
+                extra = extra + c.limit_weight * limit_energy(j)
                 (extra_grad,) = torch.autograd.grad(extra.sum(), j)
             energy, grad = energy + extra.detach(), grad + extra_grad.movedim(-1, 0)
         if self.floor_state is not None:
