@@ -152,7 +152,6 @@ def joint_angles(joints: np.ndarray) -> np.ndarray:
     out = {}
     for side, outward in (("right", -p_left), ("left", p_left)):
         thigh = j(f"{side}_knee") - j(f"{side}_hip")
-        shin = j(f"{side}_ankle") - j(f"{side}_knee")
         out[f"{side}_hip_flexion"] = _plane_angle(thigh, -p_up, p_fwd)
         out[f"{side}_hip_abduction"] = np.degrees(np.arcsin(np.clip(_dot(_unit(thigh), outward), -1.0, 1.0)))
     for side, outward in (("right", -t_left), ("left", t_left)):
