@@ -47,20 +47,21 @@ def test_signed_flexion_is_negative_bent_backwards_in_any_rigid_frame():
             np.testing.assert_allclose(signed_flexion(joints), [knee, knee, elbow, elbow], atol=1e-6)
 
 
-def test_limit_energy_costs_only_backward_hinges_and_a_folded_neck():
+def test_limit_energy_costs_only_backward_knees_and_a_folded_neck():
     energy = lambda pose: float(limit_energy(torch.as_tensor(pose)))  # noqa: E731
     assert energy(_bent(60.0, 120.0, neck_deg=40.0)) == 0.0
     assert energy(_bent(-4.0, -4.0)) == 0.0  # straight, within the margin
-    assert energy(_bent(-20.0, 0.0)) > 0.0 and energy(_bent(0.0, -20.0)) > 0.0
+    assert energy(_bent(-20.0, 0.0)) > 0.0 and energy(_bent(0.0, -20.0)) == 0.0  # elbows: sign only read
     assert energy(_bent(0.0, 0.0, neck_deg=85.0)) > 0.0
     assert energy(_bent(-30.0, 0.0)) > energy(_bent(-20.0, 0.0))
 
 
 def test_descending_the_limit_energy_brings_a_real_lifts_hinges_forward():
-    """The one-view lift of the Pose2Sim athlete stored before the limits (tests/data/lifts) bends hinges
-    backwards in some frames; gradient steps on the energy alone bend them forwards and move joints little."""
-    joints = torch.as_tensor(np.load(LIFTS / "pose2sim_cam01_median.npy").astype(np.float64))
-    before = signed_flexion(joints.numpy())
+    """The one-view lift of the Sports2D walker stored before the limits (tests/data/lifts) bends
+    knees backwards in some frames; gradient steps on the energy alone bend them forwards and move joints little."""
+    walker = np.load(LIFTS / "sports2d_demo_medians.npy")[1].astype(np.float64)
+    joints = torch.as_tensor(walker[np.isfinite(walker).all(axis=(1, 2))])
+    before = signed_flexion(joints.numpy())[..., :2]  # the knees
     assert (before < -10).any()
     x = joints.clone().requires_grad_(True)
     optimiser = torch.optim.SGD([x], lr=0.05)
@@ -68,12 +69,12 @@ def test_descending_the_limit_energy_brings_a_real_lifts_hinges_forward():
         optimiser.zero_grad()
         limit_energy(x).sum().backward()
         optimiser.step()
-    after = signed_flexion(x.detach().numpy())
+    after = signed_flexion(x.detach().numpy())[..., :2]
     assert (after < -10).mean() < 0.5 * (before < -10).mean(), HINGE_NAMES
-    assert float((x.detach() - joints).norm(dim=-1).max()) < 0.5  # at most a forearm folded over
+    assert float((x.detach() - joints).norm(dim=-1).max()) < 1.0  # at most a shin folded over
 
 
-@pytest.mark.parametrize("weight", [0.0, 30.0])
+@pytest.mark.parametrize("weight", [0.0, 1.0])
 def test_the_limit_weight_is_an_option_checked(weight):
     from platypose.lifting.settings import SamplerConfig
 
