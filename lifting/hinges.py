@@ -12,7 +12,8 @@ pelvis to thorax) for elbows.
 
 :func:`limit_energy` is what guidance adds (``SamplerConfig.limit_weight``): per frame, the squared amount by
 which each knee bends backwards (the sine of its bend against the carried axis, past a few degrees), and by
-which the head's line bends from the trunk's past ``NECK_LIMIT_DEG``. It is the same in any rigid frame.
+which the head's line bends from the trunk's past ``NECK_LIMIT_DEG`` (the :func:`limit_residuals`, whose
+gradients give guidance its Gauss-Newton curvature). It is the same in any rigid frame.
 """
 
 from __future__ import annotations
@@ -94,13 +95,19 @@ def neck_cosine(joints: torch.Tensor) -> torch.Tensor:
     return _dot(trunk, head)
 
 
-def limit_energy(joints: torch.Tensor) -> torch.Tensor:
-    """Per-frame energy ``(...)`` of joints ``(..., 17, 3)``: each knee's squared backward bend past
-    ``HYPEREXTENSION_MARGIN_DEG`` (as a sine) plus the neck's squared cosine short of ``NECK_LIMIT_DEG``'s."""
+def limit_residuals(joints: torch.Tensor) -> torch.Tensor:
+    """Per frame, the three amounts ``(..., 3)`` joints ``(..., 17, 3)`` go past their limits: each knee's backward
+    bend past ``HYPEREXTENSION_MARGIN_DEG`` (as a sine; right, left) and the neck's cosine short of
+    ``NECK_LIMIT_DEG``'s; zero within them."""
     sines, _ = hinge_bends(joints)
     backwards = (-sines[..., :LIMITED_HINGES] - math.sin(math.radians(HYPEREXTENSION_MARGIN_DEG))).clamp(min=0.0)
     neck = (math.cos(math.radians(NECK_LIMIT_DEG)) - neck_cosine(joints)).clamp(min=0.0)
-    return (backwards**2).sum(-1) + neck**2
+    return torch.cat([backwards, neck[..., None]], dim=-1)
+
+
+def limit_energy(joints: torch.Tensor) -> torch.Tensor:
+    """Per-frame energy ``(...)`` of joints ``(..., 17, 3)``: the sum of the squared :func:`limit_residuals`."""
+    return (limit_residuals(joints) ** 2).sum(-1)
 
 
 def signed_flexion(joints: np.ndarray) -> np.ndarray:
