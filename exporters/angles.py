@@ -15,9 +15,9 @@ Angles (zero pose: standing upright, arms hanging, legs straight):
   positive forward; ``<side>_hip_abduction``: the thigh's angle out of that plane, positive away
   from the midline (flexion, then abduction about the floating axis, as Grood and Suntay: no
   flip when the thigh points forward, as sitting);
-- ``<side>_knee_flexion``: angle between the thigh and shin lines, 0 straight (as the elbow: a lift
-  cannot tell a knee bent backwards from one bent sideways, and a sign taken from the pelvis's left
-  axis flipped between +90 and -70 on one-view lifts);
+- ``<side>_knee_flexion``: angle between the thigh and shin lines, 0 straight, negative where the knee bends
+  backwards (hyperextended) about the hinge axis the thigh carries (:mod:`lifting.hinges`; the sign of the
+  ``.mot``'s ``knee_<s>_flexion``);
 - ``trunk_flexion``: pelvis-to-thorax line from the vertical, positive leaning forward (the pelvis's
   heading); ``trunk_lateral``: its angle out of the heading's vertical plane, positive to the left;
 - ``pelvis_tilt``: pelvis-to-spine line from the vertical, positive forward; ``pelvis_obliquity``:
@@ -29,7 +29,10 @@ Angles (zero pose: standing upright, arms hanging, legs straight):
   turn about the upper arm from where the forearm pointing forward with the arm hanging is carried
   by the shortest swing of the arm (continuous through hanging, unlike ISB's third Euler angle,
   which differs from it by the plane of elevation);
-- ``<side>_elbow_flexion``: angle between upper arm and forearm lines, 0 straight.
+- ``<side>_elbow_flexion``: angle between upper arm and forearm lines, 0 straight, negative where the forearm
+  bends backwards about the hinge axis the upper arm carries (:mod:`lifting.hinges`, the ``.mot``'s sign): where
+  the axial rotation would be past 90 degrees either way; the rotation then reads half a turn from that (the
+  model's: the same pose, its elbow bent the other way).
 
 A single pose reads each angle in a fixed 360-degree range (:data:`ANGLE_RANGES`) whose ends lie on
 a pose the joint cannot take. Over time (:func:`continue_angles`) every angle is unwrapped (it
@@ -52,6 +55,7 @@ from platypose.exporters.frames import Lead, frame_chunks
 from platypose.exporters.gaps import fill_frames, fill_plan
 from platypose.exporters.result import LiftResult
 from platypose.lifting.atomic import atomic_open
+from platypose.lifting.hinges import HINGE_NAMES, signed_flexion
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 ANGLE_NAMES: tuple[str, ...] = (
@@ -122,11 +126,6 @@ def _plane_angle(v: np.ndarray, zero: np.ndarray, positive: np.ndarray) -> np.nd
     return np.degrees(np.arctan2(_dot(v, positive), _dot(v, zero)))
 
 
-def _line_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Angle (...) in degrees between vectors ``a`` and ``b`` (..., 3), 0 to 180."""
-    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), _dot(a, b)))
-
-
 def _axial_rotation(
     upper: np.ndarray, fore: np.ndarray, up: np.ndarray, forward: np.ndarray, outward: np.ndarray
 ) -> np.ndarray:
@@ -153,17 +152,21 @@ def joint_angles(joints: np.ndarray) -> np.ndarray:
     out = {}
     for side, outward in (("right", -p_left), ("left", p_left)):
         thigh = j(f"{side}_knee") - j(f"{side}_hip")
-        shin = j(f"{side}_ankle") - j(f"{side}_knee")
         out[f"{side}_hip_flexion"] = _plane_angle(thigh, -p_up, p_fwd)
         out[f"{side}_hip_abduction"] = np.degrees(np.arcsin(np.clip(_dot(_unit(thigh), outward), -1.0, 1.0)))
-        out[f"{side}_knee_flexion"] = _line_angle(thigh, shin)
     for side, outward in (("right", -t_left), ("left", t_left)):
         upper = _unit(j(f"{side}_elbow") - j(f"{side}_shoulder"))
         fore = _unit(j(f"{side}_wrist") - j(f"{side}_elbow"))
         out[f"{side}_shoulder_plane"] = np.degrees(np.arctan2(_dot(upper, t_fwd), _dot(upper, outward)))
         out[f"{side}_shoulder_elevation"] = np.degrees(np.arccos(np.clip(-_dot(upper, t_up), -1.0, 1.0)))
         out[f"{side}_shoulder_rotation"] = _axial_rotation(upper, fore, t_up, t_fwd, outward)
-        out[f"{side}_elbow_flexion"] = _line_angle(upper, fore)
+    for name, flexion in zip(HINGE_NAMES, np.moveaxis(signed_flexion(joints), -1, 0)):
+        out[f"{name}_flexion"] = flexion
+    for side in ("right", "left"):  # an elbow bent backwards: the upper arm turned half a turn the other way
+        rotation = out[f"{side}_shoulder_rotation"]
+        out[f"{side}_shoulder_rotation"] = np.where(
+            out[f"{side}_elbow_flexion"] < 0, rotation - np.copysign(180.0, rotation), rotation
+        )
     heading = _unit(p_fwd - _dot(p_fwd, _UP)[..., None] * _UP)
     side_axis = np.cross(_UP, heading)  # the pelvis's horizontal left
     trunk = j("thorax") - j("pelvis")
@@ -176,6 +179,7 @@ def joint_angles(joints: np.ndarray) -> np.ndarray:
     return _LOWER_ENDS + (angles - _LOWER_ENDS) % 360.0
 
 
+_HINGES_AT = np.array([ANGLE_NAMES.index(f"{name}_flexion") for name in HINGE_NAMES])  # signed, never unwrapped
 _HELD_AT = np.array([ANGLE_NAMES.index(a) for a in _HELD])
 _DEFINED_BY = np.array([ANGLE_NAMES.index(d) for d in _HELD.values()])
 
@@ -183,7 +187,8 @@ _DEFINED_BY = np.array([ANGLE_NAMES.index(d) for d in _HELD.values()])
 def continue_angles(raw: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
     """Angles (..., T, A) of :func:`joint_angles` made continuous over their frames (axis -2).
 
-    Each frame takes the equivalent of its angle (modulo 360) nearest the frame before's; the plane of
+    Each frame takes the equivalent of its angle (modulo 360) nearest the frame before's, but for the signed knee
+    and elbow flexion, which stay in (-180, 180] (a sign change is a bend the other way); the plane of
     elevation and the axial rotation move towards theirs only as far as elevation and elbow flexion define
     them (see the module's docstring). ``previous`` (..., A) is the frame before the first (a previous
     chunk's last), or None to start from the first frame as it is.
@@ -196,7 +201,8 @@ def continue_angles(raw: np.ndarray, previous: np.ndarray | None = None) -> np.n
             prev = now.copy()
         else:
             step = (now - prev + 180.0) % 360.0 - 180.0
-            ramp = np.clip((now[..., _DEFINED_BY] - _HOLD_BELOW) / (_FOLLOW_ABOVE - _HOLD_BELOW), 0.0, 1.0)
+            step[..., _HINGES_AT] = now[..., _HINGES_AT] - prev[..., _HINGES_AT]
+            ramp = np.clip((np.abs(now[..., _DEFINED_BY]) - _HOLD_BELOW) / (_FOLLOW_ABOVE - _HOLD_BELOW), 0.0, 1.0)
             step[..., _HELD_AT] = np.clip(ramp * step[..., _HELD_AT], -_HELD_STEP, _HELD_STEP)
             prev = prev + step
         out[..., t, :] = prev

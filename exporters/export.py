@@ -128,12 +128,13 @@ def export(
         written += paths
         result = result.with_meta(bvh_fit_error=errors)
     if "mot" in formats:
-        from platypose.exporters.mot import write_mots
+        from platypose.exporters.mot import flag_ik, write_mots
 
         say(f"{name}: OpenSim scaling and inverse kinematics")
         paths, fits = write_mots(result, out_dir, name, say)
         written += paths
-        result = result.with_meta(opensim_ik=fits)
+        reports = flag_ik(result.meta.get("plausibility") or [], fits, result.track_ids)
+        result = result.with_meta(opensim_ik=fits, **({"plausibility": reports} if reports else {}))
     if "npz" in formats:
         say(f"{name}: npz")
         written.append(write_npz(result, out_dir / f"{name}.npz"))

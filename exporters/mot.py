@@ -30,13 +30,25 @@ import numpy as np
 from platypose.exporters.frames import Lead
 from platypose.exporters.gaps import fill_frames, fill_plan
 from platypose.exporters.markers import read_frames
-from platypose.exporters.opensim_model import MARKERS, build_model, ik_tool, scale_tool
+from platypose.exporters.opensim_model import (
+    HINGE_COORDINATES,
+    HINGE_RANGE_DEG,
+    MARKERS,
+    build_model,
+    ik_tool,
+    scale_tool,
+)
 from platypose.exporters.result import LiftResult
 from platypose.exporters.trc import write_trc
 from platypose.lifting.atomic import atomic_path
 from platypose.lifting.errors import InputError
+from platypose.lifting.hinges import signed_flexion
 
 FULL_BYTES = 4 * 2**20  # free space under which a failure of OpenSim's file writes counts as a full disk
+
+AT_LIMIT_DEG = 1.0  # a hinge this close to an end of its range is pinned there
+AT_LIMIT_SHARE = 0.05  # ... warned of when more than this share of frames are
+LARGE_RMS_M = 0.03  # median marker RMS warned of: the model could not follow the joints
 MISSING = "formats: mot needs the opensim package; install it with pip install 'platypose[opensim]'"
 
 
@@ -83,15 +95,32 @@ def full_disk_as_os_error(work: Path) -> Iterator[None]:
 
 @dataclass(frozen=True)
 class IkFit:
-    """How one person's IK went: the median and largest per-frame marker RMS (m), and each body's scale factor."""
+    """How one person's IK went: the median and largest per-frame marker RMS (m), each body's scale factor, and
+    per hinge coordinate the share of frames IK left within ``AT_LIMIT_DEG`` of an end of its range."""
 
     rms_median_m: float
     rms_max_m: float
     scales: dict[str, float]
+    at_limit: dict[str, float]
+
+    def warnings(self) -> list[str]:
+        """What the fit says is wrong: hinges pinned at a limit in over ``AT_LIMIT_SHARE`` of the frames, a median
+        marker RMS over ``LARGE_RMS_M``; empty when neither."""
+        pinned = [f"{name} {share:.0%}" for name, share in self.at_limit.items() if share > AT_LIMIT_SHARE]
+        out = [f"hinge at its limit in over {AT_LIMIT_SHARE:.0%} of frames ({', '.join(pinned)})"] if pinned else []
+        if self.rms_median_m > LARGE_RMS_M:
+            out.append(f"marker RMS {100 * self.rms_median_m:.1f} cm (over {100 * LARGE_RMS_M:.0f})")
+        return out
 
     def as_dict(self) -> dict:
         """JSON-ready form for ``meta``."""
-        return {"marker_rms_median_m": self.rms_median_m, "marker_rms_max_m": self.rms_max_m, "scales": self.scales}
+        return {
+            "marker_rms_median_m": self.rms_median_m,
+            "marker_rms_max_m": self.rms_max_m,
+            "scales": self.scales,
+            "hinge_at_limit_share": self.at_limit,
+            "warnings": self.warnings(),
+        }
 
 
 def read_storage(path: Path | str) -> tuple[list[str], np.ndarray]:
@@ -102,6 +131,29 @@ def read_storage(path: Path | str) -> tuple[list[str], np.ndarray]:
     return [n.strip() for n in names], np.array(
         [[float(v) for v in line.split()] for line in lines[end + 2 :] if line.strip()]
     )
+
+
+def at_limit_shares(names: list[str], values: np.ndarray) -> dict[str, float]:
+    """Per hinge coordinate of a ``.mot``'s columns ``names`` and rows ``values`` (degrees), the share of rows within
+    ``AT_LIMIT_DEG`` of an end of ``HINGE_RANGE_DEG``."""
+    low, high = HINGE_RANGE_DEG
+    out = {}
+    for name in HINGE_COORDINATES:
+        column = values[:, names.index(name)]
+        out[name] = round(float(np.mean((column < low + AT_LIMIT_DEG) | (column > high - AT_LIMIT_DEG))), 3)
+    return out
+
+
+def write_hinge_hints(joints: np.ndarray, frame_times: np.ndarray, path: Path) -> Path:
+    """An OpenSim storage at ``path`` of the signed flexion (:func:`lifting.hinges.signed_flexion`, degrees) of
+    filled joints (T, 17, 3) per frame, as the :data:`HINGE_COORDINATES` IK is hinted with."""
+    flexion = np.clip(signed_flexion(joints), *HINGE_RANGE_DEG)
+    table = np.concatenate([np.asarray(frame_times, np.float64)[:, None], flexion], axis=1)
+    header = f"hinges\nversion=1\nnRows={len(table)}\nnColumns={table.shape[1]}\ninDegrees=yes\nendheader\n"
+    with path.open("w", encoding="ascii", newline="\n") as f:
+        f.write(header + "\t".join(("time", *HINGE_COORDINATES)) + "\n")
+        np.savetxt(f, table, fmt="%.6f", delimiter="\t")
+    return path
 
 
 def _scales(scaled: Any) -> dict[str, float]:
@@ -125,14 +177,31 @@ def person_mot(osim: Any, joints: np.ndarray, frame_times: np.ndarray, fps: floa
     if not (work / "scaled.osim").exists():
         raise RuntimeError(f"OpenSim's scaling wrote no model in {work}")
     scaled = osim.Model(str(work / "scaled.osim"))
-    tool = ik_tool(osim, str(trc), times, str(work / "ik.mot"))
+    hints = write_hinge_hints(joints, frame_times, work / "hinges.sto")
+    tool = ik_tool(osim, str(trc), times, str(work / "ik.mot"), str(hints))
     tool.setResultsDir(str(work))
     tool.setModel(scaled)
     if not tool.run():
         raise RuntimeError(f"OpenSim's inverse kinematics failed on {trc}")
     names, errors = read_storage(next(work.glob("*_ik_marker_errors.sto")))
     rms = errors[:, names.index("marker_error_RMS")]
-    return IkFit(float(np.median(rms)), float(rms.max()), _scales(scaled))
+    at_limit = at_limit_shares(*read_storage(work / "ik.mot"))
+    return IkFit(float(np.median(rms)), float(rms.max()), _scales(scaled), at_limit)
+
+
+def flag_ik(reports: list[dict], fits: dict[str, dict], track_ids: np.ndarray) -> list[dict]:
+    """Plausibility ``reports`` (``meta["plausibility"]``, one per person) with the flag ``"opensim ik"`` and its
+    ``opensim_ik_warnings`` added where a person's fit (``fits``, by ``p<track>``) warns, ``flag_text`` redone."""
+    from platypose.lifting.flags import flag_text
+
+    out = []
+    for track, report in zip(track_ids, reports):
+        warnings = fits.get(f"p{int(track)}", {}).get("warnings", [])
+        if warnings and "opensim ik" not in report.get("flags", []):
+            report = {**report, "flags": [*report.get("flags", []), "opensim ik"], "opensim_ik_warnings": warnings}
+            report["flag_text"] = flag_text(report)
+        out.append(report)
+    return out
 
 
 def write_mots(
@@ -159,4 +228,6 @@ def write_mots(
                 paths.append(target)
         fits[f"p{track}"] = fit.as_dict()
         say(f"{name}: person {track} OpenSim IK: marker RMS {100 * fit.rms_median_m:.1f} cm (median)")
+        for warning in fit.warnings():
+            say(f"warning: {name}: person {track} OpenSim IK: {warning}")
     return paths, fits

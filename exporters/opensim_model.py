@@ -68,6 +68,12 @@ MEASUREMENTS: dict[str, tuple[tuple[str, str], ...]] = {
     "forearm_l": (("LElbow", "LWrist"),),
 }
 MASS_KG = 70.0
+# The hinges' coordinates, in lifting.hinges.HINGE_NAMES order, and their range (degrees, IK holds them inside).
+HINGE_COORDINATES = ("knee_r_flexion", "knee_l_flexion", "elbow_r_flexion", "elbow_l_flexion")
+HINGE_RANGE_DEG = (-20.0, 170.0)
+# Weight of a hinge's hint per squared radian against 1 per squared metre of marker error: 20 degrees off the hint
+# cost as much as 6 cm of one marker's error, so the markers decide the pose and the hint the branch.
+HINT_WEIGHT = 0.03
 _BALL_AXES = (("_flexion", (0.0, 0.0, 1.0)), ("_adduction", (1.0, 0.0, 0.0)), ("_rotation", (0.0, 1.0, 0.0)))
 
 
@@ -91,8 +97,8 @@ def _joint(osim: Any, name: str, kind: str, parent: Any, location: tuple, child:
         turn = osim.Vec3(0.0, math.pi if kind == "knee" else 0.0, 0.0)
         joint = osim.PinJoint(name, parent, _vec(osim, location), turn, child, zero, turn)
         joint.upd_coordinates(0).setName(f"{name}_flexion")
-        joint.upd_coordinates(0).setRangeMin(math.radians(-20.0))
-        joint.upd_coordinates(0).setRangeMax(math.radians(170.0))
+        joint.upd_coordinates(0).setRangeMin(math.radians(HINGE_RANGE_DEG[0]))
+        joint.upd_coordinates(0).setRangeMax(math.radians(HINGE_RANGE_DEG[1]))
         joint.upd_coordinates(0).set_clamped(True)  # IK keeps a hinge within -20 to 170 degrees
         return joint
     transform = osim.SpatialTransform()
@@ -162,9 +168,16 @@ def scale_tool(osim: Any, model_file: str, trc_file: str, times: tuple[float, fl
     return tool
 
 
-def ik_tool(osim: Any, trc_file: str, times: tuple[float, float], output_file: str) -> Any:
+def ik_tool(
+    osim: Any, trc_file: str, times: tuple[float, float], output_file: str, hint_file: str | None = None
+) -> Any:
     """An ``opensim.InverseKinematicsTool`` fitting every marker of :data:`MARKERS` (weight 1) of ``trc_file``
-    over ``times`` (s), writing the coordinates (degrees) to ``output_file``; set its model before running."""
+    over ``times`` (s), writing the coordinates (degrees) to ``output_file``; set its model before running.
+
+    ``hint_file`` (a storage of the :data:`HINGE_COORDINATES`, degrees) holds each hinge near the flexion our
+    joints give it with weight ``HINT_WEIGHT``: a knee or an elbow reaches a pose by two branches (flexion, and
+    the opposite flexion with the bone above turned half a turn), and IK, which starts each frame from the one
+    before, otherwise stays on the branch it started on, pinned at the hinge's limit."""
     tool = osim.InverseKinematicsTool()
     tool.setName("platypose17_ik")
     tool.set_marker_file(trc_file)
@@ -179,4 +192,13 @@ def ik_tool(osim: Any, trc_file: str, times: tuple[float, float], output_file: s
         task.setApply(True)
         task.setWeight(1.0)
         tasks.cloneAndAppend(task)
+    if hint_file is not None:
+        tool.set_coordinate_file(hint_file)
+        for coordinate in HINGE_COORDINATES:
+            task = osim.IKCoordinateTask()
+            task.setName(coordinate)
+            task.setApply(True)
+            task.setWeight(HINT_WEIGHT)
+            task.setValueType(osim.IKCoordinateTask.FromFile)
+            tasks.cloneAndAppend(task)
     return tool

@@ -10,6 +10,9 @@
   ``FLEXION_LIMITS_DEG`` (tissue stops a knee or elbow folding flat, a thigh from passing through the trunk), and
   knee hyperextension (the shin bent forwards about the hips' axis) at most ``KNEE_HYPEREXTENSION_DEG``. A joint is
   out of range when more than ``ANGLE_SHARE`` of the frames the person is present put it there.
+- **Hinge jumps**: the signed knee and elbow flexion the angles CSV and ``.mot`` carry (:mod:`lifting.hinges`)
+  changing faster than ``HINGE_SPEED_DEG_S`` between two frames the person is present in (a throwing elbow peaks
+  near 2,500 degrees per second; walking and balancing stay far below): the frames, whatever made them.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from platypose.lifting.anthropometry import DEFINITION_MARGIN, SEGMENT_FRACTIONS
+from platypose.lifting.hinges import HINGE_NAMES, signed_flexion
 from platypose.lifting.skeleton import BONES, JOINT_INDEX, JOINT_NAMES, MIRROR
 
 STATURE_RANGE_M = (1.0, 2.1)  # children of about 5 years to tall adults
@@ -24,6 +28,7 @@ LENGTH_MARGIN = DEFINITION_MARGIN  # joint centres sit off the table's landmarks
 MIRROR_RATIO = 1.25  # longest over shortest of a limb bone and its mirror image
 FLEXION_LIMITS_DEG = {"knee": 170.0, "elbow": 170.0, "hip": 165.0}
 KNEE_HYPEREXTENSION_DEG = 30.0
+HINGE_SPEED_DEG_S = 1800.0
 ANGLE_SHARE = 0.05  # share of present frames a joint may spend out of range (a few bad frames are noise)
 
 _SIDES = ("right", "left")
@@ -75,6 +80,23 @@ def angles_out_of_range(joints: np.ndarray) -> dict[str, dict]:
             share = float(np.mean(angle > limit))
             if share > ANGLE_SHARE:
                 out[name] = {"limit_deg": limit, "share": round(share, 3), "max_deg": round(float(np.nanmax(angle)), 1)}
+    return out
+
+
+def hinge_jumps(joints: np.ndarray, fps: float) -> dict[str, dict]:
+    """Hinges of motion ``(T, 17, 3)`` at ``fps`` (NaN where absent) whose signed flexion changes faster than
+    ``HINGE_SPEED_DEG_S`` between consecutive present frames: name (``"right elbow"``) -> ``{"frames"`` (the later
+    frame of each such pair), ``"max_deg_per_s"}``."""
+    with np.errstate(invalid="ignore"):
+        speed = np.abs(np.diff(signed_flexion(np.asarray(joints, np.float64)), axis=0)) * fps  # (T - 1, 4), NaN: absent
+    out = {}
+    for name, rate in zip(HINGE_NAMES, speed.T):
+        fast = np.flatnonzero(rate > HINGE_SPEED_DEG_S)
+        if fast.size:
+            out[name.replace("_", " ")] = {
+                "frames": (fast + 1).tolist(),
+                "max_deg_per_s": round(float(rate[fast].max())),
+            }
     return out
 
 

@@ -4,7 +4,8 @@ A person's plausibility report (:mod:`lifting.plausibility`) carries ``flags`` (
 :func:`flag_text` turns them into one sentence, which the lift stores in the report as ``flag_text`` so the console,
 ``log.txt``, ``summary.json``, the report picture and the rerun recording all say the same. Only what is wrong is
 flagged: under the floor, sliding, a spread over ``SPREAD``, limb bones outside human lengths, joints outside human
-range. Being seen by one camera is not wrong (depth and size then come from the prior): it is the report's
+range, knee or elbow flexion changing faster than a body turns it (``hinge jumps``, with the frames), an OpenSim IK that pins a hinge at its limit or leaves large marker errors (added by ``--formats mot``,
+:func:`exporters.mot.flag_ik`). Being seen by one camera is not wrong (depth and size then come from the prior): it is the report's
 ``one_view`` property. Where a person stands off the floor (a roof, a platform) is said too, flagged or not
 (:func:`support_text`).
 """
@@ -13,7 +14,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from platypose.lifting.body_checks import HINGE_SPEED_DEG_S
 from platypose.lifting.plausibility import ON_FLOOR, SPREAD, UNDER_FLOOR
+
+
+def _frames(frames: list[int], shown: int = 8) -> str:
+    """Frame numbers as ``"3, 17, 40"``, the first ``shown`` and how many more."""
+    more = f" and {len(frames) - shown} more" if len(frames) > shown else ""
+    return ", ".join(map(str, frames[:shown])) + more
 
 
 def _detail(flag: str, report: dict) -> str:
@@ -41,6 +49,14 @@ def _detail(flag: str, report: dict) -> str:
             f"median depth {report['pelvis_depth_median_m']:.1f} m: impossible geometry (keypoints upside down, "
             "or a wrong calibration?)"
         )
+
+    if flag == "hinge jumps":
+        return ", ".join(
+            f"{name} {entry['max_deg_per_s']} degrees/s (over {HINGE_SPEED_DEG_S:.0f}) in frames {_frames(entry['frames'])}"
+            for name, entry in report["hinge_jumps"].items()
+        )
+    if flag == "opensim ik":
+        return "; ".join(report["opensim_ik_warnings"])
     raise ValueError(f"unknown flag {flag!r}")
 
 

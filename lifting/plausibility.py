@@ -17,6 +17,7 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
   motion's pelvis lies less than ``MIN_DEPTH`` in front of that camera, or behind it (camera-frame z). No camera sees
   what is behind it: keypoints upside down, or all at one pixel, can still be reprojected by a body placed behind
   the lens (the projection flips twice), so the depth's sign, not the reprojection, tells.
+- ``hinge jumps``: its signed knee or elbow flexion changing faster than a body turns a hinge, with the frames.
 
 Being seen by fewer than two cameras in most frames present is not a flag but the report's ``one_view``. The report's
 ``flag_text`` says every flag with its figure in one sentence (:func:`lifting.flags.flag_text`).
@@ -34,7 +35,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from platypose.lifting.body_checks import angles_out_of_range, bone_lengths_out_of_range
+from platypose.lifting.body_checks import angles_out_of_range, bone_lengths_out_of_range, hinge_jumps
 from platypose.lifting.camera import Camera
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
 
@@ -193,14 +194,17 @@ def person_plausibility(
     return {**report, "flags": flags}
 
 
-def body_plausibility(report: dict, median: np.ndarray) -> dict:
-    """``report`` with the body checks of the person's median motion ``(T, 17, 3)`` (:mod:`lifting.body_checks`):
-    ``bone_lengths_out`` and ``angles_out`` (empty when human), flagged ``bone lengths`` and ``joint angles``. Bones are
-    checked only where several views measured them: one view's limbs are the prior's guess, held to adult lengths."""
+def body_plausibility(report: dict, median: np.ndarray, fps: float = 30.0) -> dict:
+    """``report`` with the body checks of the person's median motion ``(T, 17, 3)`` at ``fps`` (:mod:`lifting.body_checks`):
+    ``bone_lengths_out``, ``angles_out`` and ``hinge_jumps`` (empty when human), flagged ``bone lengths``, ``joint
+    angles`` and ``hinge jumps``. Bones are checked only where several views measured them: one view's limbs are the
+    prior's guess, held to adult lengths."""
     bones = {} if report.get("one_view") else bone_lengths_out_of_range(median)
     angles = angles_out_of_range(median)
+    jumps = hinge_jumps(median, fps)
     flags = list(report["flags"]) + ["bone lengths"] * bool(bones) + ["joint angles"] * bool(angles)
-    return {**report, "bone_lengths_out": bones, "angles_out": angles, "flags": flags}
+    flags += ["hinge jumps"] * bool(jumps)
+    return {**report, "bone_lengths_out": bones, "angles_out": angles, "hinge_jumps": jumps, "flags": flags}
 
 
 def camera_depths(median: np.ndarray, seen: np.ndarray, cameras: Sequence[Camera]) -> dict:
@@ -244,7 +248,7 @@ def plausibility(
         blocks = (hypotheses[p, :, start : start + chunk] for start in range(0, T, chunk))
         report = person_plausibility(blocks, seen[:, p], floor, fps)
         if median is not None and report["frames"]:
-            report = body_plausibility(report, np.asarray(median[p], np.float64))
+            report = body_plausibility(report, np.asarray(median[p], np.float64), fps)
             if cameras is not None:
                 report.update(camera_depths(np.asarray(median[p], np.float64), by_camera[:, :, p], cameras))
                 if report.get("behind_camera_share", 0.0) > BEHIND_SHARE:

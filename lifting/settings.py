@@ -131,6 +131,9 @@ class SamplerConfig:
     noise_spread: bool = setting(True, "2+ views: spread hypotheses by the 2D noise.", option=True)
     bone_weight: float = setting(0.0, "Constant bone lengths over time (0: off).", option=True, panel="Experimental")
     symmetry_weight: float = setting(0.0, "Left/right bone symmetry (0: off).", option=True, panel="Experimental")
+    limit_weight: float = setting(
+        0.0, "Joint limits: knees bending backwards, the neck past 70 degrees (0: off).", option=True
+    )
     depth_smoothness: float = setting(10.0, "One view: smoothness of every joint's depth path (0: off).", option=True)
     floor: tuple[float, float, float, float] | None = setting(None, "Floor plane (nx, ny, nz, d); None: no floor.")
     floor_weight: float = setting(1.0, "Weight per squared metre of a joint below the floor.")
@@ -183,6 +186,7 @@ class SamplerConfig:
                     "symmetry_weight",
                     f"symmetry_weight must be >= 0, got {self.symmetry_weight}",
                 ),
+                (self.limit_weight >= 0, "limit_weight", f"limit_weight must be >= 0, got {self.limit_weight}"),
                 (self.depth_smoothness >= 0, "depth_smoothness", "depth_smoothness must be >= 0"),
                 (
                     min(self.floor_weight, self.contact_weight, self.slide_weight) >= 0,

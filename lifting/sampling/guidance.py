@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import torch
 
+from platypose.lifting.hinges import limit_residuals
 from platypose.lifting.prior import PriorBundle
 from platypose.lifting.representation import features_to_joints, joints_to_features
 from platypose.lifting.sampling.energy import (
@@ -19,7 +20,7 @@ from platypose.lifting.sampling.energy import (
     symmetry_energy,
 )
 from platypose.lifting.sampling.grounding import Grounding
-from platypose.lifting.sampling.linalg import add_to_diagonal_, rotate_translate, solve_symmetric3
+from platypose.lifting.sampling.linalg import SYMMETRIC_PAIRS, add_to_diagonal_, rotate_translate, solve_symmetric3
 from platypose.lifting.sampling.placement import Anchor, continuation_ramp, continued_offset, typical_size
 from platypose.lifting.sampling.translation import RayConstraints, solve_translation
 from platypose.lifting.sampling.views import OneView, SeveralViews, views_for
@@ -167,7 +168,7 @@ class GuidedProblem:
         return features_to_joints(grad_x * -self.std).reshape(B, N, F, -1, 3).movedim(-1, 0)
 
     def add_extra_terms(self, joints, energy, grad, curvature, anchor: torch.Tensor | None = None):
-        """Add the structural energies (autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
+        """Add the structural energies and the joint limits (:mod:`lifting.hinges`; autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
         to the reprojection terms.
 
         ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
@@ -181,6 +182,9 @@ class GuidedProblem:
                 extra = c.bone_weight * bone_constancy_energy(j) + c.symmetry_weight * symmetry_energy(j)
                 (extra_grad,) = torch.autograd.grad(extra.sum(), j)
             energy, grad = energy + extra.detach(), grad + extra_grad.movedim(-1, 0)
+        if c.limit_weight > 0:
+            limit, limit_grad, limit_curvature = limit_terms(joints, c.limit_weight)
+            energy, grad, curvature = energy + limit, grad + limit_grad, curvature + limit_curvature
         if self.floor_state is not None:
             energy, grad, curvature = self.grounding.add_terms(joints, energy, grad, curvature, *self.floor_state)
         if self.anchor is not None:  # isotropic curvature: the same in any axes
@@ -242,6 +246,27 @@ class GuidedProblem:
         if frame is not None:  # the move back in world axes
             moved = rotate_translate(moved, frame[0].T)
         return self.absorb(x0, offset, moved)
+
+
+def limit_terms(joints: torch.Tensor, weight: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """``weight`` times the joint limits' energy ``(...)`` of joints ``(..., 17, 3)`` (:func:`lifting.hinges.limit_residuals`
+    squared), its gradient ``(3, ..., 17)`` and its Gauss-Newton curvature ``(6, ..., 17)`` (``2 J^T J`` per joint,
+    packed), component-first. Without the curvature a step would divide the limit's pull by the reprojection's
+    curvature alone, nearly nothing along one view's rays: the step runs away in depth and backtracking stalls it.
+    """
+    with torch.enable_grad():
+        j = joints.detach().requires_grad_(True)
+        residuals = limit_residuals(j)
+        count = residuals.shape[-1]
+        jacobians = [
+            torch.autograd.grad(residuals[..., k].sum(), j, retain_graph=k < count - 1)[0] for k in range(count)
+        ]
+    residuals = residuals.detach()
+    grad = sum(2 * weight * residuals[..., k, None, None] * jacobians[k] for k in range(count))
+    curvature = torch.stack(
+        [sum(2 * weight * jac[..., a] * jac[..., b] for jac in jacobians) for a, b in SYMMETRIC_PAIRS]
+    )
+    return weight * (residuals**2).sum(-1), grad.movedim(-1, 0), curvature
 
 
 def _select_rows(accept: torch.Tensor, new: torch.Tensor, old: torch.Tensor, rows: tuple[int, ...]) -> torch.Tensor:

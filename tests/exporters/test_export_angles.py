@@ -12,6 +12,7 @@ from export_helpers import two_person_result
 
 from platypose.exporters.angles import ANGLE_NAMES, angle_series, continue_angles, joint_angles, write_angles_csv
 from platypose.exporters.report import ankle_heights, write_report
+from platypose.lifting.hinges import HINGE_NAMES
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 
@@ -87,6 +88,25 @@ def test_signs_and_sides():
     a = angles_of(lean)
     assert a["trunk_flexion"] == pytest.approx(30) and a["pelvis_tilt"] == pytest.approx(30)
     assert a["trunk_lateral"] == pytest.approx(0, abs=1e-9)
+
+
+def test_hinges_bent_backwards_read_negative():
+    """Signed flexion (issue 42): a knee whose shin goes forwards and an elbow whose forearm goes backwards read
+    negative, as OpenSim's coordinates; the elbow's axial rotation then reads from the model's side of the turn."""
+    pose = standing()
+    back = np.radians(20)
+    pose[J["right_ankle"]] = pose[J["right_knee"]] + 0.41 * np.array([0, -np.sin(back), -np.cos(back)])
+    pose[J["left_ankle"]] = pose[J["left_knee"]] + 0.41 * np.array([0, np.sin(back), -np.cos(back)])
+    pose[J["left_wrist"]] = pose[J["left_elbow"]] + 0.26 * np.array([0, np.sin(back), -np.cos(back)])
+    pose[J["right_wrist"]] = pose[J["right_elbow"]] + 0.26 * np.array([0, -np.sin(back), -np.cos(back)])
+    a = angles_of(pose)
+    assert a["right_knee_flexion"] == pytest.approx(-20) and a["left_knee_flexion"] == pytest.approx(20)
+    assert a["left_elbow_flexion"] == pytest.approx(-20) and a["right_elbow_flexion"] == pytest.approx(20)
+    assert a["left_shoulder_rotation"] == pytest.approx(0, abs=1e-6)
+    # the same elbow bent 90 degrees: forearm backwards is -90 (unwrapped never: it stays in (-180, 180])
+    pose[J["left_wrist"]] = pose[J["left_elbow"]] + [0, 0.26, 0]
+    series = continue_angles(np.stack([joint_angles(standing()), joint_angles(pose)]))
+    assert series[1, ANGLE_NAMES.index("left_elbow_flexion")] == pytest.approx(-90)
 
 
 @pytest.fixture(scope="module")
@@ -206,14 +226,18 @@ def test_report_picture(result, tmp_path):
 )
 def test_real_lifts_angles_step_only_with_the_arm(file, person):
     """Real lifts (tests/data/lifts, gaps filled): no angle of a side steps over 45 degrees between frames where
-    that side's upper arm turns under 10 (the old angles stepped up to 353 degrees on sports2d)."""
+    that side's upper arm turns under 10 (the old angles stepped up to 353 degrees on sports2d); knees and elbows by
+    their size (the stored lifts predate the joint limits: some of their hinges bend backwards, signed negative)."""
     from platypose.exporters.gaps import fill_frames, fill_plan
 
     joints = np.load(Path(__file__).parents[1] / "data" / "lifts" / file).astype(np.float64)
     joints = joints if person is None else joints[person]
     present = np.isfinite(joints).all(axis=(1, 2))
     joints = fill_frames(joints, fill_plan(present, np.arange(len(joints))), slice(None))
-    steps = np.abs(np.diff(continue_angles(joint_angles(joints)), axis=0))
+    series = continue_angles(joint_angles(joints))
+    hinges = [ANGLE_NAMES.index(f"{name}_flexion") for name in HINGE_NAMES]
+    series[:, hinges] = np.abs(series[:, hinges])  # these old lifts bend hinges backwards: a sign is no step
+    steps = np.abs(np.diff(series, axis=0))
     for side in ("right", "left"):
         arm = joints[:, J[f"{side}_elbow"]] - joints[:, J[f"{side}_shoulder"]]
         arm /= np.linalg.norm(arm, axis=-1, keepdims=True)

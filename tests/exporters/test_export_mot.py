@@ -115,3 +115,25 @@ def test_the_shipped_files_are_the_built_ones_and_run_in_opensim(data_dir, tmp_p
     osim.InverseKinematicsTool(str(work / "platypose17_ik.xml")).run()
     names, values = read_storage(work / "markers_ik.mot")
     assert len(values) == len(joints) and "neck_flexion" in names
+
+
+def test_ik_keeps_each_hinge_on_the_branch_the_joints_bend_and_warns_of_a_pinned_one(tmp_path):
+    """Issue 42: a one-view lift of the Pose2Sim athlete (tests/data/lifts, before the joint limits). Without a
+    hint OpenSim's IK, which starts every frame from the one before, held an elbow on the wrong branch at its
+    -20 degree limit (39 degrees from the angles CSV). Hinted, every hinge coordinate lies within 5 degrees
+    (median) of our signed flexion, and the hinges our joints bend past -20 are named in the fit's warnings."""
+    osim = pytest.importorskip("opensim")
+    from platypose.exporters.mot import AT_LIMIT_SHARE, load_opensim, person_mot, read_storage
+    from platypose.exporters.opensim_model import HINGE_COORDINATES
+    from platypose.lifting.hinges import signed_flexion
+
+    load_opensim()
+    joints = np.load(LIFTS / "pose2sim_cam01_median.npy").astype(np.float64)
+    fit = person_mot(osim, joints, np.arange(len(joints)) / 60.0, 60.0, tmp_path)
+    names, values = read_storage(tmp_path / "ik.mot")
+    ours = signed_flexion(joints)
+    for k, coordinate in enumerate(HINGE_COORDINATES):
+        assert np.median(np.abs(values[:, names.index(coordinate)] - ours[:, k])) < 5.0, coordinate
+    beyond = {c for k, c in enumerate(HINGE_COORDINATES) if np.mean(ours[:, k] < -21.0) > AT_LIMIT_SHARE}
+    assert beyond == {c for c, share in fit.at_limit.items() if share > AT_LIMIT_SHARE}
+    assert bool(beyond) == any("at its limit" in w for w in fit.warnings())

@@ -72,3 +72,23 @@ def test_on_the_floor_and_unflagged_says_nothing_a_roof_is_said():
     on_floor = {"flags": [], "support": [{"first_frame": 0, "last_frame": 99, "height_m": 0.02}]}
     roof = {"flags": [], "support": [{"first_frame": 0, "last_frame": 122, "height_m": 1.92}]}
     assert person_lines([on_floor, roof], [0, 1]) == ["person 1: stands 1.92 m above the floor in frames 0-122"]
+
+
+def test_a_real_one_view_forearm_that_swings_in_a_frame_is_flagged_with_its_frames():
+    """The balancing take lifted from cam01 alone (tests/data/lifts, 60 fps): its right forearm's plane swings about
+    120 degrees around the upper arm in frames 80-86, which the signed elbow flexion shows as a jump; all four views
+    of the same take turn no hinge faster than a body can."""
+    from pathlib import Path
+
+    from platypose.lifting.body_checks import HINGE_SPEED_DEG_S, hinge_jumps
+
+    lifts = Path(__file__).parents[1] / "data" / "lifts"
+    assert hinge_jumps(np.load(lifts / "pose2sim_4views_median.npy"), fps=60.0) == {}
+    one_view = np.load(lifts / "pose2sim_cam01_median.npy")
+    jumps = hinge_jumps(one_view, fps=60.0)
+    assert 85 in jumps["right elbow"]["frames"] and jumps["right elbow"]["max_deg_per_s"] > 5 * HINGE_SPEED_DEG_S
+    assert set(jumps) <= {"right elbow", "left elbow"}  # its knees turn as a body turns them
+    report = body_plausibility({"flags": [], "one_view": True}, one_view, fps=60.0)
+    assert report["flags"] == ["hinge jumps"] and report["hinge_jumps"] == jumps
+    assert "right elbow " in flag_text(report) and "in frames 39, 58, 85" in flag_text(report)
+    assert body_plausibility({"flags": [], "one_view": True}, one_view, fps=6.0)["flags"] == []  # a tenth as fast
