@@ -131,9 +131,7 @@ class SamplerConfig:
     noise_spread: bool = setting(True, "2+ views: spread hypotheses by the 2D noise.", option=True)
     bone_weight: float = setting(0.0, "Constant bone lengths over time (0: off).", option=True, panel="Experimental")
     symmetry_weight: float = setting(0.0, "Left/right bone symmetry (0: off).", option=True, panel="Experimental")
-    limit_weight: float = setting(
-        0.0, "Joint limits: knees bending backwards, the neck past 70 degrees (0: off).", option=True
-    )
+    limit_weight: float = setting(0.0, "Joint limits: knees bent back, the neck past 70 degrees (0: off).", option=True)
     depth_smoothness: float = setting(10.0, "One view: smoothness of every joint's depth path (0: off).", option=True)
     floor: tuple[float, float, float, float] | None = setting(None, "Floor plane (nx, ny, nz, d); None: no floor.")
     floor_weight: float = setting(1.0, "Weight per squared metre of a joint below the floor.")
