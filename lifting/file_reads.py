@@ -50,3 +50,20 @@ def read_regular(path: Path | str, limit: int, what: str = "file") -> bytes:
             if size > limit:
                 raise InputError(f"{path}: over {limit / 2**20:.0f} MiB, too large for a {what}")
     return b"".join(chunks)
+
+
+def check_readable_inputs(paths: list[Path], what: str = "input") -> None:
+    """InputError naming the first of ``paths`` (following links) that is neither a regular file nor a folder, or a
+    folder holding such an entry directly (a keypoint folder's files are read one by one): a FIFO, device or socket
+    would block its reader or feed it without end. Missing paths are left to their readers' own messages."""
+    for path in map(Path, paths):
+        entries = [path]
+        if path.is_dir():
+            entries += sorted(path.iterdir())
+        for entry in entries:
+            try:
+                mode = os.stat(entry).st_mode
+            except OSError:
+                continue
+            if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+                raise InputError(f"{entry}: is {file_kind(mode)}, a regular {what} file was expected")

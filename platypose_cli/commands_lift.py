@@ -232,6 +232,7 @@ def lift(
     from platypose.cli.lift_jobs import check_views_match, discover_jobs, expand_inputs, keypoints_job
     from platypose.cli.safe_names import printable
     from platypose.lifting.errors import InputError
+    from platypose.lifting.file_reads import check_readable_inputs
 
     if keypoints is not None and detector is not None:
         raise InputError("--keypoints and --detector exclude each other: keypoints are read, not detected")
@@ -249,6 +250,10 @@ def lift(
         job_list = discover_jobs(paths, camera_names)
     if cams is not None:
         check_views_match(job_list, camera_names, cams)
+    given = [v.source for job in job_list for v in job.views] + [
+        p for p in (root_trajectory, prior.path if prior else None) if p
+    ]
+    check_readable_inputs(given)
     job_list = _own_folders(job_list, out)
     detect = DetectOptions(
         detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps, image_size=image_size
