@@ -6,7 +6,8 @@ same code ``lift`` runs without ``--cams``). The calibration's z = 0 is its floo
 
     python tools/camera_errors.py data/video/pose2sim-balancing/calib_pose2sim.toml \\
         --keypoints data/video/pose2sim-balancing/openpose-body25b/cam0{1,2,3,4}_json
-    python tools/camera_errors.py calib.toml --npz out/cam01/cam01.npz
+    python tools/camera_errors.py calib.toml --npz out/cam01/cam01.npz          # the camera a lift wrote
+    python tools/camera_errors.py calib.toml --keypoints out/demo/demo.npz     # estimated from its 2D keypoints
 """
 
 from __future__ import annotations
@@ -23,22 +24,38 @@ def estimated_cameras(args) -> list[tuple[str, object, str]]:
     """(view name, estimated camera, how) of every input."""
     found = []
     for path in args.npz or []:
-        from platypose.exporters.result import load_result
+        from platypose.exporters.npz import read_npz
 
-        for camera in load_result(path).cameras:
+        for camera in read_npz(path).cameras:
             found.append((camera.name, camera, "lift"))
     for path in args.keypoints or []:
         from platypose.detectors.sources import read_keypoints
         from platypose.lifting.camera_fit import fit_view
 
-        track = read_keypoints(Path(path))
-        name = Path(path).name
-        camera, estimate, note = fit_view(name, track.keypoints, track.frame_times, track.image_size, {})
+        name, keypoints, times, size = _keypoints(Path(path), read_keypoints)
+        camera, estimate, note = fit_view(name, keypoints, times, size, {})
         if camera is None and estimate is not None:  # shown all the same, with why lift would not use it
             e = estimate
-            camera = posed_camera(name, track.image_size, e.focal_px, e.pitch_deg, e.roll_deg, e.height_m)
+            camera = posed_camera(name, size, e.focal_px, e.pitch_deg, e.roll_deg, e.height_m)
         found.append((name, camera, note))
     return found
+
+
+def _keypoints(path: Path, read_keypoints) -> tuple[str, object, object, tuple[int, int]]:
+    """(view name, keypoints (T, P, 17, 3), frame times, image size) of a keypoint source or a lift's npz (its
+    first view's 2D keypoints)."""
+    if path.suffix == ".npz":
+        from platypose.exporters.npz import read_npz
+
+        try:
+            result = read_npz(path)
+        except Exception:  # not a lift's npz: a keypoint file
+            result = None
+        if result is not None:
+            camera = result.cameras[0]
+            return camera.name, result.keypoints2d[0].transpose(1, 0, 2, 3), result.frame_times, camera.size
+    track = read_keypoints(path)
+    return path.name, track.keypoints, track.frame_times, track.image_size
 
 
 def main() -> None:
