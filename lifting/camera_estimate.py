@@ -45,8 +45,9 @@ SEGMENTS = (
     (15, 16, 0.022),
     (12, 13, 0.022),  # forearms and hands
 )
-# a body at rest keeps its centre of mass above the point it stands on, at this share of its stature
-BODY_HEIGHTS = (0.555,)
+# a body at rest keeps its centre of mass above the point it stands on; SEGMENTS put it at this share of stature
+# for an upright body with Drillis & Contini joint heights
+BODY_HEIGHTS = (0.575,)
 THORAX_HEIGHT = 0.818  # the thorax keypoint's height, a share of stature (Drillis & Contini): the person's size
 RAISED_FOOT = 0.05
 # each person stands at a level of their own, at or above the floor (the lowest), drawn to it with this spread
@@ -253,6 +254,12 @@ def estimate_camera(
     ``focal_px`` (from ``focal_source``) is the focal length used where the people cannot measure it (always with
     ``hold_focal``: a lens the video's metadata names), and the prior the people move it from. None when fewer than ``MIN_OBSERVATIONS`` person-frames are seen upright;
     an estimate with ``problem`` set when they disagree (see the module)."""
+    keypoints = np.asarray(keypoints)
+    if keypoints.shape[1] > 1:  # only the persons who, alone, say the same camera over their seconds
+        alone = [estimate_camera(keypoints[:, [p]], times, size, focal_px, focal_source, seed, True) for p in range(keypoints.shape[1])]
+        steady = [p for p, found in enumerate(alone) if found is not None and found.problem is None]
+        if steady:
+            keypoints = keypoints[:, steady]
     obs = observations(keypoints, times)
     if len(obs) < MIN_OBSERVATIONS:
         return None
