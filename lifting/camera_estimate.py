@@ -31,27 +31,10 @@ from scipy.optimize import least_squares
 from platypose.lifting.camera_pose import rotation
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES
 
-# body segments (lifting.skeleton joints at their ends) and their share of body mass (Dempster, as in Winter's
-# tables; the foot with its shank, the hand with its forearm, the neck with the head)
-SEGMENTS = (
-    (0, 8, 0.497),  # trunk
-    (9, 10, 0.081),  # head and neck
-    (1, 2, 0.100),
-    (4, 5, 0.100),  # thighs
-    (2, 3, 0.061),
-    (5, 6, 0.061),  # shanks and feet
-    (14, 15, 0.028),
-    (11, 12, 0.028),  # upper arms
-    (15, 16, 0.022),
-    (12, 13, 0.022),  # forearms and hands
-)
-# a body at rest keeps its centre of mass above the point it stands on; SEGMENTS put it at this share of stature
-# for an upright body with Drillis & Contini joint heights
-BODY_HEIGHTS = (0.575,)
-THORAX_HEIGHT = 0.818  # the thorax keypoint's height, a share of stature (Drillis & Contini): the person's size
-RAISED_FOOT = 0.05
-# each person stands at a level of their own, at or above the floor (the lowest), drawn to it with this spread
-LEVEL_SD_M, MAX_LEVEL_M = 0.1, 20.0
+BODY = (0, 8, 9, 10)  # pelvis, thorax, neck, head (lifting.skeleton order), above the point stood on
+# their heights as fractions of stature (Drillis & Contini; the head centre at the ears, the neck 30 % of the way
+# from it to the thorax as in lifting.joint_maps)
+BODY_HEIGHTS = (0.53, 0.818, 0.896, 0.93)
 STATURE_M, STATURE_SD_M = 1.70, 0.08  # an adult's stature: the scale
 MIN_CONFIDENCE = 0.3
 MIN_OBSERVATIONS = 20  # upright person-frames the camera needs
@@ -60,7 +43,9 @@ NOISE = 0.03  # a residual's unit: this share of the person's ankle-to-head leng
 REJECT_FACTOR = 3.0
 MIN_INLIERS = 0.5  # share of person-frames that must agree with the camera
 BOOTSTRAP = 8
-START_STEPS = 15  # function evaluations from each start before the best is fitted to the end
+START_PITCHES_DEG, START_ROLLS_DEG = (5.0, 25.0, 45.0), (-20.0, 0.0, 20.0)  # the fit starts from each
+START_STEPS = 15  # function evaluations from each start before the best one is fitted to the end
+BOOTSTRAP_STEPS = 30  # and of each bootstrap refit (it starts at the fit; a slow crawl along a flat valley is cut short)
 FOCAL_MEASURED_SD = 0.04  # the people measure the focal length when its relative sd from their data is under this
 MAX_PITCH_SD_DEG, MAX_ROLL_SD_DEG = 6.0, 6.0  # wider spreads: the cues disagree
 FOCAL_PRIOR_SD = 0.3  # log focal: how far the lens prior lets the people move it in the first fit
@@ -103,7 +88,6 @@ class CameraEstimate:
     persons: int
     problem: str | None = None  # why the estimate should not be used (too few cues, cues disagree)
     statures_m: list[float] = field(default_factory=list)
-    levels_m: list[float] = field(default_factory=list)  # each person's level above the floor (a roof, a step)
 
     def as_dict(self) -> dict:
         """Plain dict for JSON."""
@@ -122,17 +106,16 @@ class CameraEstimate:
 
 
 def observations(keypoints: np.ndarray, times: np.ndarray) -> Observations:
-    """The person-frames of ``keypoints`` (T, P, 17, 3) on ``times`` (T,) whose ankles, knees, hips, pelvis, thorax
-    and neck or head are seen: the point stood on (:func:`support`) and the body's centre of mass (:func:`centre_of_mass`)."""
+    """The person-frames of ``keypoints`` (T, P, 17, 3) on ``times`` (T,) whose ankles, pelvis, thorax and neck or
+    head are seen (a BODY point not seen is NaN)."""
     k = np.array(keypoints, np.float64)
     k[..., :2][np.nan_to_num(k[..., 2]) < MIN_CONFIDENCE] = np.nan
-    needed = [*ANKLES, 0, 1, 2, 4, 5, 8]
+    needed = [*ANKLES, 0, 8]
     seen = np.isfinite(k[..., needed, :2]).all((-1, -2)) & np.isfinite(k[..., [9, 10], 0]).any(-1)
     frame, person = np.nonzero(seen)
-    points = k[frame, person][..., :2]
-    ankles = support(points)
-    body = centre_of_mass(points)[:, None, :]
-    size = np.linalg.norm(points[:, 8] - ankles, axis=-1) / (THORAX_HEIGHT - ANKLE_HEIGHT / STATURE_M)
+    ankles = k[frame, person][:, list(ANKLES), :2].mean(axis=1)
+    body = k[frame, person][:, list(BODY), :2]
+    size = np.linalg.norm(body[:, 1] - ankles, axis=-1) / (BODY_HEIGHTS[1] - ANKLE_HEIGHT / STATURE_M)
     second = np.floor(np.asarray(times, np.float64)[frame] - float(np.min(times))).astype(np.int64)
     found = Observations(ankles, body, person, second, size)
     keep = size > 10.0  # a person a few pixels tall says nothing
@@ -141,36 +124,14 @@ def observations(keypoints: np.ndarray, times: np.ndarray) -> Observations:
     return found.take(np.nonzero(keep)[0])
 
 
-def support(points: np.ndarray) -> np.ndarray:
-    """The pixel each person stands on (N, 2) from their joints (N, 17, 2): the ankles' midpoint, or the stance
-    ankle where the other is raised more than ``RAISED_FOOT`` of the ankle-to-thorax length along the body."""
-    right, left = points[:, ANKLES[0]], points[:, ANKLES[1]]
-    middle = (right + left) / 2.0
-    axis = points[:, 8] - middle
-    length = np.linalg.norm(axis, axis=-1)
-    axis = axis / np.maximum(length, 1e-9)[:, None]
-    raised = np.einsum("ij,ij->i", right - left, axis)  # > 0: the right ankle is the higher one
-    stance = np.where((raised > 0)[:, None], left, right)
-    return np.where((np.abs(raised) > RAISED_FOOT * length)[:, None], stance, middle)
-
-
-def centre_of_mass(points: np.ndarray) -> np.ndarray:
-    """The body's centre of mass in the image (N, 2) from joints (N, 17, 2): segment midpoints weighted by their
-    share of body mass (``SEGMENTS``); segments not seen (NaN) are left out and the rest reweighted."""
-    mids = np.stack([(points[:, a] + points[:, b]) / 2.0 for a, b, _ in SEGMENTS], axis=1)  # (N, S, 2)
-    weight = np.array([w for _, _, w in SEGMENTS])[None, :] * np.isfinite(mids[..., 0])
-    return np.nansum(mids * weight[..., None], axis=1) / weight.sum(axis=1)[:, None]
-
-
 def predict(params: np.ndarray, obs: Observations, centre: np.ndarray) -> np.ndarray:
     """Predicted BODY pixels (N, 3, 2) for ``params`` = (log focal, pitch, roll, log height, statures...)."""
     focal, height = np.exp(params[0]), np.exp(params[3])
     R = rotation(np.degrees(params[1]), np.degrees(params[2]))
     rays = np.column_stack([(obs.ankles - centre) / focal, np.ones(len(obs))]) @ R  # world directions (N, 3)
     down = np.minimum(rays[:, 2], -1e-3)  # a ray at or above the horizon meets the floor far away
-    count = (len(params) - 4) // 2
-    statures, levels = params[4 : 4 + count][obs.person], params[4 + count :][obs.person]
-    places = np.array([0.0, 0.0, height]) + rays * ((levels + ANKLE_HEIGHT - height) / down)[:, None]
+    places = np.array([0.0, 0.0, height]) + rays * ((ANKLE_HEIGHT - height) / down)[:, None]
+    statures = params[4:][obs.person]
     lift = statures[:, None] * (np.array(BODY_HEIGHTS) - ANKLE_HEIGHT / STATURE_M)[None]  # (N, 3)
     points = places[:, None, :] + lift[..., None] * np.array([0.0, 0.0, 1.0])
     cam = (points - np.array([0.0, 0.0, height])) @ R.T
@@ -181,23 +142,22 @@ def predict(params: np.ndarray, obs: Observations, centre: np.ndarray) -> np.nda
 def _residuals(params, obs, centre, focal_prior, focal_free, persons):
     full = params if focal_free else np.concatenate([[np.log(focal_prior)], params])
     off = np.nan_to_num((predict(full, obs, centre) - obs.body) / (NOISE * obs.size + 2.0)[:, None, None])
-    count = (len(full) - 4) // 2
-    priors = [(full[4 : 4 + count][persons] - STATURE_M) / STATURE_SD_M, full[4 + count :][persons] / LEVEL_SD_M]
+    priors = [(full[4:][persons] - STATURE_M) / STATURE_SD_M]
     if focal_free:
         priors.append([(full[0] - np.log(focal_prior)) / FOCAL_PRIOR_SD])
     return np.concatenate([off.ravel(), *[np.ravel(p) for p in priors]])
 
 
 def _bounds(focal_prior: float, count: int, focal_free: bool) -> tuple[np.ndarray, np.ndarray]:
-    low = [np.log(focal_prior / 3.0), np.radians(-45.0), np.radians(-60.0), np.log(0.3), *[1.2] * count, *[0.0] * count]
-    high = [np.log(focal_prior * 3.0), np.radians(85.0), np.radians(60.0), np.log(100.0), *[2.2] * count, *[MAX_LEVEL_M] * count]
+    low = [np.log(focal_prior / 3.0), np.radians(-45.0), np.radians(-60.0), np.log(0.3), *[1.2] * count]
+    high = [np.log(focal_prior * 3.0), np.radians(85.0), np.radians(60.0), np.log(100.0), *[2.2] * count]
     first = 0 if focal_free else 1
     return np.array(low[first:]), np.array(high[first:])
 
 
 def _fit(obs, centre, focal_prior, start, focal_free, max_nfev=None):
     persons = np.unique(obs.person)
-    count = (len(start) - 4) // 2
+    count = len(start) - 4
     low, high = _bounds(focal_prior, count, focal_free)
     x0 = np.clip(start if focal_free else start[1:], low + 1e-9, high - 1e-9)
     result = least_squares(
@@ -215,11 +175,11 @@ def _fit(obs, centre, focal_prior, start, focal_free, max_nfev=None):
 
 
 def _starts(focal: float, count: int) -> list[np.ndarray]:
-    statures = np.concatenate([np.full(count, STATURE_M), np.zeros(count)])
+    statures = np.full(count, STATURE_M)
     return [
         np.concatenate([[np.log(focal), np.radians(pitch), np.radians(roll), np.log(height)], statures])
-        for pitch in (5.0, 25.0, 45.0)
-        for roll in (-20.0, 0.0, 20.0)
+        for pitch in START_PITCHES_DEG
+        for roll in START_ROLLS_DEG
         for height in (1.5, 4.0)
     ]
 
@@ -254,12 +214,6 @@ def estimate_camera(
     ``focal_px`` (from ``focal_source``) is the focal length used where the people cannot measure it (always with
     ``hold_focal``: a lens the video's metadata names), and the prior the people move it from. None when fewer than ``MIN_OBSERVATIONS`` person-frames are seen upright;
     an estimate with ``problem`` set when they disagree (see the module)."""
-    keypoints = np.asarray(keypoints)
-    if keypoints.shape[1] > 1:  # only the persons who, alone, say the same camera over their seconds
-        alone = [estimate_camera(keypoints[:, [p]], times, size, focal_px, focal_source, seed, True) for p in range(keypoints.shape[1])]
-        steady = [p for p, found in enumerate(alone) if found is not None and found.problem is None]
-        if steady:
-            keypoints = keypoints[:, steady]
     obs = observations(keypoints, times)
     if len(obs) < MIN_OBSERVATIONS:
         return None
@@ -296,8 +250,7 @@ def estimate_camera(
         observations=int(keep.sum()),
         rejected=int((~keep).sum()),
         persons=int(len(np.unique(kept.person))),
-        statures_m=[float(s) for s in params[4 : 4 + count]],
-        levels_m=[float(s) for s in params[4 + count :]],
+        statures_m=[float(s) for s in params[4:]],
     )
     estimate.problem = _problem(estimate, len(obs))
     return estimate
@@ -326,7 +279,7 @@ def _bootstrap(obs, centre, focal_px, params, focal_free, seed) -> list[float]:
     for _ in range(BOOTSTRAP):
         chosen = rng.choice(labels, size=len(labels), replace=True)
         index = np.concatenate([np.nonzero(blocks == label)[0] for label in chosen])
-        refit, _ = _fit(obs.take(index), centre, focal_px, params, focal_free)
+        refit, _ = _fit(obs.take(index), centre, focal_px, params, focal_free, BOOTSTRAP_STEPS)
         draws.append(_values(refit))
     return [float(v) for v in np.std(np.array(draws), axis=0)]
 
