@@ -207,7 +207,7 @@ def test_bench_cli_end_to_end_on_a_real_clip(run_cli, tiny_prior_path, data_dir,
         (["--frames", "17"], "--frames 17"),
         (["--steps", "49"], "--steps must be in 1..48"),
         (["--video", "missing.mp4"], "missing.mp4: video to loop not found"),
-        (["--persons", "tallest"], "--persons must be 'all', 'largest', a number N"),
+        (["--persons", "tallest"], "--persons must be 'all', 'largest', 'largest:N' (the N largest)"),
     ],
 )
 def test_bench_cli_bad_input_exits_2(run_cli, tiny_prior_path, args, message) -> None:
