@@ -3,7 +3,7 @@
 Scored by its own pelvis-relative error (``platypose eval``'s "answer" columns), the best single answer is
 the per-joint middle of the hypotheses' poses: the median pose, taken around each hypothesis's own pelvis
 so that where a hypothesis stands (its depth, from one camera) does not smear its pose, with the pelvis at
-the hypotheses' median position.
+the median position of all the hypotheses.
 
 The middle is taken over the hypotheses a body can be, facing one way (:func:`agreeing`): from one camera a pose
 and its mirror in depth fit the keypoints alike, and the per-joint median of a pose facing the camera and one
@@ -70,13 +70,15 @@ def agreeing(hypotheses: np.ndarray) -> np.ndarray:
 
 
 def median_motion(hypotheses: np.ndarray) -> np.ndarray:
-    """The single answer ``(T, 17, 3)`` of hypotheses ``(N, T, 17, 3)``: the median pelvis plus the median
-    pelvis-relative pose of the :func:`agreeing` hypotheses.
+    """The single answer ``(T, 17, 3)`` of hypotheses ``(N, T, 17, 3)``: the median pelvis of all of them plus the
+    median pelvis-relative pose of the :func:`agreeing` ones. Where the person stands is every hypothesis's
+    middle: the agreeing ones change from frame to frame, and from one camera hypotheses metres apart in depth
+    would make the answer's pelvis jump between them (a man on a roof, 2.5 m of spread: 3.8 m steps).
 
     A frame the hypotheses lack (NaN: the person is absent) stays NaN.
     """
     kept = np.where(agreeing(hypotheses)[..., None, None], hypotheses, np.nan)
-    pelvis = kept[..., :1, :]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # an absent frame's median of nothing is NaN, as it should be
-        return np.nanmedian(pelvis, axis=0) + np.nanmedian(kept - pelvis, axis=0)
+        pelvis = np.nanmedian(hypotheses[..., :1, :], axis=0)
+        return pelvis + np.nanmedian(kept - kept[..., :1, :], axis=0)

@@ -29,7 +29,7 @@ def collapsed_result(frames: slice = slice(None)):
 def test_a_person_collapsed_in_every_frame_is_said_and_not_written(tmp_path: Path) -> None:
     said: list[str] = []
     written = export(collapsed_result(), tmp_path, "take", ["bvh", "trc", "csv", "npz"], say=said.append)
-    assert sorted(p.name for p in written) == ["take.csv", "take.npz", "take_gaps.json", "take_summary.csv"]
+    assert sorted(p.name for p in written) == ["take.csv", "take.npz", "take_gaps.json"]
     assert (
         "take: person 3: every frame's joints lie within a few centimetres of one point (a collapsed lift, no body): "
         "no csv, bvh, trc written for this person"

@@ -35,7 +35,7 @@ def test_export_name_is_made_a_safe_file_name_inside_out(npz, tmp_path) -> None:
     assert _files(tmp_path) == [
         "o",
         "o/out",
-        *(f"o/out/___.._esc{end}" for end in (".csv", "_gaps.json", "_summary.csv")),
+        *(f"o/out/___.._esc{end}" for end in (".csv", "_gaps.json")),
     ]
     done = platypose(["export", npz, "--formats", "csv", "--name", "a/b", "--out", out, "-q"], 120)
     assert done is not None and done.returncode == 0 and not (out / "a").exists()
