@@ -53,3 +53,15 @@ def test_the_answer_of_a_real_walker_bends_its_knees_forwards():
         chosen = facings[members[:, t], t]
         assert (chosen @ chosen.mean(axis=0)).min() > 0.0, t  # all within 90 degrees of their mean facing
     assert members.sum(axis=0).min() >= 3
+
+
+def test_the_answer_stands_where_all_hypotheses_stand_whichever_agree():
+    """The agreeing hypotheses change from frame to frame; the answer's pelvis is every hypothesis's median, so it
+    does not jump between hypotheses metres apart in depth (one view; the real walker's hypotheses, then two of
+    them pushed 3 m back, which the subset median followed in every frame it kept them)."""
+    hypotheses = np.load(DATA / "sports2d_walker_hypotheses.npy").astype(np.float64)
+    hypotheses[:2] += np.array([0.0, 3.0, 0.0])  # two hypotheses far behind the rest
+    answer = median_motion(hypotheses)
+    np.testing.assert_allclose(answer[:, 0], np.median(hypotheses[:, :, 0], axis=0), atol=1e-9)
+    steps = np.linalg.norm(np.diff(answer[:, 0], axis=0), axis=-1)
+    assert steps.max() < 0.1, steps.max()
