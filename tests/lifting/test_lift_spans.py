@@ -107,9 +107,9 @@ def test_a_detection_gap_is_lifted_through_as_one_motion(tiny_prior, sports_demo
     back to a placement without rays, the origin, metres away)."""
     keypoints, times, camera = sports_demo
     clock = prior_clock(times, tiny_prior.fps)
-    spans = person_spans(keypoints, times, clock, 16, 4)
+    spans = person_spans(keypoints, times, clock, 16, 4, max_gap=5.0)
     assert [(s.person, s.frames.start, s.frames.stop) for s in spans] == [(0, 0, 226), (1, 38, 198)]
-    settings = WindowSettings(window=16, overlap=4)
+    settings = WindowSettings(window=16, overlap=4, max_gap=5.0)
     out = lift_tracks(tiny_prior, [camera], keypoints[:, :, :1], times, SamplerConfig(samples=4, seed=3), settings)
     pelvis = out.hypotheses[0, :, :226, 0]  # (N, T, 3)
     assert np.isfinite(pelvis).all()
