@@ -89,21 +89,6 @@ class CameraEstimate:
     problem: str | None = None  # why the estimate should not be used (too few cues, cues disagree)
     statures_m: list[float] = field(default_factory=list)
 
-    def as_dict(self) -> dict:
-        """Plain dict for JSON."""
-        return {
-            "focal_px": self.focal_px,
-            "pitch_deg": self.pitch_deg,
-            "roll_deg": self.roll_deg,
-            "height_m": self.height_m,
-            "sd": dict(self.sd),
-            "focal_source": self.focal_source,
-            "observations": self.observations,
-            "rejected": self.rejected,
-            "persons": self.persons,
-            "problem": self.problem,
-        }
-
 
 def observations(keypoints: np.ndarray, times: np.ndarray) -> Observations:
     """The person-frames of ``keypoints`` (T, P, 17, 3) on ``times`` (T,) whose ankles, pelvis, thorax and neck or
