@@ -158,6 +158,7 @@ def lift_take(
     log: JobLog | None = None,
     floor: Floor | str | None = None,
     everyone: np.ndarray | None = None,
+    lifter: Callable = lift_persons,
 ) -> LiftResult:
     """The LiftResult of a take: keypoints (C, T, P, 17, 3) on ``times`` (T,) of persons ``track_ids`` (P,),
     seen by ``cameras``, each person's root path known (T, 3) or None (solved per hypothesis).
@@ -172,7 +173,8 @@ def lift_take(
     chosen, so the estimated floor does not depend on whom the user chose. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
     person, :mod:`platypose.lifting.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
     :func:`platypose.lifting.rigid.rigid_person`: every hypothesis and the median get one length per bone over
-    the clip); the caller adds its own. With an estimated floor every output is moved into the estimated world
+    the clip); the caller adds its own. ``lifter`` lifts the persons (``lift_persons``, or the same spread over
+    pieces: ``platypose.cli.split_join.SplitLifter``). With an estimated floor every output is moved into the estimated world
     (:mod:`platypose.lifting.world`: z = 0 the floor, z up, the camera at its estimated height and pitch), which
     ``meta["floor"]["frame"]`` says.
     """
@@ -183,13 +185,13 @@ def lift_take(
     if floor == ESTIMATE:
         if everyone is None:
             floor, floor_meta = quick_floor(
-                prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress
+                prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress, lifter
             )
         else:
             missing = ~presence(everyone, times)
             others = [None] * everyone.shape[2]  # solved: a known root path belongs to a chosen person only
             floor, floor_meta = quick_floor(
-                prior, everyone, times, missing, cameras, others, sampler, windows, fps, log, progress
+                prior, everyone, times, missing, cameras, others, sampler, windows, fps, log, progress, lifter
             )
     if isinstance(floor, Floor):
         sampler = replace(sampler, floor=floor.plane)
@@ -200,9 +202,7 @@ def lift_take(
     hypotheses = arrays((P, N, T, 17, 3), "hypotheses")
     median = arrays((P, T, 17, 3), "median")
     energy = arrays((P, N, T), "energy")
-    lift_persons(
-        prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress
-    )
+    lifter(prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress)
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
     if len(cameras) == 1 and sampler.floor is not None:  # one grounded view: steady each solved root's depth
         for p, track in ((p, t) for p, t in enumerate(track_ids) if roots[p] is None):
@@ -261,6 +261,7 @@ def quick_floor(
     fps: float,
     log: JobLog,
     progress: Callable[[list[int] | str, int, int], None] | None = None,
+    lifter: Callable = lift_persons,
 ) -> tuple[Floor | None, dict | None]:
     """The floor under a one-camera take (keypoints (1, T, P, 17, 3), persons ``absent`` (P, T)) and its ``meta``
     entry, estimated (:func:`platypose.lifting.floor.floor_under`) under the median motions of a quick lift
@@ -276,7 +277,7 @@ def quick_floor(
     hypotheses, energy = np.empty((P, quick.samples, T, 17, 3), np.float32), np.empty((P, quick.samples, T), np.float32)
     median = np.empty((P, T, 17, 3), np.float32)
     kept = keypoints[:, :, persons]
-    lift_persons(
+    lifter(
         prior,
         kept,
         times,

@@ -46,13 +46,14 @@ def run_take(
     arguments: dict | None = None,
     arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
     progress: Callable[[list[int], int, int], None] | None = None,
+    lifter: Callable | None = None,
 ) -> LiftResult:
     """The LiftResult of the take seen by ``views`` (name, source) under ``calibration`` (None: one view, a default
     camera), lifted as ``take`` says with the prior ``prior()`` gives (called once the inputs are read and checked).
 
     ``what`` names the take in errors, ``described`` the calibration (its file), ``cams_option`` the option a
     missing calibration is asked for by (``--cams`` in the command). ``arguments`` go into ``meta``
-    as given; ``arrays`` and ``progress`` as :func:`platypose.pipeline.lift_take` takes them. InputError for bad
+    as given; ``arrays``, ``progress`` and ``lifter`` (None: the usual) as :func:`platypose.pipeline.lift_take` takes them. InputError for bad
     input, before any lifting.
     """
     from platypose import __version__
@@ -105,6 +106,7 @@ def run_take(
         log,
         floor,
         everyone,
+        **({} if lifter is None else {"lifter": lifter}),
     )
     timings["lift_s"] = time.perf_counter() - started
     meta = {

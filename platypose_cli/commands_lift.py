@@ -181,6 +181,13 @@ def lift(
     ),
     stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame.", rich_help_panel="Input"),
     jobs: int = typer.Option(1, "--jobs", min=1, help="Inputs lifted in parallel processes.", rich_help_panel="Run"),
+    split_seconds: float | None = typer.Option(
+        None,
+        "--split-seconds",
+        help="Spread each input over pieces of this many seconds, run in parallel (with --jobs N or --executor ray; "
+        "docs/ray.md).",
+        rich_help_panel="Run",
+    ),
     executor: str = typer.Option(
         "local",
         "--executor",
@@ -278,6 +285,14 @@ def lift(
         raise InputError(f"--root-trajectory {root_trajectory}: give it for one input, not {len(job_list)}")
 
     batch_executor = ray_executor(executor, ray_address, cpus_per_input, collect, jobs)
+    if split_seconds is not None:  # one input's pieces in parallel (docs/ray.md)
+        from dataclasses import replace
+
+        from platypose.cli.split_pieces import split_executor
+
+        options = None if batch_executor is None else batch_executor.options
+        batch_executor = split_executor(split_seconds, windows.max_gap, jobs, options, collect)
+        settings = replace(settings, split_seconds=split_seconds)
 
     if quiet:  # -q: numpy's RuntimeWarnings (all-NaN slices of absent persons) are not the user's to read
         import warnings

@@ -22,7 +22,6 @@ import hashlib
 import json
 import os
 import shutil
-import sys
 import tempfile
 import time
 import traceback
@@ -32,7 +31,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-import typer
 
 from platypose.cli.app import describe_os_error
 from platypose.cli.bookkeeping import read_record, valid_failure, valid_manifest
@@ -43,6 +41,7 @@ from platypose.cli.locks import exclusive_lock
 from platypose.cli.options import as_json, cli_message
 from platypose.cli.output_names import FAILURE, MANIFEST, job_sources
 from platypose.cli.output_set import changed_files, digests
+from platypose.cli.progress_bars import GroupBars
 from platypose.lifting.atomic import existing_kind, write_text_atomic
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings import PriorSettings, TakeSettings
@@ -64,6 +63,7 @@ class RunSettings:
     formats: tuple[str, ...] = ("npz", "csv", "bvh", "rrd")
     quiet: bool = False
     arguments: dict = field(default_factory=dict)
+    split_seconds: float | None = None  # --split-seconds: one input spread over pieces (platypose.cli.split_join)
 
 
 _PRIORS: dict[PriorSettings, object] = {}
@@ -76,48 +76,10 @@ def _prior(settings: PriorSettings):
     return _PRIORS[settings]
 
 
-class _GroupBars:
-    """One progress bar per group of persons lifted together, its length known at its first update."""
-
-    def __init__(self, hidden: bool) -> None:
-        self.hidden, self.group, self.bar = hidden, None, None
-
-    def update(self, group: list[int] | str, done: int, total: int) -> None:
-        if group != self.group:
-            self.close()
-            label = group if isinstance(group, str) else f"lifting {len(group)} person(s)"  # str: the quick lift
-            self.group, self.bar = group, _LazyBar(label, self.hidden)
-        self.bar.update(done, total)
-
-    def close(self) -> None:
-        """Finish the current bar's line."""
-        if self.bar is not None:
-            self.bar.close()
-            self.bar = None
-
-
-class _LazyBar:
-    """A progress bar whose length is known only at the first ``update(done, total)``."""
-
-    def __init__(self, label: str, hidden: bool) -> None:
-        self.label, self.hidden, self.bar, self.done = label, hidden, None, 0
-
-    def update(self, done: int, total: int) -> None:
-        if self.bar is None:
-            self.bar = typer.progressbar(length=total, label=self.label, file=sys.stderr, hidden=self.hidden)
-            self.bar.__enter__()
-        self.bar.update(done - self.done)
-        self.done = done
-
-    def close(self) -> None:
-        """Finish the bar's line, if it was shown."""
-        if self.bar is not None:
-            self.bar.__exit__(None, None, None)
-
-
-def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
+def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path, pieces=None):
     """The LiftResult of one job (:func:`platypose.take_pipeline.run_take`), its long arrays in files under
-    ``staging``, and the videos of its cameras; offsets estimated by ``--sync auto`` are saved for reuse."""
+    ``staging``, and the videos of its cameras; offsets estimated by ``--sync auto`` are saved for reuse; with
+    ``pieces``, spread over that pool (:func:`platypose.cli.split_join.split_hooks`)."""
     from platypose.exporters.frames import FrameArray
     from platypose.take_pipeline import run_take
 
@@ -128,13 +90,20 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
         calibration = load_calibration(settings.cams)
     detection = Detection(settings.detect)
 
+    lifter, prepare = None, lambda source: None
+    if pieces is not None:  # --split-seconds
+        from platypose.cli.split_join import split_hooks
+
+        lifter, prepare = split_hooks(pieces, settings, job.name, log)
+
     def read(source: Path):
+        prepare(source)
         tracks, _, frames = detection.tracks(source, settings.out / job.name, settings.quiet)
         return tracks, "read" if frames is None else (
             "from the cache" if frames == 0 else f"detected in {frames} frames"
         )
 
-    bars = _GroupBars(settings.quiet)
+    bars = GroupBars(settings.quiet)
     try:
         result = run_take(
             [(v.name, v.source) for v in job.views],
@@ -149,6 +118,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
             arguments=settings.arguments,
             arrays=lambda shape, name: FrameArray.create(staging / f".{name}.npy", shape, np.float32),
             progress=bars.update,
+            lifter=lifter,
         )
     finally:
         bars.close()
@@ -276,6 +246,7 @@ def fingerprint(job: Job, settings: RunSettings) -> str:
         as_json(take.sampler),
         as_json(take.windows),
         [input_stamp(Path(f)) for f in files],
+        *([settings.split_seconds] if settings.split_seconds else []),  # seams: a split lift is another result
     ]
     return hashlib.sha256(json.dumps(decisive, sort_keys=True, default=str).encode()).hexdigest()
 
@@ -324,8 +295,9 @@ def job_entry(
     }
 
 
-def run_job(job: Job, settings: RunSettings) -> dict:
-    """Lift one job; its summary entry (status ok or failed, outputs, seconds, one-line error).
+def run_job(job: Job, settings: RunSettings, pieces=None) -> dict:
+    """Lift one job; its summary entry (status ok or failed, outputs, seconds, one-line error); with ``pieces``,
+    spread over that pool (:mod:`platypose.cli.split_pieces`).
 
     The job's folder is locked for the run (``OUT/<name>/.lift.lock``): another run writing the same folder at that
     moment (another lift into the same --out) makes this one fail at once with nothing written, so the files of two
@@ -335,7 +307,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
     try:
         folder.mkdir(parents=True, exist_ok=True)
         with exclusive_lock(folder / JOB_LOCK, wait=False, busy=busy):
-            return _run_locked(job, settings)
+            return _run_locked(job, settings, pieces)
     except (
         InputError,
         OSError,
@@ -345,7 +317,7 @@ def run_job(job: Job, settings: RunSettings) -> dict:
         return {**job_entry(job, "failed", error=message), "error_kind": kind}
 
 
-def _run_locked(job: Job, settings: RunSettings) -> dict:
+def _run_locked(job: Job, settings: RunSettings, pieces=None) -> dict:
     """:func:`run_job` once the job's folder is locked."""
     started = time.perf_counter()
     log = JobLog()
@@ -356,7 +328,7 @@ def _run_locked(job: Job, settings: RunSettings) -> dict:
     log_name = "log.txt"
     try:
         with staging_folder(folder, job.name) as staging:
-            result, videos = lift_job(job, settings, log, staging)
+            result, videos = lift_job(job, settings, log, staging, pieces)
             written = export_atomically(result, videos, staging, folder, job.name, settings.formats, log)
         stale = remove_stale_outputs(folder, job.name, written)
         if stale:
@@ -372,6 +344,7 @@ def _run_locked(job: Job, settings: RunSettings) -> dict:
         }
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
         (folder / FAILURE).unlink(missing_ok=True)
+        shutil.rmtree(folder / ".pieces", ignore_errors=True)  # a split lift's piece cache: done with
         entry.update(status="ok", outputs=outputs, floor=result.meta["floor"], plausibility=result.meta["plausibility"])
     except Exception as err:
         kind = failure_kind(err)
