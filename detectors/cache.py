@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.lifting.atomic import atomic_open
-from platypose.lifting.npz_limits import check_npz_sizes
+from platypose.lifting.files.atomic import atomic_open
+from platypose.lifting.files.npz_limits import check_npz_sizes
 
 CACHE_VERSION = 2  # 2: detections in the detector's own layout
 

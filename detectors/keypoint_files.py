@@ -26,9 +26,9 @@ import numpy as np
 from platypose.detectors.keypoint_checks import check_tracks
 from platypose.detectors.types import PoseTrack2D
 from platypose.detectors.video import timing_from_video
-from platypose.lifting.atomic import atomic_open
 from platypose.lifting.errors import InputError
-from platypose.lifting.npz_limits import check_npz_sizes
+from platypose.lifting.files.atomic import atomic_open
+from platypose.lifting.files.npz_limits import check_npz_sizes
 from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 
 CSV_HEADER = ("person", "frame", "time", "joint", "x", "y", "confidence")

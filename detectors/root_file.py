@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.npz_limits import check_npz_sizes
+from platypose.lifting.files.npz_limits import check_npz_sizes
 from platypose.lifting.timebase import interpolate
 
 

@@ -16,7 +16,7 @@ Angles (zero pose: standing upright, arms hanging, legs straight):
   from the midline (flexion, then abduction about the floating axis, as Grood and Suntay: no
   flip when the thigh points forward, as sitting);
 - ``<side>_knee_flexion``: angle between the thigh and shin lines, 0 straight, negative where the knee bends
-  backwards (hyperextended) about the hinge axis the thigh carries (:mod:`lifting.hinges`; the sign of the
+  backwards (hyperextended) about the hinge axis the thigh carries (:mod:`lifting.anatomy.hinges`; the sign of the
   ``.mot``'s ``knee_<s>_flexion``);
 - ``trunk_flexion``: pelvis-to-thorax line from the vertical, positive leaning forward (the pelvis's
   heading); ``trunk_lateral``: its angle out of the heading's vertical plane, positive to the left;
@@ -30,7 +30,7 @@ Angles (zero pose: standing upright, arms hanging, legs straight):
   by the shortest swing of the arm (continuous through hanging, unlike ISB's third Euler angle,
   which differs from it by the plane of elevation);
 - ``<side>_elbow_flexion``: angle between upper arm and forearm lines, 0 straight, negative where the forearm
-  bends backwards about the hinge axis the upper arm carries (:mod:`lifting.hinges`, the ``.mot``'s sign): where
+  bends backwards about the hinge axis the upper arm carries (:mod:`lifting.anatomy.hinges`, the ``.mot``'s sign): where
   the axial rotation would be past 90 degrees either way; the rotation then reads half a turn from that (the
   model's: the same pose, its elbow bent the other way).
 
@@ -54,8 +54,8 @@ import numpy as np
 from platypose.exporters.frames import Lead, frame_chunks
 from platypose.exporters.gaps import fill_frames, fill_plan
 from platypose.exporters.result import LiftResult
-from platypose.lifting.atomic import atomic_open
-from platypose.lifting.hinges import HINGE_NAMES, signed_flexion
+from platypose.lifting.anatomy.hinges import HINGE_NAMES, signed_flexion
+from platypose.lifting.files.atomic import atomic_open
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 ANGLE_NAMES: tuple[str, ...] = (

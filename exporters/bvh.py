@@ -32,7 +32,7 @@ from platypose.exporters.ik import (
     rest_offsets,
 )
 from platypose.exporters.twist import limit_twists
-from platypose.lifting.atomic import atomic_open
+from platypose.lifting.files.atomic import atomic_open
 from platypose.lifting.motion_io.kinematics import forward_kinematics
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS, PARENTS, bone_lengths
 

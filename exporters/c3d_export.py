@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.markers import MARKER_NAMES, to_opensim_axes
-from platypose.lifting.atomic import atomic_path
+from platypose.lifting.files.atomic import atomic_path
 
 MM_PER_M = 1000.0
 

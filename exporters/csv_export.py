@@ -20,7 +20,7 @@ import pyarrow.csv as pacsv
 from platypose.exporters.frames import Lead, frame_chunks
 from platypose.exporters.gaps import fill_frames, person_plans
 from platypose.exporters.result import LiftResult
-from platypose.lifting.atomic import atomic_open
+from platypose.lifting.files.atomic import atomic_open
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
 
 LONG_COLUMNS = ("person", "hypothesis", "frame", "time_s", "joint", "x_m", "y_m", "z_m", "filled")

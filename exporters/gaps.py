@@ -28,7 +28,7 @@ import numpy as np
 
 from platypose.exporters.frames import Lead
 from platypose.exporters.result import LiftResult
-from platypose.lifting.atomic import write_text_atomic
+from platypose.lifting.files.atomic import write_text_atomic
 
 MIN_BODY_EXTENT_M = 0.05  # a person whose 17 joints fit in a box this wide (any axis) is no body
 

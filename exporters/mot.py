@@ -40,9 +40,9 @@ from platypose.exporters.opensim_model import (
 )
 from platypose.exporters.result import LiftResult
 from platypose.exporters.trc import write_trc
-from platypose.lifting.atomic import atomic_path
+from platypose.lifting.anatomy.hinges import signed_flexion
 from platypose.lifting.errors import InputError
-from platypose.lifting.hinges import signed_flexion
+from platypose.lifting.files.atomic import atomic_path
 
 FULL_BYTES = 4 * 2**20  # free space under which a failure of OpenSim's file writes counts as a full disk
 
@@ -145,7 +145,7 @@ def at_limit_shares(names: list[str], values: np.ndarray) -> dict[str, float]:
 
 
 def write_hinge_hints(joints: np.ndarray, frame_times: np.ndarray, path: Path) -> Path:
-    """An OpenSim storage at ``path`` of the signed flexion (:func:`lifting.hinges.signed_flexion`, degrees) of
+    """An OpenSim storage at ``path`` of the signed flexion (:func:`lifting.anatomy.hinges.signed_flexion`, degrees) of
     filled joints (T, 17, 3) per frame, as the :data:`HINGE_COORDINATES` IK is hinted with."""
     flexion = np.clip(signed_flexion(joints), *HINGE_RANGE_DEG)
     table = np.concatenate([np.asarray(frame_times, np.float64)[:, None], flexion], axis=1)
@@ -192,7 +192,7 @@ def person_mot(osim: Any, joints: np.ndarray, frame_times: np.ndarray, fps: floa
 def flag_ik(reports: list[dict], fits: dict[str, dict], track_ids: np.ndarray) -> list[dict]:
     """Plausibility ``reports`` (``meta["plausibility"]``, one per person) with the flag ``"opensim ik"`` and its
     ``opensim_ik_warnings`` added where a person's fit (``fits``, by ``p<track>``) warns, ``flag_text`` redone."""
-    from platypose.lifting.flags import flag_text
+    from platypose.lifting.checks.flags import flag_text
 
     out = []
     for track, report in zip(track_ids, reports):

@@ -12,11 +12,11 @@ import numpy as np
 from platypose.exporters.frames import FrameArray, frame_chunks
 from platypose.exporters.npz_checks import check_coordinates, check_field_sizes
 from platypose.exporters.result import LiftResult
-from platypose.lifting.atomic import atomic_open
 from platypose.lifting.calibration.model import Calibration, new_meta
 from platypose.lifting.calibration.native import FORMAT, calibration_from_dict, calibration_to_dict
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import atomic_open
 from platypose.lifting.skeleton import JOINT_NAMES, PARENTS
 
 REQUIRED = (

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.lifting.npz_limits import check_npz_sizes
+from platypose.lifting.files.npz_limits import check_npz_sizes
 
 MAX_FIELD_BYTES = 2**30  # one array of a result, as loaded
 MAX_RESULT_BYTES = 5 * 2**28  # all of them (1.25 GiB: 20 hypotheses of one person over 70 minutes at 60 fps)
@@ -21,7 +21,7 @@ MAX_COORDINATE_M = 1000.0  # a pose farther than this from the world origin is n
 
 def check_field_sizes(path: Path) -> None:
     """ValueError naming the first ``.npy`` member whose header claims more than ``MAX_FIELD_BYTES``, or when
-    all of them claim more than ``MAX_RESULT_BYTES`` (:func:`platypose.lifting.npz_limits.check_npz_sizes`)."""
+    all of them claim more than ``MAX_RESULT_BYTES`` (:func:`platypose.lifting.files.npz_limits.check_npz_sizes`)."""
     check_npz_sizes(path, MAX_FIELD_BYTES, MAX_RESULT_BYTES)
 
 

@@ -68,7 +68,7 @@ MEASUREMENTS: dict[str, tuple[tuple[str, str], ...]] = {
     "forearm_l": (("LElbow", "LWrist"),),
 }
 MASS_KG = 70.0
-# The hinges' coordinates, in lifting.hinges.HINGE_NAMES order, and their range (degrees, IK holds them inside).
+# The hinges' coordinates, in lifting.anatomy.hinges.HINGE_NAMES order, and their range (degrees, IK holds them inside).
 HINGE_COORDINATES = ("knee_r_flexion", "knee_l_flexion", "elbow_r_flexion", "elbow_l_flexion")
 HINGE_RANGE_DEG = (-20.0, 170.0)
 # Weight of a hinge's hint per squared radian against 1 per squared metre of marker error: 20 degrees off the hint

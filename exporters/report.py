@@ -17,7 +17,7 @@ import numpy as np
 from platypose.exporters.angles import ANGLE_NAMES
 from platypose.exporters.frames import frame_chunks
 from platypose.exporters.result import LiftResult
-from platypose.lifting.atomic import atomic_path
+from platypose.lifting.files.atomic import atomic_path
 from platypose.lifting.skeleton import JOINT_INDEX
 
 LEG_ANGLES = ("right_hip_flexion", "left_hip_flexion", "right_knee_flexion", "left_knee_flexion")

@@ -18,8 +18,8 @@ import numpy as np
 
 from platypose.exporters.frames import FrameArray, frame_chunks
 from platypose.lifting.camera import Camera
-from platypose.lifting.root import seen_frames
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
+from platypose.lifting.tracks.roots import seen_frames
 
 
 @dataclass(frozen=True)

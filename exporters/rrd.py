@@ -38,8 +38,8 @@ from platypose.exporters.rrd_floor import log_floor_and_plausibility, log_who
 from platypose.exporters.video import check_video_size, jpeg_frames, needs_reencode, reencode_h264
 from platypose.exporters.video_clock import video_stamps
 from platypose.exporters.watched_writer import run_watched
-from platypose.lifting.atomic import atomic_path
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import atomic_path
 from platypose.lifting.skeleton import BONES, JOINT_NAMES, NUM_JOINTS
 
 VIDEO_MODES = ("asset", "frames", "none")
@@ -258,7 +258,7 @@ def _log_video(
 
 
 def person_report(result: LiftResult, p: int) -> dict | None:
-    """Person ``p``'s entry of ``meta["plausibility"]`` (one dict per person, :mod:`lifting.plausibility`), if any."""
+    """Person ``p``'s entry of ``meta["plausibility"]`` (one dict per person, :mod:`lifting.checks.plausibility`), if any."""
     reports = result.meta.get("plausibility") or []
     return reports[p] if p < len(reports) and isinstance(reports[p], dict) else None
 

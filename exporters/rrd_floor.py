@@ -5,7 +5,7 @@ Entity paths (static, under the Z-up ``world``):
 - ``world/floor``: the floor plane as a grid of lines (``GRID_EXTENT`` metres either way of the point of
   the floor nearest the people's mean pelvis, a line every ``GRID_STEP``), labelled with where it came from;
 - ``world/people/p<id>/plausibility``: a text document with the person's plausibility figures and flags
-  (:mod:`lifting.plausibility`);
+  (:mod:`lifting.checks.plausibility`);
 - ``who/p<id>`` and ``who/p<id>/thumbnail``: where the person is best seen (camera, frame, image box) and that
   box cut from the video (:func:`log_who`).
 """

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.markers import MARKER_NAMES, to_opensim_axes
-from platypose.lifting.atomic import atomic_open
+from platypose.lifting.files.atomic import atomic_open
 
 
 def trc_text_header(file_name: str, fps: float, num_frames: int) -> str:

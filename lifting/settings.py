@@ -259,8 +259,8 @@ class PriorSettings:
         )
 
     def load(self, threads: int | None = None):
-        """The prior ready to sample (:func:`platypose.lifting.runtime.load_for_runtime`)."""
-        from platypose.lifting.runtime import load_for_runtime
+        """The prior ready to sample (:func:`platypose.lifting.prior.runtime.load_for_runtime`)."""
+        from platypose.lifting.prior.runtime import load_for_runtime
 
         return load_for_runtime(self.path, self.device, self.runtime, threads)
 
@@ -305,10 +305,10 @@ class TakeSettings:
         sync = "none" if sync is None else str(sync) if isinstance(sync, os.PathLike) else sync
         for name, value in (("persons", persons), ("floor", floor), ("sync", sync)):
             object.__setattr__(self, name, value)
-        check_types(self)  # the persons choice itself is the detectors' (platypose.take_pipeline.take_settings)
+        check_types(self)  # the persons choice itself is the detectors' (platypose.pipeline.take_settings)
         require([(self.root in ROOT_MODES, "root", f"root must be one of {', '.join(ROOT_MODES)}, got {self.root!r}")])
         from platypose.lifting.floor import parse_floor
-        from platypose.lifting.sync_choice import check_choice
+        from platypose.lifting.sync.choice import check_choice
 
         parse_floor(self.floor)
         if isinstance(self.sync, Mapping):

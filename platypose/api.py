@@ -1,6 +1,6 @@
 """The Python API: :func:`lift` one take, :func:`load_result` of an earlier lift, :class:`Prior` to load once.
 
-``platypose.lift`` runs the pipeline of ``platypose lift`` (:func:`platypose.take_pipeline.run_take`) on one
+``platypose.lift`` runs the pipeline of ``platypose lift`` (:func:`platypose.pipeline.run_take`) on one
 take and returns the :class:`~platypose.exporters.result.LiftResult` in memory; nothing is
 written. docs/api.md shows it end to end.
 """
@@ -19,13 +19,13 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
-from platypose.lifting.prior import PriorBundle
+from platypose.lifting.job_log import JobLog
+from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
-from platypose.pipeline import JobLog
 
 
 class Prior:
-    """Motion priors: ``Prior.load(...)`` gives a :class:`~platypose.lifting.prior.PriorBundle` to pass to
+    """Motion priors: ``Prior.load(...)`` gives a :class:`~platypose.lifting.prior.model.PriorBundle` to pass to
     :func:`lift` (load it once for many takes)."""
 
     @staticmethod
@@ -63,7 +63,7 @@ def lift(
     **sampler_fields: object,
 ) -> LiftResult:
     """Lift the people of one take to 3D motion hypotheses, as ``platypose lift`` does for one input (both run
-    :func:`platypose.take_pipeline.run_take`).
+    :func:`platypose.pipeline.run_take`).
 
     ``views``: one path per camera, each a video (detected with ``detector``, default the
     bundled MoveNet) or precomputed keypoints (an OpenPose folder, our npz / CSV, MMPose
@@ -89,7 +89,7 @@ def lift(
     for a bad one, and for bad input, as the CLI.
     """
     from platypose.detectors.sources import view_name
-    from platypose.take_pipeline import run_take, take_settings
+    from platypose.pipeline import run_take, take_settings
 
     sources = _sources(views)
     take = take_settings(

@@ -1,16 +1,19 @@
-"""One take from its views' 2D tracks to a :class:`~platypose.exporters.result.LiftResult`.
+"""One take from its views to a :class:`~platypose.exporters.result.LiftResult`: the steps ``platypose lift`` and
+``platypose.lift`` share (the command adds detection caches, files and job bookkeeping around them).
 
-Shared by ``platypose lift`` (``platypose.cli.lift_run`` adds detection, files and job
-bookkeeping around it) and the Python API (:func:`platypose.lift`):
+:func:`run_take` runs them in order, each saying what it did through a :class:`~platypose.lifting.job_log.JobLog`:
 
-1. :func:`match_cameras`: the calibration's camera of each view, matched by name (before
-   any detection), then :func:`check_image_size` against each view's image size;
-2. :func:`platypose.detectors.take.take_keypoints`: the views' tracks matched across cameras,
-   the chosen persons, one clock;
-3. :func:`platypose.lifting.take.root_paths`: each person's pelvis path, known or solved;
-4. :func:`lift_take`: hypotheses, their median and energy, the per-view reprojection report.
-
-Every step says what it did and warns through a :class:`JobLog`.
+1. cameras: the calibration's camera of each view, matched by name before anything is read (:func:`match_cameras`),
+   and checked against each video's image size (read from its header) before anything is detected;
+2. 2D: each view read or detected by the caller's ``read`` (the command caches detections and shows progress,
+   the API does neither); a view's notes (a truncated video) become warnings;
+3. the cameras checked against the views' image sizes, or one view's default camera (:func:`view_cameras`);
+4. sync: each camera's time offset (:mod:`platypose.lifting.sync.choice`);
+5. one clock: persons matched across views, the ``persons`` choice (:func:`platypose.detectors.take.take_keypoints`);
+6. roots: each person's pelvis path given, triangulated or solved (:func:`platypose.lifting.tracks.persons.root_paths`);
+7. the floor, the lift, and everything after sampling (:func:`lift_take`: :func:`platypose.lifting.tracks.quick_floor.quick_floor`,
+   :func:`platypose.lifting.tracks.persons.lift_persons`, :func:`platypose.lifting.finish.steps.finish_take`);
+8. meta: version, input, arguments, which rule picked whom (``persons``), sync, roots, timings, warnings.
 """
 
 from __future__ import annotations
@@ -22,60 +25,128 @@ from pathlib import Path
 
 import numpy as np
 
+from platypose.detectors.types import PoseTrack2D
 from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import CODEC_BLOCK, SIZE_TOLERANCE, Camera, codec_padded
 from platypose.lifting.errors import InputError
-from platypose.lifting.flags import person_lines
-from platypose.lifting.floor import ESTIMATE, Floor, floor_under
-from platypose.lifting.plausibility import plausibility
-from platypose.lifting.prior import PriorBundle
-from platypose.lifting.rigid import rigid_person
-from platypose.lifting.root import presence
-from platypose.lifting.settings import SamplerConfig, WindowSettings
-from platypose.lifting.steady_depth import steady_person
-from platypose.lifting.take import lift_persons, reprojection_report
-from platypose.lifting.world import level_on_floor
+from platypose.lifting.finish.steps import finish_take
+from platypose.lifting.floor import ESTIMATE, Floor
+from platypose.lifting.job_log import JobLog
+from platypose.lifting.prior.model import PriorBundle
+from platypose.lifting.settings import SamplerConfig, TakeSettings, WindowSettings
+from platypose.lifting.tracks.persons import lift_persons
+from platypose.lifting.tracks.quick_floor import quick_floor
+from platypose.lifting.tracks.roots import presence
 
-
-class JobLog:
-    """Timestamped lines of one lift (``OUT/<name>/log.txt`` for the CLI), and its warnings and notes for the result's
-    meta."""
-
-    def __init__(self) -> None:
-        self.started = time.perf_counter()
-        self.lines: list[str] = []
-        self.warnings: list[str] = []
-        self.notes: list[str] = []
-
-    def __call__(self, message: str) -> None:
-        self.lines.append(f"[{time.perf_counter() - self.started:7.1f} s] {message}")
-
-    def warning(self, message: str) -> None:
-        """Log a warning and keep it for the result's meta."""
-        self.warnings.append(message)
-        self(f"warning: {message}")
-
-    def note(self, message: str) -> None:
-        """Log what the lift assumed (not a fault: no warning) and keep it for the result's ``meta["notes"]``."""
-        self.notes.append(message)
-        self(message)
-
-    def write(self, path: Path) -> None:
-        """Write the log atomically."""
-        from platypose.lifting.atomic import write_text_atomic
-
-        write_text_atomic(path, "\n".join(self.lines) + "\n")
-
-
-FLOOR_PASS_SAMPLES = 10  # hypotheses of the quick lift a one-camera floor is estimated under
-FLOOR_PASS_PERSONS = 4  # persons (present longest) whose standing ankles it is estimated from
-QUICK_LIFT = "the floor's quick lift"  # what progress calls the quick lift's windows
+Reader = Callable[[Path], tuple[PoseTrack2D, str]]  # a view's source -> its tracks and how they were obtained
 
 
 def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
     """An in-memory float32 array for one of the result's long arrays (``name``: hypotheses, median, energy)."""
     return np.empty(shape, np.float32)
+
+
+def run_take(
+    views: Sequence[tuple[str, Path]],
+    calibration: Calibration | None,
+    take: TakeSettings,
+    read: Reader,
+    prior: Callable[[], PriorBundle],
+    log: JobLog,
+    *,
+    what: str,
+    described: str = "the cameras given",
+    cams_option: str = "cams",
+    arguments: dict | None = None,
+    arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
+    progress: Callable[[list[int], int, int], None] | None = None,
+    lifter: Callable = lift_persons,
+) -> LiftResult:
+    """The LiftResult of the take seen by ``views`` (name, source) under ``calibration`` (None: one view, a default
+    camera), lifted as ``take`` says with the prior ``prior()`` gives (called once the inputs are read and checked).
+
+    ``what`` names the take in errors, ``described`` the calibration (its file), ``cams_option`` the option a
+    missing calibration is asked for by (``--cams`` in the command). ``arguments`` go into ``meta``
+    as given; ``arrays``, ``progress`` and ``lifter`` as :func:`lift_take` takes them. InputError for bad
+    input, before any lifting.
+    """
+    from platypose import __version__
+    from platypose.detectors.person_choice import describe_choice
+    from platypose.detectors.take import take_keypoints
+    from platypose.detectors.view_agreement import disagreeing_views
+    from platypose.lifting.floor import ESTIMATE, floor_for_lift, parse_floor
+    from platypose.lifting.sync.choice import synchronise
+    from platypose.lifting.tracks.persons import root_kinds
+
+    names, sources = [name for name, _ in views], [source for _, source in views]
+    cameras = None if calibration is None else match_cameras(calibration, names, what, described)
+    if cameras is not None:  # a wrong calibration is found before anything is detected: sizes from video headers
+        for camera, source in zip(cameras, sources):
+            size = _video_size(source)
+            if size is not None:
+                check_image_size(camera, size, str(source), JobLog())  # raises for a mismatch; small ones warn later
+    floor = floor_for_lift(parse_floor(take.floor), None if calibration is None else calibration.meta)
+    started = time.perf_counter()
+    tracks = [_read_view(read, name, source, log) for name, source in views]
+    timings = {"keypoints_s": time.perf_counter() - started}
+    sizes = [t.image_size for t in tracks]
+    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, cams_option)
+    synced = synchronise(
+        take.sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
+    )
+    keypoints, times, track_ids = take_keypoints(tracks, synced.cameras, take.persons, what)
+    everyone = None  # an estimated floor comes from everyone in the take, not only from the persons chosen
+    if floor == ESTIMATE and len(synced.cameras) == 1 and take.persons != "all":
+        everyone = take_keypoints(tracks, synced.cameras, "all", what)[0]
+    swapped = disagreeing_views(keypoints, [c.name for c in synced.cameras])
+    if swapped:
+        log.warning(swapped)
+    chosen = describe_choice(take.persons, [int(t) for t in track_ids])
+    log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) ({chosen})")
+    roots = _roots(keypoints, times, synced.cameras, take, log)
+    bundle = prior()
+    started = time.perf_counter()
+    result = lift_take(
+        bundle,
+        keypoints,
+        times,
+        track_ids,
+        synced.cameras,
+        roots,
+        take.sampler,
+        take.windows,
+        arrays,
+        progress,
+        log,
+        floor,
+        everyone,
+        lifter,
+    )
+    timings["lift_s"] = time.perf_counter() - started
+    meta = {
+        "version": __version__,
+        "input": what,
+        "arguments": arguments if arguments is not None else {},
+        **result.meta,
+        "persons": chosen,
+        "sync": synced.record(),
+        "root": root_kinds(roots, take.root_trajectory is not None),
+        "timings": timings,
+        "warnings": log.warnings,
+    }
+    return replace(result, meta=meta)
+
+
+def take_settings(**values: object) -> TakeSettings:
+    """:class:`TakeSettings` from ``values`` (natural Python values or the command's strings), with the persons
+    choice checked as the detectors read it: the one check of a take's settings the command and the API both make
+    before any work (InputError naming the field)."""
+    from platypose.detectors.tracking import persons_count
+
+    take = TakeSettings(**values)
+    persons_count(take.persons)
+    return take
 
 
 def match_cameras(calibration: Calibration, names: Sequence[str], what: str, against: str) -> list[Camera]:
@@ -165,17 +236,17 @@ def lift_take(
 
     ``arrays(shape, name)`` makes the result's long arrays (default: in memory; the CLI's are files).
     ``progress(group, done, total)`` counts the windows lifted of each group of persons (``group``: their indices,
-    or ``QUICK_LIFT`` for the windows of the floor's quick lift).
+    or :data:`~platypose.lifting.tracks.quick_floor.QUICK_LIFT` for the windows of the floor's quick lift).
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
     sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
     and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor.
     ``everyone`` (1, T, P', 17, 3): the keypoints of everyone in the take when ``keypoints`` hold only the persons
     chosen, so the estimated floor does not depend on whom the user chose. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
-    person, :mod:`platypose.lifting.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
-    :func:`platypose.lifting.rigid.rigid_person`: every hypothesis and the median get one length per bone over
-    the clip); the caller adds its own. ``lifter`` lifts the persons (``lift_persons``, or the same spread over
+    person, :mod:`platypose.lifting.checks.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
+    :func:`platypose.lifting.finish.rigid.rigid_person`: every hypothesis and the median get one length per bone over
+    the clip); the caller adds its own. ``lifter`` lifts the persons (:func:`lift_persons`, or the same spread over
     pieces: ``platypose.cli.split_join.SplitLifter``). With an estimated floor every output is moved into the estimated world
-    (:mod:`platypose.lifting.world`: z = 0 the floor, z up, the camera at its estimated height and pitch), which
+    (:mod:`platypose.lifting.finish.world`: z = 0 the floor, z up, the camera at its estimated height and pitch), which
     ``meta["floor"]["frame"]`` says.
     """
     log = log if log is not None else JobLog()
@@ -204,36 +275,15 @@ def lift_take(
     energy = arrays((P, N, T), "energy")
     lifter(prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress)
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
-    if len(cameras) == 1 and sampler.floor is not None:  # one grounded view: steady each solved root's depth
-        for p, track in ((p, t) for p, t in enumerate(track_ids) if roots[p] is None):
-            seen = (np.nan_to_num(keypoints[0, :, p, :, 2]) > 0).sum(axis=-1)  # joints seen per frame
-            moved = steady_person(hypotheses, p, cameras[0], fps, sampler.floor, seen, times)
-            log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
-    rigid = {}
-    for p, track in enumerate(track_ids):
-        began = time.perf_counter()
-        rigid[f"p{track}"] = stats = rigid_person(hypotheses, median, keypoints, cameras, p, fps, sampler.floor)
-        log(
-            f"person {track}: made rigid in {time.perf_counter() - began:.1f} s (the sampler's median motion "
-            f"stretched its bones by up to {1000 * stats['stretch_m']:.0f} mm); its joints moved "
-            f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
-        )
-    report = report_reprojection(median, keypoints, cameras, log)
-    persons = plausibility(hypotheses, keypoints, floor, fps, median=median, cameras=cameras)
-    for track, person in zip(track_ids, persons):
-        person["track_id"] = int(track)
-    for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
-        log(line)
-    if floor_meta and floor_meta["source"] == "estimated":  # outputs in the estimated world: z = 0 the floor, z up
-        camera, floor_meta = level_on_floor(floor, floor_meta, cameras[0], (hypotheses, median))
-        cameras = [camera]
-        log(f"outputs in the {floor_meta['frame']}")
+    finished = finish_take(
+        hypotheses, median, keypoints, times, track_ids, cameras, roots, fps, sampler.floor, floor, floor_meta, log
+    )
     meta = {
         "prior_sha256": prior.checksum,
-        "reprojection_px": report,
-        "floor": floor_meta,
-        "plausibility": persons,
-        "rigid_bones": rigid,
+        "reprojection_px": finished.reprojection_px,
+        "floor": finished.floor,
+        "plausibility": finished.plausibility,
+        "rigid_bones": finished.rigid_bones,
         "notes": list(log.notes),
     }
     return LiftResult(
@@ -243,75 +293,44 @@ def lift_take(
         frame_times=times,
         fps=fps,
         track_ids=track_ids,
-        cameras=tuple(cameras),
+        cameras=finished.cameras,
         energy=energy,
         meta=meta,
     )
 
 
-def quick_floor(
-    prior: PriorBundle,
-    keypoints: np.ndarray,
-    times: np.ndarray,
-    absent: np.ndarray,
-    cameras: Sequence[Camera],
-    roots: Sequence[np.ndarray | None],
-    sampler: SamplerConfig,
-    windows: WindowSettings,
-    fps: float,
-    log: JobLog,
-    progress: Callable[[list[int] | str, int, int], None] | None = None,
-    lifter: Callable = lift_persons,
-) -> tuple[Floor | None, dict | None]:
-    """The floor under a one-camera take (keypoints (1, T, P, 17, 3), persons ``absent`` (P, T)) and its ``meta``
-    entry, estimated (:func:`platypose.lifting.floor.floor_under`) under the median motions of a quick lift
-    without a floor: ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest;
-    None, None (logged) when too few standing ankles are found. ``progress(QUICK_LIFT, done, total)`` counts its
-    windows."""
-    if len(cameras) != 1:
-        return None, None
-    began = time.perf_counter()
-    persons = np.argsort(absent.sum(axis=1), kind="stable")[:FLOOR_PASS_PERSONS]
-    quick = replace(sampler, samples=min(sampler.samples, FLOOR_PASS_SAMPLES), floor=None)
-    P, T = len(persons), len(times)
-    hypotheses, energy = np.empty((P, quick.samples, T, 17, 3), np.float32), np.empty((P, quick.samples, T), np.float32)
-    median = np.empty((P, T, 17, 3), np.float32)
-    kept = keypoints[:, :, persons]
-    lifter(
-        prior,
-        kept,
-        times,
-        cameras,
-        [roots[p] for p in persons],
-        absent[persons],
-        quick,
-        windows,
-        hypotheses,
-        median,
-        energy,
-        None if progress is None else (lambda group, done, total: progress(QUICK_LIFT, done, total)),
+def _video_size(source: Path) -> tuple[int, int] | None:
+    """A video view's upright image size (height, width) from its header and first frame; None for keypoints."""
+    from platypose.detectors.sources import is_keypoint_source
+    from platypose.media import video_info
+
+    path = Path(source)
+    if is_keypoint_source(path) or not path.is_file():
+        return None
+    return video_info(path).image_size
+
+
+def _read_view(read: Reader, name: str, source: Path, log: JobLog) -> PoseTrack2D:
+    """One view's tracks, logged with how long they took; their notes become warnings."""
+    started = time.perf_counter()
+    tracks, how = read(source)
+    log(
+        f"view {name}: {source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, "
+        f"{time.perf_counter() - started:.1f} s"
     )
-    floor, meta = floor_under(median, cameras[0], fps, kept[0])
-    seconds = time.perf_counter() - began
-    if floor is None:
-        log(f"floor: too few standing ankles to estimate it under a quick lift ({seconds:.1f} s); lifting without one")
-    else:
-        log(
-            f"floor estimated under a quick lift of {quick.samples} hypotheses ({seconds:.1f} s): camera "
-            f"{meta['camera_height_m']:.2f} m above it, pitched {meta['camera_pitch_deg']:.1f} degrees down "
-            f"({meta['stance_points']} standing ankles); --floor z=H or a calibration sets it instead"
-        )
-    return floor, meta
+    for note in tracks.notes:
+        log.warning(note)
+    return tracks
 
 
-def report_reprojection(median, keypoints: np.ndarray, cameras: Sequence[Camera], log: JobLog) -> dict[str, float]:
-    """:func:`platypose.lifting.take.reprojection_report` logged: one line of per-view pixels, then its warnings."""
-    report, warnings = reprojection_report(median, keypoints, cameras)
-    if report:
-        log(
-            "median motion against the keypoints (median px per view): "
-            + ", ".join(f"{name} {value:.1f}" for name, value in report.items())
-        )
-    for warning in warnings:
-        log.warning(warning)
-    return report
+def _roots(keypoints, times, cameras, take: TakeSettings, log: JobLog) -> list:
+    """Per person: the pelvis path of ``take.root_trajectory`` (T, 3), a triangulated one, or None (solved)."""
+    from platypose.lifting.tracks.persons import root_paths
+
+    given = None
+    if take.root_trajectory is not None:
+        from platypose.detectors.root_file import read_root_trajectory
+
+        log(f"root trajectory from {take.root_trajectory}")
+        given = list(read_root_trajectory(take.root_trajectory, times, keypoints.shape[2]))
+    return root_paths(keypoints, times, cameras, take.root, given, say=log)

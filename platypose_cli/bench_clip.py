@@ -77,9 +77,9 @@ def lift_clip(
     from platypose.detectors.pipeline import detect_video
     from platypose.detectors.tracking import select_persons
     from platypose.lifting.calibration.defaults import default_camera
-    from platypose.lifting.lift import lift_tracks
-    from platypose.lifting.root import presence
     from platypose.lifting.settings import SamplerConfig
+    from platypose.lifting.tracks.roots import presence
+    from platypose.lifting.tracks.stream import lift_tracks
 
     started, cpu_started = time.perf_counter(), time.process_time()
     detector = load_detector(threads=threads)

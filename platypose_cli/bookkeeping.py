@@ -17,7 +17,7 @@ import typer
 
 from platypose.cli.safe_names import printable
 from platypose.lifting.errors import InputError
-from platypose.lifting.file_reads import read_regular
+from platypose.lifting.files.reads import read_regular
 
 MAX_RECORD_BYTES = 64 * 2**20  # a summary of tens of thousands of inputs
 

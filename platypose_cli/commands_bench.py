@@ -205,10 +205,10 @@ def bench(
     from platypose.cli.bench_clip import peak_rss_mb
     from platypose.cli.threads import threads_for
     from platypose.detectors.tracking import persons_count
-    from platypose.lifting.atomic import write_text_atomic
     from platypose.lifting.errors import InputError
-    from platypose.lifting.prior import DEFAULT_PRIOR
-    from platypose.lifting.runtime import resolve_runtime
+    from platypose.lifting.files.atomic import write_text_atomic
+    from platypose.lifting.prior.model import DEFAULT_PRIOR
+    from platypose.lifting.prior.runtime import resolve_runtime
 
     def say(message: str) -> None:
         if not quiet:

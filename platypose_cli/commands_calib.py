@@ -37,9 +37,9 @@ def convert(
     Given a video instead, write a one-camera calibration from its size: field-of-view prior, level camera at the origin.
     """
     from platypose.detectors.video import VIDEO_SUFFIXES, video_info
-    from platypose.lifting.atomic import check_writable
     from platypose.lifting.calibration import load_calibration, save_calibration
     from platypose.lifting.calibration.defaults import default_calibration
+    from platypose.lifting.files.atomic import check_writable
 
     check_writable(out)
     if source.suffix.lower() in VIDEO_SUFFIXES:
@@ -71,7 +71,7 @@ def _check_keypoints(calibration, folder: Path, fps: float | None, sync: str) ->
     from platypose.detectors.openpose import read_openpose_folder
     from platypose.lifting.calibration.matching import gather_views, match_views
     from platypose.lifting.errors import InputError
-    from platypose.lifting.sync_choice import synchronise
+    from platypose.lifting.sync.choice import synchronise
     from platypose.lifting.triangulation import (
         associate_single_person,
         median_reprojection_error,

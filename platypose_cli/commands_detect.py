@@ -114,7 +114,7 @@ def detect(
     from platypose.detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
     from platypose.detectors.sources import view_name
     from platypose.detectors.tracking import persons_count, persons_to_keep
-    from platypose.lifting.atomic import check_writable
+    from platypose.lifting.files.atomic import check_writable
 
     persons_count(persons)  # a bad --persons fails before any detection
     names = [safe_name(view_name(source)) for source in sources]

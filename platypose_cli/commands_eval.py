@@ -12,8 +12,8 @@ import typer
 
 from platypose.cli.app import app
 from platypose.cli.options import int_list, settings_options
-from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import write_text_atomic
 
 if TYPE_CHECKING:
     from platypose.lifting.settings import PriorSettings, SamplerConfig
@@ -75,9 +75,9 @@ def evaluate_command(
     """Project motion through cameras, lift it, and print minMPJPE, minMPSPE, PA-*, MPJVE, ECE."""
     import math
 
-    from platypose.lifting.atomic import check_writable
-    from platypose.lifting.camera_rigs import ring_cameras
+    from platypose.lifting.files.atomic import check_writable
     from platypose.lifting.motion_io import load_motion_paths
+    from platypose.lifting.offline.camera_rigs import ring_cameras
     from platypose.lifting.offline.evaluation import evaluate, floor_height, format_header
     from platypose.lifting.timebase import resample
 
@@ -187,13 +187,13 @@ def calibrate_prior(
 ) -> None:
     """Fit the prior's one-view temperature per window length on half its validation clips (never evaluated by
     eval --heldout) and write it into the checkpoint's manifest, which the sampler then applies."""
-    from platypose.lifting.atomic import check_writable
-    from platypose.lifting.camera_rigs import ring_cameras
+    from platypose.lifting.files.atomic import check_writable
     from platypose.lifting.floor import CALIBRATED_FLOOR
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.offline.calibration import calibration_clip_names, fit_temperatures
-    from platypose.lifting.prior import load_prior, save_prior
-    from platypose.lifting.runtime import load_for_runtime
+    from platypose.lifting.offline.camera_rigs import ring_cameras
+    from platypose.lifting.prior.model import load_prior, save_prior
+    from platypose.lifting.prior.runtime import load_for_runtime
     from platypose.lifting.settings import SamplerConfig
     from platypose.lifting.timebase import resample
 

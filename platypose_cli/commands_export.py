@@ -103,7 +103,7 @@ def export_command(
     from platypose.cli.safe_names import printable, safe_name
     from platypose.exporters import export
     from platypose.exporters.npz import read_npz
-    from platypose.lifting.atomic import check_writable
+    from platypose.lifting.files.atomic import check_writable
 
     base = safe_name(name or path.stem)  # one plain file name: the files stay inside --out
     if name is not None and base != name:

@@ -51,9 +51,9 @@ def lift_settings(
     """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
     from platypose.cli.lift_run import RunSettings
     from platypose.exporters.export import parse_formats
-    from platypose.lifting.atomic import check_writable
-    from platypose.lifting.runtime import resolve_device
-    from platypose.take_pipeline import take_settings
+    from platypose.lifting.files.atomic import check_writable
+    from platypose.lifting.prior.runtime import resolve_device
+    from platypose.pipeline import take_settings
 
     take = take_settings(
         persons=persons, root=root, root_trajectory=root_file, floor=floor, sync=sync, sampler=sampler, windows=windows
@@ -239,7 +239,7 @@ def lift(
     from platypose.cli.lift_jobs import check_views_match, discover_jobs, expand_inputs, keypoints_job
     from platypose.cli.safe_names import printable
     from platypose.lifting.errors import InputError
-    from platypose.lifting.file_reads import check_readable_inputs
+    from platypose.lifting.files.reads import check_readable_inputs
 
     if keypoints is not None and detector is not None:
         raise InputError("--keypoints and --detector exclude each other: keypoints are read, not detected")

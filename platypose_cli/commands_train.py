@@ -58,13 +58,13 @@ def train(
     distil: DistilConfig = None,
 ) -> None:
     """Train a motion prior (x0-predicting transformer) on real 3D motion, or distil one into fewer calls."""
-    from platypose.lifting.atomic import check_writable, same_file
+    from platypose.lifting.files.atomic import check_writable, same_file
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.offline.distillation import distil_prior
     from platypose.lifting.offline.motion_pack import is_pack, read_pack, write_pack
     from platypose.lifting.offline.training import TrainingDiverged, train_prior
-    from platypose.lifting.prior import PriorConfig, load_prior
-    from platypose.lifting.runtime import resolve_device
+    from platypose.lifting.prior.model import PriorConfig, load_prior
+    from platypose.lifting.prior.runtime import resolve_device
     from platypose.lifting.sampling.sampler import network_steps
     from platypose.lifting.settings import SamplerConfig
 
@@ -168,7 +168,7 @@ def prior_info(prior: Path = typer.Argument(None, help="Checkpoint (default: the
     """Print a prior's size, frame rate, training data and the licence of every clip."""
     from dataclasses import asdict
 
-    from platypose.lifting.prior import DEFAULT_PRIOR, load_prior
+    from platypose.lifting.prior.model import DEFAULT_PRIOR, load_prior
 
     bundle, _ = load_prior(prior)
     manifest = bundle.manifest

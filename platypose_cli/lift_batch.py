@@ -40,7 +40,7 @@ from platypose.cli.lift_run import (
 )
 from platypose.cli.locks import exclusive_lock
 from platypose.cli.threads import threads_for
-from platypose.lifting.flags import person_lines
+from platypose.lifting.checks.flags import person_lines
 
 SUMMARY = "summary.json"
 
@@ -76,7 +76,7 @@ def limit_threads(threads: int) -> None:
 def write_summary(out: Path, entries: list[dict], started: str, arguments: dict) -> Path:
     """Write ``OUT/summary.json`` atomically under a lock: other runs' entries for other inputs first, then this
     run's in job order; counts per status; this run's arguments."""
-    from platypose.lifting.atomic import write_text_atomic
+    from platypose.lifting.files.atomic import write_text_atomic
 
     with exclusive_lock(out / SUMMARY_LOCK):  # POSIX; elsewhere no lock
         inputs = _other_entries(out, entries) + entries

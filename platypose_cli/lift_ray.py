@@ -134,7 +134,7 @@ def write_collected(folder: Path, entry: dict, files: dict[str, bytes]) -> dict:
     relative to its folder, so it holds as it was written on the worker); the entry with paths in ``folder``."""
     from platypose.cli.lift_run import JOB_LOCK
     from platypose.cli.locks import exclusive_lock
-    from platypose.lifting.atomic import atomic_open
+    from platypose.lifting.files.atomic import atomic_open
 
     folder.mkdir(parents=True, exist_ok=True)
     with exclusive_lock(folder / JOB_LOCK):  # waits for another run writing the folder: never mixes with it

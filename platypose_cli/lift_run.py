@@ -42,10 +42,10 @@ from platypose.cli.options import as_json, cli_message
 from platypose.cli.output_names import FAILURE, MANIFEST, job_sources
 from platypose.cli.output_set import changed_files, digests
 from platypose.cli.progress_bars import GroupBars
-from platypose.lifting.atomic import existing_kind, write_text_atomic
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import existing_kind, write_text_atomic
+from platypose.lifting.job_log import JobLog
 from platypose.lifting.settings import PriorSettings, TakeSettings
-from platypose.pipeline import JobLog
 
 JOB_LOCK = ".lift.lock"  # in OUT/<name>/: held by the one run writing that folder
 SYNC_FILE = "sync_offsets.json"  # offsets estimated by --sync auto, for reuse as --sync FILE
@@ -77,11 +77,11 @@ def _prior(settings: PriorSettings):
 
 
 def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path, pieces=None):
-    """The LiftResult of one job (:func:`platypose.take_pipeline.run_take`), its long arrays in files under
+    """The LiftResult of one job (:func:`platypose.pipeline.run_take`), its long arrays in files under
     ``staging``, and the videos of its cameras; offsets estimated by ``--sync auto`` are saved for reuse; with
     ``pieces``, spread over that pool (:func:`platypose.cli.split_join.split_hooks`)."""
     from platypose.exporters.frames import FrameArray
-    from platypose.take_pipeline import run_take
+    from platypose.pipeline import run_take
 
     calibration = None
     if settings.cams is not None:

@@ -14,7 +14,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.file_reads import file_kind
+from platypose.lifting.files.reads import file_kind
 
 
 class Busy(InputError):

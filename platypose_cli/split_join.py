@@ -5,11 +5,11 @@
   driver joins the detections (a few kB per frame) into the video's detection cache, the file an unsplit run
   writes, and the usual reader tracks them over the whole take. Tracking, ID repair, the persons choice and the gap
   rule therefore see the whole take: the same 2D, track ids and persons as an unsplit run.
-- **Lifting** (:class:`SplitLifter`, in place of :func:`platypose.lifting.take.lift_persons`): the take's 2D is cut
-  into pieces of S seconds lifted with a margin either side (:func:`platypose.lifting.seams.plan_pieces`), each
+- **Lifting** (:class:`SplitLifter`, in place of :func:`platypose.lifting.tracks.persons.lift_persons`): the take's 2D is cut
+  into pieces of S seconds lifted with a margin either side (:func:`platypose.lifting.tracks.seams.plan_pieces`), each
   piece's persons present lifted by a task; the driver then reads the pieces in order (one piece in memory at a
   time), reorders each piece's hypotheses to continue the piece before and cross-fades them at the seam
-  (:mod:`platypose.lifting.seams`), and writes them into the caller's arrays. Rigid people, the floor, the
+  (:mod:`platypose.lifting.tracks.seams`), and writes them into the caller's arrays. Rigid people, the floor, the
   representative answer, plausibility flags and export then run on the whole take as in an unsplit run.
 """
 
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.cli.split_pieces import detect_piece, lift_piece, piece_folder
-from platypose.lifting.seams import cross_fade, fade_weights, match_hypotheses, plan_pieces
+from platypose.lifting.tracks.seams import cross_fade, fade_weights, match_hypotheses, plan_pieces
 
 MIN_MARGIN_S = 1.0  # seconds each piece is lifted past its own frames, at least (and at least --max-gap)
 
@@ -45,7 +45,7 @@ def _digest(*parts) -> str:
 
 def split_hooks(pool, settings, name: str, log) -> tuple[SplitLifter, Callable[[Path], None]]:
     """For job ``name`` lifted with ``settings`` (RunSettings with ``split_seconds``) over ``pool``: the lifter
-    :func:`platypose.take_pipeline.run_take` takes, and what to do before a view is read (a video is detected in
+    :func:`platypose.pipeline.run_take` takes, and what to do before a view is read (a video is detected in
     pieces into its detection cache; keypoint files are read whole)."""
     from platypose.detectors.sources import is_keypoint_source
 
@@ -102,7 +102,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool) -
 
 
 class SplitLifter:
-    """:func:`platypose.lifting.take.lift_persons` spread over pieces of ``split_s`` seconds run by ``pool``, the
+    """:func:`platypose.lifting.tracks.persons.lift_persons` spread over pieces of ``split_s`` seconds run by ``pool``, the
     pieces cached in ``folder`` (a piece lifted by an earlier run with the same inputs is read back); ``prior``
     (PriorSettings) is what the workers load. ``log`` gets one line per call."""
 
@@ -178,7 +178,7 @@ def _over(frames: slice, piece_lifted: slice, who, h, e, P: int, N: int) -> tupl
 def join_pieces(pieces, persons, paths, times, absent, margin, hypotheses, median, energy) -> None:
     """Write the pieces' results (files ``paths``, persons ``persons``) into the take's arrays in frame order: each
     piece's hypotheses reordered to continue the piece before (over the frames both lifted), cross-faded around
-    each seam (:func:`platypose.lifting.seams.fade_weights`), NaN where ``absent``; one piece (and the one
+    each seam (:func:`platypose.lifting.tracks.seams.fade_weights`), NaN where ``absent``; one piece (and the one
     before) in memory at a time."""
     P, N = absent.shape[0], hypotheses.shape[1]
     times = np.asarray(times, dtype=np.float64)

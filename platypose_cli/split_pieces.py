@@ -61,12 +61,12 @@ def detect_piece(video: str, detect, start: int, stamp: int | None, count: int |
 
 
 def lift_piece(prior_settings, inputs: dict, path: str) -> None:
-    """Lift one stretch of a take (:func:`platypose.lifting.take.lift_persons` on ``inputs``: keypoints, times,
+    """Lift one stretch of a take (:func:`platypose.lifting.tracks.persons.lift_persons` on ``inputs``: keypoints, times,
     cameras, roots, absent, config, windows) with the prior of ``prior_settings``; save its hypotheses and energy
     (float32, NaN where absent) atomically at ``path``."""
     from platypose.cli.lift_run import _prior
-    from platypose.lifting.atomic import atomic_open
-    from platypose.lifting.take import lift_persons
+    from platypose.lifting.files.atomic import atomic_open
+    from platypose.lifting.tracks.persons import lift_persons
 
     P, t = inputs["absent"].shape
     N = inputs["config"].samples

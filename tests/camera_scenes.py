@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from platypose.lifting.calibration.pose_above_floor import posed_camera
 from platypose.lifting.camera import project
-from platypose.lifting.camera_pose import posed_camera
 
 MOTION = Path(__file__).resolve().parents[1] / "data" / "motion" / "cmu-amc"
 WALKS = ("02_02.npz", "02_03.npz")  # CMU subject 2 walking and running

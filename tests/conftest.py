@@ -31,7 +31,7 @@ def tiny_prior(real_clips, tmp_path_factory):
     import torch
 
     from platypose.lifting.offline.training import train_prior
-    from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.prior.model import PriorConfig, load_prior
     from platypose.lifting.settings import TrainConfig
 
     path = tmp_path_factory.mktemp("prior") / "tiny.pt"
@@ -50,7 +50,7 @@ def tiny_prior(real_clips, tmp_path_factory):
 @pytest.fixture(scope="session")
 def prior_file(tiny_prior, tmp_path_factory) -> str:
     """The session's tiny prior saved as a checkpoint file for ``--prior``."""
-    from platypose.lifting.prior import save_prior
+    from platypose.lifting.prior.model import save_prior
 
     path = tmp_path_factory.mktemp("prior_file") / "tiny.pt"
     save_prior(path, tiny_prior)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.matching import match_views
-from platypose.lifting.camera_pose import pose_of, posed_camera
+from platypose.lifting.calibration.pose_above_floor import pose_of, posed_camera
 
 
 def estimated_cameras(args) -> list[tuple[str, object, str]]:
@@ -30,7 +30,7 @@ def estimated_cameras(args) -> list[tuple[str, object, str]]:
             found.append((camera.name, camera, "lift"))
     for path in args.keypoints or []:
         from platypose.detectors.sources import read_keypoints
-        from platypose.lifting.camera_fit import fit_view
+        from platypose.lifting.calibration.one_view import fit_view
 
         name, keypoints, times, size = _keypoints(Path(path), read_keypoints)
         camera, estimate, note = fit_view(name, keypoints, times, size, {})

@@ -13,7 +13,7 @@ by frame where the reference has all 17 joints, and printed as a Markdown table 
 - median vs triangulation: mean / median over joints and frames of the distance from
   the hypotheses' median to the reference (mm); and the pelvis alone;
 - median vs rigid triangulation: the same against the reference made rigid as a lift is
-  (``lifting.rigid``: one length per bone, one shape per body over the clip): a person is rigid, a
+  (``lifting.finish.rigid``: one length per bone, one shape per body over the clip): a person is rigid, a
   triangulation of detected keypoints is not (its bones stretch by centimetres), and a rigid lift
   cannot follow that stretch;
 - best hypothesis per joint: for each joint and frame the nearest hypothesis (mm, mean);
@@ -38,8 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.npz import read_npz
-from platypose.lifting.rigid import rigid_paths
-from platypose.lifting.rigid_shape import clip_shape
+from platypose.lifting.finish.rigid import rigid_paths
+from platypose.lifting.finish.rigid_shape import clip_shape
 from platypose.lifting.skeleton import JOINT_INDEX
 from platypose.lifting.triangulation import triangulate
 
@@ -59,7 +59,7 @@ def reference_joints(path: Path) -> np.ndarray:
 
 
 def rigid_reference(path: Path, reference: np.ndarray) -> np.ndarray:
-    """``reference`` ``(T, 17, 3)`` made rigid (``lifting.rigid.rigid_paths``) with the views of the lift ``path``."""
+    """``reference`` ``(T, 17, 3)`` made rigid (``lifting.finish.rigid.rigid_paths``) with the views of the lift ``path``."""
     result = read_npz(path)
     seen = np.moveaxis(np.nan_to_num(np.asarray(result.keypoints2d)[:, 0, ..., 2]) > 0, 0, -1)  # (T, 17, C)
     centres = np.stack([cam.center for cam in result.cameras])

@@ -5,7 +5,7 @@
 Per person present in at least half the frames of each npz, one Markdown table row:
 
 - knees back >10: share of the exported answer's present frames (``median``) with a knee's signed flexion
-  (:func:`lifting.hinges.signed_flexion`) under -10 degrees, the larger of the two knees; and the same share of
+  (:func:`lifting.anatomy.hinges.signed_flexion`) under -10 degrees, the larger of the two knees; and the same share of
   hypothesis-frames; elbows back >10: the same for the elbows (answer / hypotheses);
 - fastest hinge: the largest change of a knee's or an elbow's signed flexion between two consecutive present frames
   of the answer, in degrees per second (with the hinge and the frame); a sign change counts as the bend between;
@@ -27,7 +27,7 @@ import numpy as np
 from platypose.exporters.mot import at_limit_shares, read_storage
 from platypose.exporters.npz import read_npz
 from platypose.exporters.opensim_model import HINGE_COORDINATES
-from platypose.lifting.hinges import HINGE_NAMES, signed_flexion
+from platypose.lifting.anatomy.hinges import HINGE_NAMES, signed_flexion
 
 BACK_DEG = 10.0
 

@@ -28,7 +28,7 @@ import numpy as np
 from platypose.detectors.cache import read_detections
 from platypose.detectors.keypoints import to_our_joints
 from platypose.detectors.tracking import track_detections
-from platypose.lifting.lift import resample_keypoints
+from platypose.lifting.tracks.stream import resample_keypoints
 
 
 def matched_tracks(full: np.ndarray, sub: np.ndarray, every: int) -> dict[int, int]:
@@ -68,8 +68,8 @@ def keypoint_errors(full, times, sub, sub_times, pairs) -> tuple[np.ndarray, flo
 def lift_track(prior, keypoints, times, image_size, seed: int = 0):
     """Hypotheses (N, T, 17, 3) of one track (T, 17, 3) with the default camera, 50 hypotheses."""
     from platypose.lifting.calibration.defaults import default_camera
-    from platypose.lifting.lift import lift_tracks
     from platypose.lifting.settings import SamplerConfig
+    from platypose.lifting.tracks.stream import lift_tracks
 
     camera = default_camera("stride", *image_size)
     return lift_tracks(
@@ -100,7 +100,7 @@ def main() -> None:
     full = track_detections(ours, times, size, "stride 1")
     lifted = None
     if args.lift_seconds > 0:
-        from platypose.lifting.prior import load_prior
+        from platypose.lifting.prior.model import load_prior
 
         prior, _ = load_prior()
         sizes = [np.nansum(np.ptp(full.keypoints[:, p, :, 1], axis=1)) for p in range(full.num_persons)]

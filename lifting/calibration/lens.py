@@ -6,7 +6,7 @@ prior over common lenses.
 - **Lens prior**: a phone's main camera (24-28 mm equivalent, the common case: one analyst with one phone)
   filming 16:9 video across the sensor's width, cropped 10-20 % by electronic stabilisation, sees about
   ``PRIOR_LONG_SIDE_FOV_DEG`` across the image's long side. Broadcast and lab lenses are narrower (30-50
-  degrees); where the people measure the focal length (:mod:`platypose.lifting.camera_estimate`) they override it.
+  degrees); where the people measure the focal length (:mod:`platypose.lifting.calibration.from_people`) they override it.
 """
 
 from __future__ import annotations

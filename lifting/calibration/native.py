@@ -6,12 +6,12 @@ import json
 from pathlib import Path
 from typing import Any
 
-from platypose.lifting.atomic import write_text_atomic
 from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.model import Calibration, new_meta
 from platypose.lifting.calibration.world import unit_scale, up_vector
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import write_text_atomic
 
 FORMAT = "platypose-calib"
 VERSION = 1

@@ -14,7 +14,7 @@ import numpy as np
 
 from platypose.lifting.camera import MAX_TIME_OFFSET_S, Camera
 from platypose.lifting.errors import InputError
-from platypose.lifting.file_reads import read_regular
+from platypose.lifting.files.reads import read_regular
 
 ROTATION_TOLERANCE = 1e-5
 MAX_CAMERAS = 256  # capture rigs have tens of cameras; more means a damaged or hostile file

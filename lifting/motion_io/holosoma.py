@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.npz_limits import check_npy_size
 from platypose.lifting.joint_maps import HOLOSOMA_MOCAP_NAMES, HOLOSOMA_MOCAP_RECIPE, apply_recipe
 from platypose.lifting.motion import Motion
-from platypose.lifting.npz_limits import check_npy_size
 
 # The files store no rate; hand (~1.9 m/s) and foot (~3.2 m/s) peak speeds are
 # plausible for climbing only at 120 frames per second.

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.npz_limits import check_npz_sizes
 from platypose.lifting.motion import Motion
-from platypose.lifting.npz_limits import check_npz_sizes
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS
 
 

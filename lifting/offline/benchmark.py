@@ -19,8 +19,8 @@ import torch
 
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.camera import Camera, project
-from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig
-from platypose.lifting.representation import features_to_joints
+from platypose.lifting.prior.features import features_to_joints
+from platypose.lifting.prior.model import MotionPrior, PriorBundle, PriorConfig
 from platypose.lifting.sampling.sampler import cameras_and_rays, network_steps, sample
 from platypose.lifting.settings import SamplerConfig
 

@@ -18,7 +18,7 @@ import numpy as np
 from platypose.lifting.camera import Camera
 from platypose.lifting.offline import metrics
 from platypose.lifting.offline.evaluation import cut_windows, floor_height, lift_windows, look_target, place_window
-from platypose.lifting.prior import PriorBundle
+from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.settings import SamplerConfig
 
 DEFAULT_GRID = (0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4)

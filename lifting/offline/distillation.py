@@ -27,9 +27,9 @@ from platypose.lifting.offline.training import (
     prepare_clips,
     take_step,
 )
-from platypose.lifting.prior import MotionPrior, PriorBundle, save_prior
-from platypose.lifting.representation import joints_to_features
-from platypose.lifting.schedule import DiffusionSchedule
+from platypose.lifting.prior.features import joints_to_features
+from platypose.lifting.prior.model import MotionPrior, PriorBundle, save_prior
+from platypose.lifting.prior.schedule import DiffusionSchedule
 from platypose.lifting.settings import DistilConfig, TrainConfig
 
 END = -1  # "no next step": the pair ends the sampling

@@ -15,10 +15,10 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from platypose.lifting.camera import Camera, project
+from platypose.lifting.finish.representative import median_motion
+from platypose.lifting.finish.rigid import person_shape, rigid_paths
 from platypose.lifting.offline import metrics
-from platypose.lifting.prior import PriorBundle
-from platypose.lifting.representative import median_motion
-from platypose.lifting.rigid import person_shape, rigid_paths
+from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.sampling.sampler import cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig
 
@@ -182,8 +182,8 @@ def rigid_windows(
     floor: tuple[float, float, float, float] | None,
     hidden: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.rigid.rigid_paths`, each
-    hypothesis on its own shape over its window, :func:`lifting.rigid.person_shape`), every view seeing every
+    """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.finish.rigid.rigid_paths`, each
+    hypothesis on its own shape over its window, :func:`lifting.finish.rigid.person_shape`), every view seeing every
     joint but on the ``hidden`` frames (F,)."""
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
@@ -203,7 +203,7 @@ def single_answers(
     rigid: bool,
     hidden: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The motion a lift would export for each window ``(B, F, 17, 3)`` (:func:`lifting.representative.median_motion`
+    """The motion a lift would export for each window ``(B, F, 17, 3)`` (:func:`lifting.finish.representative.median_motion`
     of its hypotheses ``(B, N, F, 17, 3)``, made rigid on its own shape as the lift's is; ``hidden`` frames (F,)
     unseen)."""
     answers = np.stack([median_motion(np.asarray(h, np.float64)) for h in hypotheses])
@@ -227,7 +227,7 @@ def evaluate(
     """The evaluation table: one row per method x frames x samples for these cameras.
 
     With ``config.floor`` set (a level floor), every window stands on it (the clips' floor is z = 0) and is
-    moved only along it. ``rigid``: hypotheses made rigid as the lift's output is (:mod:`lifting.rigid`).
+    moved only along it. ``rigid``: hypotheses made rigid as the lift's output is (:mod:`lifting.finish.rigid`).
     ``gap_s`` > 0: each window is also lifted with a centred gap of that many seconds no camera sees, scored
     apart on the frames inside the gap and on those outside it (:func:`gap_rows`).
     """

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.lifting.atomic import atomic_open
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import atomic_open
 from platypose.lifting.motion import Motion
 from platypose.lifting.timebase import resample
 

@@ -17,9 +17,9 @@ import torch
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.motion import Motion
-from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
-from platypose.lifting.representation import Normalizer, joints_to_features
-from platypose.lifting.schedule import DiffusionSchedule
+from platypose.lifting.prior.features import Normalizer, joints_to_features
+from platypose.lifting.prior.model import MotionPrior, PriorBundle, PriorConfig, save_prior
+from platypose.lifting.prior.schedule import DiffusionSchedule
 from platypose.lifting.settings import TrainConfig
 from platypose.lifting.skeleton import MIRROR, PARENTS, mirror_joints
 from platypose.lifting.timebase import interpolate, resample

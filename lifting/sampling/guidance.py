@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import torch
 
-from platypose.lifting.hinges import limit_residuals
-from platypose.lifting.prior import PriorBundle
-from platypose.lifting.representation import features_to_joints, joints_to_features
+from platypose.lifting.anatomy.hinges import limit_residuals
+from platypose.lifting.prior.features import features_to_joints, joints_to_features
+from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.sampling.energy import (
     Observations,
     bone_constancy_energy,
@@ -168,7 +168,7 @@ class GuidedProblem:
         return features_to_joints(grad_x * -self.std).reshape(B, N, F, -1, 3).movedim(-1, 0)
 
     def add_extra_terms(self, joints, energy, grad, curvature, anchor: torch.Tensor | None = None):
-        """Add the structural energies and the joint limits (:mod:`lifting.hinges`; autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
+        """Add the structural energies and the joint limits (:mod:`lifting.anatomy.hinges`; autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
         to the reprojection terms.
 
         ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
@@ -249,7 +249,7 @@ class GuidedProblem:
 
 
 def limit_terms(joints: torch.Tensor, weight: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """``weight`` times the joint limits' energy ``(...)`` of joints ``(..., 17, 3)`` (:func:`lifting.hinges.limit_residuals`
+    """``weight`` times the joint limits' energy ``(...)`` of joints ``(..., 17, 3)`` (:func:`lifting.anatomy.hinges.limit_residuals`
     squared), its gradient ``(3, ..., 17)`` and its Gauss-Newton curvature ``(6, ..., 17)`` (``2 J^T J`` per joint,
     packed), component-first. Without the curvature a step would divide the limit's pull by the reprojection's
     curvature alone, nearly nothing along one view's rays: the step runs away in depth and backtracking stalls it.

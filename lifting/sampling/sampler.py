@@ -20,13 +20,13 @@ import numpy as np
 import torch
 
 from platypose.lifting.camera import CameraBatch
-from platypose.lifting.prior import PriorBundle
+from platypose.lifting.prior.model import PriorBundle
+from platypose.lifting.prior.schedule import DiffusionSchedule, sampling_steps
 from platypose.lifting.sampling.energy import Observations, reprojection_energy
 from platypose.lifting.sampling.guidance import GuidedProblem
 from platypose.lifting.sampling.placement import Anchor
 from platypose.lifting.sampling.translation import RayConstraints, ray_constraints
 from platypose.lifting.sampling.views import views_for
-from platypose.lifting.schedule import DiffusionSchedule, sampling_steps
 from platypose.lifting.settings import SamplerConfig
 
 

@@ -18,7 +18,7 @@ TAKE = VIDEO_DIR / "pose2sim-balancing"
 @pytest.fixture
 def tiny_default_prior(monkeypatch, prior_file):
     """The tiny prior in place of the shipped one (what ``Prior.load()`` and ``prior=None`` load)."""
-    import platypose.lifting.prior as prior_module
+    import platypose.lifting.prior.model as prior_module
 
     monkeypatch.setattr(prior_module, "DEFAULT_PRIOR", Path(prior_file))
     return prior_file

@@ -99,7 +99,7 @@ def tiny_default_prior(monkeypatch, prior_file):
     """The tiny prior in place of the shipped one."""
     from pathlib import Path
 
-    import platypose.lifting.prior as prior_module
+    import platypose.lifting.prior.model as prior_module
 
     monkeypatch.setattr(prior_module, "DEFAULT_PRIOR", Path(prior_file))
     return prior_file

@@ -11,7 +11,7 @@ import torch
 
 from platypose.cli.bench_clip import loop_video
 from platypose.lifting.offline.benchmark import matmul_probe, network_flops, onnx_matmul, timed_forward, walking_view
-from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig, save_prior
+from platypose.lifting.prior.model import MotionPrior, PriorBundle, PriorConfig, save_prior
 
 TINY = PriorConfig(layers=2, width=64, heads=4, ff_width=128, max_frames=16, dropout=0.0)
 QUICK = ["--samples", "2", "--frames", "4", "--steps", "1", "--k", "1", "--repeats", "1", "--matmul-size", "64"]
@@ -21,7 +21,7 @@ QUICK = ["--samples", "2", "--frames", "4", "--steps", "1", "--k", "1", "--repea
 def tiny_prior(data_dir):
     """An untrained tiny prior (timing does not depend on the weights) normalised on real walking (DeepMimic)."""
     from platypose.lifting.motion_io import load_motion_paths
-    from platypose.lifting.representation import Normalizer, joints_to_features
+    from platypose.lifting.prior.features import Normalizer, joints_to_features
 
     walk = next(m for m in load_motion_paths([data_dir / "motion" / "deepmimic"]) if "walk" in m.name)
     torch.manual_seed(0)

@@ -89,7 +89,7 @@ def test_train_writes_a_loadable_checkpoint(run_cli, data_dir, tmp_path):
         *common,
     )
     assert code == 0, err
-    from platypose.lifting.prior import load_prior
+    from platypose.lifting.prior.model import load_prior
 
     bundle, extra = load_prior(out)
     assert bundle.config.width == 32 and bundle.manifest["iterations"] == 6 and extra == {}
@@ -99,7 +99,7 @@ def test_train_writes_a_loadable_checkpoint(run_cli, data_dir, tmp_path):
 def test_an_interrupted_training_resumes_from_its_last_checkpoint(run_cli, data_dir, tmp_path):
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.offline.training import train_prior
-    from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.prior.model import PriorConfig, load_prior
     from platypose.lifting.settings import TrainConfig
 
     out, log = tmp_path / "p.pt", tmp_path / "log.jsonl"
@@ -168,7 +168,7 @@ def test_a_resumed_training_ends_with_the_weights_of_an_uninterrupted_one(data_d
 
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.offline.training import train_prior
-    from platypose.lifting.prior import PriorConfig, load_prior
+    from platypose.lifting.prior.model import PriorConfig, load_prior
     from platypose.lifting.settings import TrainConfig
 
     clips = load_motion_paths([data_dir / "motion/deepmimic/humanoid3d_walk.txt"])

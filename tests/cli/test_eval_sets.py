@@ -6,7 +6,7 @@ import json
 from dataclasses import replace
 
 from platypose.lifting.offline.calibration import calibration_clip_names
-from platypose.lifting.prior import load_prior, save_prior
+from platypose.lifting.prior.model import load_prior, save_prior
 
 
 def test_each_set_gets_its_own_table(run_cli, prior_file, data_dir, tmp_path):

@@ -155,7 +155,7 @@ def test_one_view_depth_smoothness_calms_depth_and_is_checked(run_cli, data_dir,
     """``--depth-smoothness``: with one view the hypotheses' depth paths accelerate less with it than without
     (0); a negative value is a one-line error. Without the floor: grounding holds stance ankles where they stand,
     unsmoothed (tests/lifting/sampling/test_grounding.py). One view's limbs are rebuilt at adult lengths after
-    smoothing (lifting/anthropometry.py), which scales the tiny test prior's short limbs, and their joints'
+    smoothing (lifting/anatomy/lengths.py), which scales the tiny test prior's short limbs, and their joints'
     accelerations with them, smoothed or not: the smoothed paths keep at most 80 % of the unsmoothed ones'
     (about 75 %; under 70 % without the rebuild)."""
     from platypose.exporters.npz import read_npz
@@ -265,7 +265,7 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
 def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> None:
     import platypose.exporters as exporters
     from platypose.cli.lift_run import export_atomically, staging_folder
-    from platypose.pipeline import JobLog
+    from platypose.lifting.job_log import JobLog
 
     folder = tmp_path / "take"
     folder.mkdir()

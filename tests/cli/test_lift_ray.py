@@ -284,7 +284,7 @@ def test_detector_and_prior_load_once_per_worker(cluster, batch_folder, prior_fi
 
     def two_inputs_counting_loads(jobs, settings) -> dict:
         import platypose.detectors.contracts as contracts
-        import platypose.lifting.runtime as runtime
+        import platypose.lifting.prior.runtime as runtime
         from platypose.cli import lift_run
         from platypose.cli.detection import cached_detector
         from platypose.cli.lift_ray import lift_on_worker

@@ -10,8 +10,8 @@ import uuid
 
 import pytest
 
-from platypose.lifting.atomic import check_writable
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import check_writable
 
 POSE2SIM = "video/pose2sim-balancing"
 

@@ -38,7 +38,7 @@ def test_a_pack_holds_the_clips_as_training_prepares_them(run_cli, clips, tmp_pa
 
 
 def test_the_recipe_trains_from_a_pack_in_bfloat16_on_auto_device(run_cli, clips, tmp_path):
-    from platypose.lifting.prior import load_prior
+    from platypose.lifting.prior.model import load_prior
 
     pack = tmp_path / "pack.npz"
     assert run_cli("train", *clips, "--pack", pack)[0] == 0

@@ -12,7 +12,7 @@ from export_helpers import two_person_result
 
 from platypose.exporters.angles import ANGLE_NAMES, angle_series, continue_angles, joint_angles, write_angles_csv
 from platypose.exporters.report import ankle_heights, write_report
-from platypose.lifting.hinges import HINGE_NAMES
+from platypose.lifting.anatomy.hinges import HINGE_NAMES
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 

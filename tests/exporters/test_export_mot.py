@@ -125,7 +125,7 @@ def test_ik_keeps_each_hinge_on_the_branch_the_joints_bend_and_warns_of_a_pinned
     osim = pytest.importorskip("opensim")
     from platypose.exporters.mot import AT_LIMIT_SHARE, load_opensim, person_mot, read_storage
     from platypose.exporters.opensim_model import HINGE_COORDINATES
-    from platypose.lifting.hinges import signed_flexion
+    from platypose.lifting.anatomy.hinges import signed_flexion
 
     load_opensim()
     joints = np.load(LIFTS / "pose2sim_cam01_median.npy").astype(np.float64)

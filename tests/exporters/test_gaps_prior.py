@@ -3,7 +3,7 @@
 import numpy as np
 
 from platypose.exporters.gaps import fill_plan, find_gaps
-from platypose.lifting.root import presence, seen_frames
+from platypose.lifting.tracks.roots import presence, seen_frames
 
 
 def test_the_roof_mans_gap_is_marked_as_filled_by_the_prior(data_dir):

@@ -85,7 +85,7 @@ def _(w: Path) -> Run:
 def _(w: Path) -> Run:
     import torch
 
-    payload = torch.load(REPO / "lifting/priors/default.pt", weights_only=True)
+    payload = torch.load(REPO / "lifting/prior/weights/default.pt", weights_only=True)
     first = next(iter(payload["state_dict"]))
     payload["state_dict"][first] = payload["state_dict"][first] * float("nan")
     torch.save(payload, w / "nan.pt")

@@ -161,7 +161,7 @@ def take_views(data_dir):
 
 
 def _sync(choice, cameras, keypoints, times):
-    from platypose.lifting.sync_choice import synchronise
+    from platypose.lifting.sync.choice import synchronise
 
     warnings: list[str] = []
     synced = synchronise(choice, keypoints, times, cameras, lambda _: None, warnings.append)
@@ -218,7 +218,7 @@ def test_swapped_cameras_warned_and_views_judged_by_persons_seen_well(take_views
 
     from platypose.detectors.take import take_keypoints
     from platypose.detectors.view_agreement import disagreeing_views
-    from platypose.lifting.take import reprojection_report
+    from platypose.lifting.tracks.persons import reprojection_report
     from platypose.lifting.triangulation import triangulate
 
     cameras, tracks = take_views

@@ -15,9 +15,9 @@ import pytest
 from platypose.lifting.calibration import load_calibration, save_calibration
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.job_log import JobLog
 from platypose.lifting.settings import TakeSettings
-from platypose.pipeline import JobLog, view_cameras
-from platypose.take_pipeline import run_take
+from platypose.pipeline import run_take, view_cameras
 
 TAKE = Path(__file__).resolve().parents[2] / "data/video/pose2sim-balancing"
 

@@ -19,7 +19,7 @@ from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.calibration import load_calibration, save_calibration
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings import TakeSettings
-from platypose.take_pipeline import take_settings
+from platypose.pipeline import take_settings
 
 CALIB = Path(__file__).resolve().parents[2] / "data/video/pose2sim-balancing/calib_pose2sim.toml"
 
@@ -100,7 +100,7 @@ def test_floor_of_booleans_is_refused() -> None:
 
 
 def test_sync_offsets_take_numpy_scalars() -> None:
-    from platypose.lifting.sync_choice import offsets_by_name
+    from platypose.lifting.sync.choice import offsets_by_name
 
     offsets = {"cam01": np.float32(0), "cam02": np.float64(0.25), "cam03": np.int64(1)}
     assert offsets_by_name(offsets, ["cam01", "cam02", "cam03"], "sync") == [0.0, 0.25, 1.0]

@@ -11,7 +11,7 @@ import pytest
 from audit_support import FAST, KEYPOINT_TIMING, OPENPOSE, platypose
 
 from platypose.cli.safe_names import printable, safe_name
-from platypose.pipeline import JobLog
+from platypose.lifting.job_log import JobLog
 
 TRICKS = {
     "\u202e": "right-to-left override",

@@ -11,8 +11,8 @@ import threading
 
 import pytest
 
-from platypose.lifting.atomic import check_writable, write_text_atomic
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import check_writable, write_text_atomic
 
 
 def _device(path, minor: int):

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 from export_helpers import camera_facing, climb_joints
 
-from platypose.lifting.flags import flag_text, person_lines
-from platypose.lifting.plausibility import plausibility
+from platypose.lifting.checks.flags import flag_text, person_lines
+from platypose.lifting.checks.plausibility import plausibility
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 

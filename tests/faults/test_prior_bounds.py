@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.prior import load_prior, save_prior
+from platypose.lifting.prior.model import load_prior, save_prior
 from platypose.lifting.settings import SamplerConfig
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.file_reads import check_readable_inputs
+from platypose.lifting.files.reads import check_readable_inputs
 
 TAKE = Path(__file__).parents[2] / "data" / "video" / "pose2sim-balancing"
 

@@ -12,7 +12,7 @@ import pytest
 
 from platypose.detectors.sources import read_keypoints
 from platypose.lifting.calibration import load_calibration
-from platypose.lifting.sync_choice import synchronise, trusted_offsets
+from platypose.lifting.sync.choice import synchronise, trusted_offsets
 from platypose.pipeline import match_cameras
 
 TAKE = Path(__file__).resolve().parents[2] / "data/video/pose2sim-balancing"

@@ -1,4 +1,4 @@
-"""``lifting.atomic``: the target appears whole or not at all, and no temporary file is left behind."""
+"""``lifting.files.atomic``: the target appears whole or not at all, and no temporary file is left behind."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import stat
 import numpy as np
 import pytest
 
-from platypose.lifting.atomic import atomic_open, atomic_path, write_text_atomic
+from platypose.lifting.files.atomic import atomic_open, atomic_path, write_text_atomic
 
 
 def test_write_text_replaces_target_and_leaves_no_temp(tmp_path):

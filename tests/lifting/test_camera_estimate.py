@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from camera_scenes import scene_keypoints, walkers
 
-from platypose.lifting import camera_estimate
+from platypose.lifting.calibration import from_people as camera_estimate
+from platypose.lifting.calibration.from_people import estimate_camera
 from platypose.lifting.calibration.lens import METADATA, PRIOR, lens_focal
-from platypose.lifting.camera_estimate import estimate_camera
-from platypose.lifting.camera_fit import fit_view
-from platypose.lifting.camera_pose import pose_of, posed_camera
+from platypose.lifting.calibration.one_view import fit_view
+from platypose.lifting.calibration.pose_above_floor import pose_of, posed_camera
 
 SCENES = [  # pitch, roll, focal (px), height (m), walkers (x, y, heading)
     (20.0, 8.0, 1400.0, 3.0, [(-1.5, 6.0, 30.0), (1.0, 9.0, -60.0), (0.5, 5.0, 120.0)]),

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.lifting.body_checks import angles_out_of_range, bone_lengths_out_of_range, joint_flexions
-from platypose.lifting.flags import flag_text, person_lines
-from platypose.lifting.plausibility import body_plausibility
+from platypose.lifting.checks.body import angles_out_of_range, bone_lengths_out_of_range, joint_flexions
+from platypose.lifting.checks.flags import flag_text, person_lines
+from platypose.lifting.checks.plausibility import body_plausibility
 from platypose.lifting.skeleton import JOINT_INDEX
 
 
@@ -80,7 +80,7 @@ def test_a_real_one_view_forearm_that_swings_in_a_frame_is_flagged_with_its_fram
     of the same take turn no hinge faster than a body can."""
     from pathlib import Path
 
-    from platypose.lifting.body_checks import HINGE_SPEED_DEG_S, hinge_jumps
+    from platypose.lifting.checks.body import HINGE_SPEED_DEG_S, hinge_jumps
 
     lifts = Path(__file__).parents[1] / "data" / "lifts"
     assert hinge_jumps(np.load(lifts / "pose2sim_4views_median.npy"), fps=60.0) == {}

@@ -1,4 +1,4 @@
-"""Signed hinges and the joint-limit energy guidance adds (lifting/hinges.py, issue 42)."""
+"""Signed hinges and the joint-limit energy guidance adds (lifting/anatomy/hinges.py, issue 42)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from platypose.lifting.hinges import HINGE_NAMES, limit_energy, signed_flexion
+from platypose.lifting.anatomy.hinges import HINGE_NAMES, limit_energy, signed_flexion
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 LIFTS = Path(__file__).parents[1] / "data" / "lifts"

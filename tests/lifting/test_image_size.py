@@ -5,8 +5,9 @@ import pytest
 
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.errors import InputError
+from platypose.lifting.job_log import JobLog
 from platypose.media import video_info
-from platypose.pipeline import JobLog, check_image_size
+from platypose.pipeline import check_image_size
 
 
 def test_the_demo_calibration_states_its_videos_coded_size_and_is_not_warned_about(data_dir):

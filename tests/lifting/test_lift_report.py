@@ -3,9 +3,10 @@
 import numpy as np
 
 from platypose.lifting.camera import project
-from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.finish.steps import report_reprojection
+from platypose.lifting.job_log import JobLog
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.timebase import resample
-from platypose.pipeline import JobLog, report_reprojection
 
 
 def test_a_view_far_off_its_keypoints_is_warned_about(real_clips):

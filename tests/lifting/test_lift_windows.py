@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from platypose.lifting.camera import project
-from platypose.lifting.camera_rigs import ring_cameras
-from platypose.lifting.lift import lift_tracks
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import resample
-from platypose.lifting.windows import blend_weights, cut, plan_windows, stitch
+from platypose.lifting.tracks.stream import lift_tracks
+from platypose.lifting.tracks.windows import blend_weights, cut, plan_windows, stitch
 
 
 def test_plan_covers_the_track_and_weights_sum_to_one():
@@ -34,7 +34,7 @@ def _lifted_climbing(data_dir, views: int, seconds: int, samples: int = 8, seed:
     the mask of steps at window seams (into, inside and out of each overlap).
     """
     from platypose.lifting.motion_io import load_motion_paths
-    from platypose.lifting.prior import load_prior
+    from platypose.lifting.prior.model import load_prior
 
     prior, _ = load_prior()
     climb = load_motion_paths([data_dir / "motion" / "holosoma-climb"])[1]
@@ -93,7 +93,7 @@ def test_one_view_placement_does_not_drift_over_windows(data_dir):
     0.3 m over 15 s); each window now returns to the rays' own placement by its end.
     """
     from platypose.lifting.motion_io import load_motion_paths
-    from platypose.lifting.prior import load_prior
+    from platypose.lifting.prior.model import load_prior
 
     prior, _ = load_prior()
     climb = load_motion_paths([data_dir / "motion" / "holosoma-climb"])[1]

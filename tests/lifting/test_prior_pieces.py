@@ -9,8 +9,8 @@ import pytest
 import torch
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig, load_prior, save_prior
-from platypose.lifting.representation import FEATURES_PER_FRAME, Normalizer
+from platypose.lifting.prior.features import FEATURES_PER_FRAME, Normalizer
+from platypose.lifting.prior.model import MotionPrior, PriorBundle, PriorConfig, load_prior, save_prior
 
 PIECE = 20_000  # bytes: the small network below makes three or more pieces
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.lifting.representative import median_motion
+from platypose.lifting.finish.representative import median_motion
 
 DATA = Path(__file__).parents[1] / "data" / "lifts"
 
@@ -38,8 +38,8 @@ def test_the_answer_of_a_real_walker_bends_its_knees_forwards():
     over half the hypothesis-frames bend a knee backwards, the facing split between them, and the per-joint median
     of them all bends a knee backwards by more than 10 degrees in most frames. The answer, the median of the
     hypotheses that keep the limit and face one way, bends none so; its members face one side."""
-    from platypose.lifting.hinges import signed_flexion
-    from platypose.lifting.representative import _facings, agreeing
+    from platypose.lifting.anatomy.hinges import signed_flexion
+    from platypose.lifting.finish.representative import _facings, agreeing
 
     hypotheses = np.load(DATA / "sports2d_walker_hypotheses.npy").astype(np.float64)
     pelvis = hypotheses[..., :1, :]

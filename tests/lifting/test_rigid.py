@@ -1,4 +1,4 @@
-"""Rigid lifts (platypose.lifting.rigid, rigid_shape): the geometry against brute force, real motion, real lifts."""
+"""Rigid lifts (platypose.lifting.finish.rigid, rigid_shape): the geometry against brute force, real motion, real lifts."""
 
 from __future__ import annotations
 
@@ -13,17 +13,17 @@ from platypose.detectors.openpose import read_openpose_folder
 from platypose.exporters.bvh import write_bvh
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.camera import project
-from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.checks.plausibility import stance_slides
+from platypose.lifting.finish.rigid import place_on_sphere, rigid_motion, rigid_paths, smooth_over_time, two_bone_limb
+from platypose.lifting.finish.rigid_shape import RigidShape, body_frames, body_offsets, clip_shape
 from platypose.lifting.floor import CALIBRATED_FLOOR
-from platypose.lifting.plausibility import stance_slides
-from platypose.lifting.rigid import place_on_sphere, rigid_motion, rigid_paths, smooth_over_time, two_bone_limb
-from platypose.lifting.rigid_shape import RigidShape, body_frames, body_offsets, clip_shape
-from platypose.lifting.root import presence
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.rotations import rotvec_matrices
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.skeleton import bone_lengths
-from platypose.lifting.take import lift_persons
 from platypose.lifting.timebase import resample
+from platypose.lifting.tracks.persons import lift_persons
+from platypose.lifting.tracks.roots import presence
 from platypose.pipeline import lift_take
 
 TAKE = "video/pose2sim-balancing"
@@ -218,7 +218,7 @@ def test_the_bvh_of_a_real_lift_fits_within_the_issue_target(athlete, views, tmp
     """The Pose2Sim athlete (100 frames of OpenPose, cam01 alone or all four views), lifted with the shipped prior:
     the BVH of the median motion is within mean 10 mm, max 40 mm of it (issue 16's target; the sampler's own
     motion stretches bones by 9-15 cm, which kept the fit at 24 mm mean, 112 mm max for cam01)."""
-    from platypose.lifting.prior import load_prior
+    from platypose.lifting.prior.model import load_prior
 
     torch.set_num_threads(1)
     prior = load_prior()[0]
@@ -226,7 +226,7 @@ def test_the_bvh_of_a_real_lift_fits_within_the_issue_target(athlete, views, tmp
     config = SamplerConfig(samples=10, floor=CALIBRATED_FLOOR.plane)
     root = [None] if views == 1 else None
     if root is None:
-        from platypose.lifting.take import root_paths
+        from platypose.lifting.tracks.persons import root_paths
 
         root = root_paths(keypoints, times, cameras)
     result = lift_take(prior, keypoints[:views], times, np.array([0]), cameras[:views], root, config, WindowSettings())

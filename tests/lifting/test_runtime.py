@@ -6,9 +6,9 @@ import pytest
 import torch
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.prior import MotionPrior, PriorBundle, PriorConfig
-from platypose.lifting.representation import Normalizer
-from platypose.lifting.runtime import (
+from platypose.lifting.prior.features import Normalizer
+from platypose.lifting.prior.model import MotionPrior, PriorBundle, PriorConfig
+from platypose.lifting.prior.runtime import (
     BFloat16Denoiser,
     OnnxDenoiser,
     auto_runtime,
@@ -44,7 +44,7 @@ def test_inference_path_equals_the_encoder_modules(network) -> None:
 
 def test_inference_path_runs_float32_only(network, monkeypatch) -> None:
     """bfloat16 keeps torch's encoder-layer kernel (faster there than the fused path's attention)."""
-    import platypose.lifting.prior as prior_module
+    import platypose.lifting.prior.model as prior_module
 
     fused = prior_module.encode_for_inference
     calls = []

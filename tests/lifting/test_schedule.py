@@ -3,7 +3,7 @@
 import numpy as np
 import torch
 
-from platypose.lifting.schedule import DiffusionSchedule, cosine_alphas_cumprod, respaced_steps, sampling_steps
+from platypose.lifting.prior.schedule import DiffusionSchedule, cosine_alphas_cumprod, respaced_steps, sampling_steps
 
 
 def test_cosine_schedule_is_monotone_from_clean_to_noise():

@@ -7,8 +7,8 @@ from test_flags import standing
 
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.camera import project
+from platypose.lifting.finish.steady_depth import smooth_path, steady_person, trusted_frames
 from platypose.lifting.floor import Floor
-from platypose.lifting.steady_depth import smooth_path, steady_person, trusted_frames
 
 FLOOR = Floor((0.0, 0.0, 1.0), 1.7, "given")  # the camera (at the origin, level) 1.7 m above the floor
 

@@ -11,7 +11,7 @@ import pytest
 
 from platypose.detectors.openpose import read_openpose_folder
 from platypose.lifting.calibration import load_calibration
-from platypose.lifting.sync import estimate_offsets, lag_correlation, main_person, sample_at, with_offsets
+from platypose.lifting.sync.offsets import estimate_offsets, lag_correlation, main_person, sample_at, with_offsets
 
 TAKE = "video/pose2sim-balancing"
 

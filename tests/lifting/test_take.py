@@ -1,15 +1,15 @@
-"""The take-level lift of the library (platypose.lifting.take): root decisions and persons lifted into plain arrays."""
+"""The take-level lift of the library (platypose.lifting.tracks.persons): root decisions and persons lifted into plain arrays."""
 
 import numpy as np
 import pytest
 
 from platypose.lifting.camera import project
-from platypose.lifting.camera_rigs import ring_cameras
 from platypose.lifting.errors import InputError
-from platypose.lifting.root import presence
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.settings import SamplerConfig, WindowSettings
-from platypose.lifting.take import lift_persons, root_paths
 from platypose.lifting.timebase import resample
+from platypose.lifting.tracks.persons import lift_persons, root_paths
+from platypose.lifting.tracks.roots import presence
 
 
 def _take(real_clips, views: int, frames: int = 20):

@@ -6,8 +6,8 @@ import numpy as np
 
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.camera import project
+from platypose.lifting.finish.world import floor_world, level_on_floor, move_frames
 from platypose.lifting.floor import Floor
-from platypose.lifting.world import floor_world, level_on_floor, move_frames
 
 
 def tilted_floor(pitch_deg: float, height: float) -> Floor:

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from platypose.lifting.camera import project
-from platypose.lifting.camera_rigs import ring_cameras
 from platypose.lifting.offline.calibration import calibration_clip_names, fit_temperatures
-from platypose.lifting.prior import load_prior
+from platypose.lifting.offline.camera_rigs import ring_cameras
+from platypose.lifting.prior.model import load_prior
 from platypose.lifting.sampling.sampler import cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig
 from platypose.lifting.timebase import resample

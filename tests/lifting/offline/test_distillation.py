@@ -5,8 +5,8 @@ import pytest
 import torch
 
 from platypose.lifting.offline.distillation import END, distil_prior, halving_plan, two_step_target
-from platypose.lifting.prior import load_prior
-from platypose.lifting.schedule import DiffusionSchedule, sampling_steps
+from platypose.lifting.prior.model import load_prior
+from platypose.lifting.prior.schedule import DiffusionSchedule, sampling_steps
 from platypose.lifting.settings import DistilConfig
 
 TEACHER_STEPS = sampling_steps(10, 2)  # the shipped sampler's 8 calls: 38, 32, 27, 21, 16, 10, 5, 0
@@ -89,8 +89,8 @@ def test_a_distilled_student_keeps_the_teachers_manifest_and_resumes_to_the_same
 def test_the_sampler_calls_a_distilled_prior_at_its_steps(real_clips, tiny_prior, tmp_path, heldout_window):
     """Four calls at the student's steps, guidance between them: four views still land on the truth."""
     from platypose.lifting.camera import project
-    from platypose.lifting.camera_rigs import ring_cameras
     from platypose.lifting.offline import metrics
+    from platypose.lifting.offline.camera_rigs import ring_cameras
     from platypose.lifting.sampling.sampler import cameras_and_rays, network_steps, sample
     from platypose.lifting.settings import SamplerConfig
 

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.offline.evaluation import centred_gap, lift_windows, look_target, place_window
 from platypose.lifting.settings import SamplerConfig
 

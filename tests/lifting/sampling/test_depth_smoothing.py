@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.sampling.depth_smoothing import smooth_depth
 from platypose.lifting.timebase import resample
 

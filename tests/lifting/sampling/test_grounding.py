@@ -13,20 +13,20 @@ from platypose.detectors.multiview import match_across_views
 from platypose.detectors.openpose import read_openpose_folder
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.defaults import default_camera
-from platypose.lifting.errors import InputError
-from platypose.lifting.flags import person_lines
-from platypose.lifting.floor import CALIBRATED_FLOOR, ESTIMATE, estimate_floor, parse_floor
-from platypose.lifting.lift import lift_tracks
-from platypose.lifting.plausibility import (
+from platypose.lifting.checks.flags import person_lines
+from platypose.lifting.checks.plausibility import (
     lasting,
     lowest_ankle,
     plausibility,
     stance_ankles,
     stance_slides,
 )
+from platypose.lifting.errors import InputError
+from platypose.lifting.floor import CALIBRATED_FLOOR, ESTIMATE, estimate_floor, parse_floor
 from platypose.lifting.sampling.grounding import Grounding, image_still_ankles
 from platypose.lifting.sampling.sampler import cameras_and_rays
 from platypose.lifting.settings import SamplerConfig, WindowSettings
+from platypose.lifting.tracks.stream import lift_tracks
 from platypose.lifting.triangulation import triangulate
 
 TAKE = "video/pose2sim-balancing"
@@ -61,7 +61,7 @@ def sports2d(data_dir: Path):
 
 @pytest.fixture(scope="module")
 def shipped_prior():
-    from platypose.lifting.prior import load_prior
+    from platypose.lifting.prior.model import load_prior
 
     torch.set_num_threads(1)
     return load_prior()[0]

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from platypose.lifting.camera import CameraBatch
-from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.sampling.energy import Observations, reprojection_energy, reprojection_terms
 from platypose.lifting.sampling.linalg import (
     SYMMETRIC_PAIRS,

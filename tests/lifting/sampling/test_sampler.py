@@ -5,8 +5,8 @@ import pytest
 import torch
 
 from platypose.lifting.camera import project
-from platypose.lifting.camera_rigs import ring_cameras
 from platypose.lifting.offline import metrics
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.sampling.placement import DEPTH_RANGE, limit_depth, typical_size
 from platypose.lifting.sampling.sampler import cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig

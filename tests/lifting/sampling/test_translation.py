@@ -4,7 +4,7 @@ import numpy as np
 import torch
 
 from platypose.lifting.camera import project
-from platypose.lifting.camera_rigs import ring_cameras
+from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.sampling.sampler import cameras_and_rays
 from platypose.lifting.sampling.translation import solve_translation
 

@@ -2,7 +2,7 @@
 
 Input is 2D keypoints of P persons seen by C calibrated cameras on one clock;
 output is N hypotheses per person at the input's frame times, each one
-continuous motion across windows (see :mod:`lifting.windows`). Each person is
+continuous motion across windows (see :mod:`lifting.tracks.windows`). Each person is
 lifted only over the spans where it is present, so the cost follows the
 person-frames present, not persons x clip length; windows of persons present at
 the same time, and their hypotheses, go through the network as one batch.
@@ -19,13 +19,13 @@ import numpy as np
 import torch
 
 from platypose.lifting.camera import Camera
-from platypose.lifting.prior import PriorBundle
-from platypose.lifting.root import presence
+from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.sampling.placement import Anchor
 from platypose.lifting.sampling.sampler import SampleResult, cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights
-from platypose.lifting.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
+from platypose.lifting.tracks.roots import presence
+from platypose.lifting.tracks.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
 
 CHUNK_FRAMES = 1024  # input frames per chunk at most: a long stretch nobody is in does not fill memory
 
@@ -149,7 +149,7 @@ def person_spans(
     overlap: int,
     max_gap: float = WindowSettings.max_gap,
 ) -> list[Span]:
-    """The spans where each person of keypoints ``(C, T, P, 17, 3)`` is present (:func:`lifting.root.presence`:
+    """The spans where each person of keypoints ``(C, T, P, 17, 3)`` is present (:func:`lifting.tracks.roots.presence`:
     seen, or unseen for at most ``max_gap`` seconds between seen frames), person by person in time order, each
     planned in windows of ``length`` prior frames sharing ``overlap``.
 
@@ -227,14 +227,14 @@ class KeypointWindows:
 
 
 def _pad(frames: np.ndarray, length: int) -> np.ndarray:
-    """``frames`` (t, ...) padded with NaN to ``length`` frames, as :func:`lifting.windows.cut` pads the last window."""
+    """``frames`` (t, ...) padded with NaN to ``length`` frames, as :func:`lifting.tracks.windows.cut` pads the last window."""
     if len(frames) >= length:
         return frames
     return np.concatenate([frames, np.full((length - len(frames), *frames.shape[1:]), np.nan, frames.dtype)])
 
 
 class StreamingStitch:
-    """:func:`lifting.windows.stitch` then :func:`lifting.timebase.interpolate` onto the input's frame times, streamed.
+    """:func:`lifting.tracks.windows.stitch` then :func:`lifting.timebase.interpolate` onto the input's frame times, streamed.
 
     Windows are added in order, each a tuple of arrays ``(F, ...)`` (frames first). After
     window w, every prior frame before window w+1 starts is final: those frames are

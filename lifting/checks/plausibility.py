@@ -12,7 +12,7 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
 - ``spread``: the hypotheses' pelvises lie more than ``SPREAD`` from their median (90 % of them, median
   over frames);
 - ``bone lengths`` and ``joint angles``: the median motion's limb bones outside human lengths, its joints outside
-  human range (:mod:`lifting.body_checks`);
+  human range (:mod:`lifting.checks.body`);
 - ``behind camera``: in more than ``BEHIND_SHARE`` of the frames a camera sees a person (4 joints or more), the median
   motion's pelvis lies less than ``MIN_DEPTH`` in front of that camera, or behind it (camera-frame z). No camera sees
   what is behind it: keypoints upside down, or all at one pixel, can still be reprojected by a body placed behind
@@ -20,7 +20,7 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
 - ``hinge jumps``: its signed knee or elbow flexion changing faster than a body turns a hinge, with the frames.
 
 Being seen by fewer than two cameras in most frames present is not a flag but the report's ``one_view``. The report's
-``flag_text`` says every flag with its figure in one sentence (:func:`lifting.flags.flag_text`).
+``flag_text`` says every flag with its figure in one sentence (:func:`lifting.checks.flags.flag_text`).
 
 Not everyone stands on the floor: a hypothesis's standing height at a time (:func:`standing_heights`) is the low
 ``STANDING_QUANTILE`` of its lower ankle within ``SUPPORT_WINDOW`` either side, and the person's support
@@ -35,8 +35,8 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from platypose.lifting.body_checks import angles_out_of_range, bone_lengths_out_of_range, hinge_jumps
 from platypose.lifting.camera import Camera
+from platypose.lifting.checks.body import angles_out_of_range, bone_lengths_out_of_range, hinge_jumps
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
 
 UNDER_FLOOR = 0.03  # metres below the floor
@@ -195,7 +195,7 @@ def person_plausibility(
 
 
 def body_plausibility(report: dict, median: np.ndarray, fps: float = 30.0) -> dict:
-    """``report`` with the body checks of the person's median motion ``(T, 17, 3)`` at ``fps`` (:mod:`lifting.body_checks`):
+    """``report`` with the body checks of the person's median motion ``(T, 17, 3)`` at ``fps`` (:mod:`lifting.checks.body`):
     ``bone_lengths_out``, ``angles_out`` and ``hinge_jumps`` (empty when human), flagged ``bone lengths``, ``joint
     angles`` and ``hinge jumps``. Bones are checked only where several views measured them: one view's limbs are the
     prior's guess, held to adult lengths."""
@@ -237,8 +237,8 @@ def plausibility(
     like one, read ``chunk`` frames at a time) at ``fps``, keypoints ``(C, T, P, 17, 3)`` (x, y, confidence) on the
     same frames; given their ``median`` ``(P, T, 17, 3)``, with its :func:`body_plausibility` too, and with the
     ``cameras`` too, its :func:`camera_depths` (flagged ``behind camera``). Each report ends with its ``flag_text``
-    (:func:`lifting.flags.flag_text`)."""
-    from platypose.lifting.flags import flag_text
+    (:func:`lifting.checks.flags.flag_text`)."""
+    from platypose.lifting.checks.flags import flag_text
 
     by_camera = (np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= 4  # (C, T, P) cameras seeing 4+ joints
     seen = by_camera.sum(axis=0)  # (T, P)

@@ -2,15 +2,15 @@
 
 - **Bone lengths**: each limb bone's median length over the clip (thigh, shin, upper arm, forearm) inside the range
   of statures ``STATURE_RANGE_M`` (children to tall adults) by Drillis & Contini's segment fractions
-  (:mod:`lifting.anthropometry`), widened by ``LENGTH_MARGIN``; and each bone within ``MIRROR_RATIO`` of its mirror
+  (:mod:`lifting.anatomy.lengths`), widened by ``LENGTH_MARGIN``; and each bone within ``MIRROR_RATIO`` of its mirror
   image. One view cannot measure a bone (its limbs are held to adult lengths, their asymmetry is the prior's guess),
-  so :func:`lifting.plausibility.body_plausibility` checks bones only where several views measured them.
+  so :func:`lifting.checks.plausibility.body_plausibility` checks bones only where several views measured them.
 - **Joint angles**: per frame, knee and elbow flexion (180 degrees less the angle the joint's two bones make) and
   hip flexion (180 degrees less the angle between the trunk, pelvis to thorax, and the thigh), each at most its
   ``FLEXION_LIMITS_DEG`` (tissue stops a knee or elbow folding flat, a thigh from passing through the trunk), and
   knee hyperextension (the shin bent forwards about the hips' axis) at most ``KNEE_HYPEREXTENSION_DEG``. A joint is
   out of range when more than ``ANGLE_SHARE`` of the frames the person is present put it there.
-- **Hinge jumps**: the signed knee and elbow flexion the angles CSV and ``.mot`` carry (:mod:`lifting.hinges`)
+- **Hinge jumps**: the signed knee and elbow flexion the angles CSV and ``.mot`` carry (:mod:`lifting.anatomy.hinges`)
   changing faster than ``HINGE_SPEED_DEG_S`` between two frames the person is present in (a throwing elbow peaks
   near 2,500 degrees per second; walking and balancing stay far below): the frames, whatever made them.
 """
@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.lifting.anthropometry import DEFINITION_MARGIN, SEGMENT_FRACTIONS
-from platypose.lifting.hinges import HINGE_NAMES, signed_flexion
+from platypose.lifting.anatomy.hinges import HINGE_NAMES, signed_flexion
+from platypose.lifting.anatomy.lengths import DEFINITION_MARGIN, SEGMENT_FRACTIONS
 from platypose.lifting.skeleton import BONES, JOINT_INDEX, JOINT_NAMES, MIRROR
 
 STATURE_RANGE_M = (1.0, 2.1)  # children of about 5 years to tall adults

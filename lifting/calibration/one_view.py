@@ -1,4 +1,4 @@
-"""One uncalibrated view's camera, estimated from its people (:mod:`platypose.lifting.camera_estimate`) with the
+"""One uncalibrated view's camera, estimated from its people (:mod:`platypose.lifting.calibration.from_people`) with the
 focal length of its lens (:mod:`platypose.lifting.calibration.lens`), as a camera in the estimated world (z up,
 the floor z = 0, the camera on the z axis looking along +y), and the sentence that says what was found.
 
@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from platypose.lifting.calibration.from_people import MIN_OBSERVATIONS, CameraEstimate, estimate_camera
 from platypose.lifting.calibration.lens import METADATA, lens_focal
+from platypose.lifting.calibration.pose_above_floor import posed_camera
 from platypose.lifting.camera import Camera
-from platypose.lifting.camera_estimate import MIN_OBSERVATIONS, CameraEstimate, estimate_camera
-from platypose.lifting.camera_pose import posed_camera
 
 
 def estimate_note(estimate: CameraEstimate) -> str:

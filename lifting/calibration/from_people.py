@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from platypose.lifting.camera_pose import rotation
+from platypose.lifting.calibration.pose_above_floor import rotation
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES
 
 BODY = (0, 8, 9, 10)  # pelvis, thorax, neck, head (lifting.skeleton order), above the point stood on

@@ -3,7 +3,7 @@
 The sampler's motions stretch: a bone of one hypothesis changes its length between frames by
 centimetres with several views and by decimetres with one (docs/results.md), and the hips, spine,
 shoulders and neck move against each other, while a person's bones do not. After lifting, each
-hypothesis gets one rigid shape (:mod:`lifting.rigid_shape`: one length per bone, one shape per rigid
+hypothesis gets one rigid shape (:mod:`lifting.finish.rigid_shape`: one length per bone, one shape per rigid
 body, the medians over the frames where the person is present; one camera leaves every hypothesis its
 own size, so shapes are per hypothesis), and every frame is moved onto it from the pelvis outwards,
 each joint moving as little as it can *across the rays* of the views that see it, that is, in the
@@ -27,14 +27,14 @@ view (in most frames) each bone's direction and each body's rotation is then smo
 at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the clip's shape:
 rigid and smooth. Rebuilt so from the pelvis, a foot that stood still in the sampler's motion would slide
 (the sampler holds stance ankles, :mod:`lifting.grounding`): so each ankle that stands there (stance as
-:func:`lifting.plausibility.stance_ankles` finds it, however briefly) goes back to where the sampler planted
+:func:`lifting.checks.plausibility.stance_ankles` finds it, however briefly) goes back to where the sampler planted
 it (a run of standing frames at its mean, where the run stays within ``HOLD_SPREAD`` of it), the knee onto the circle
 that thigh and shin allow (:func:`two_bone_limb`). Several views need no smoothing (it cost them
 accuracy). Last, a frame whose
 lowest joint the above took under the floor (and under where the sampler had it) is raised along
 the floor's normal to where the sampler had it.
 
-The median motion (``lifting.take``) is then the coordinate-wise median of these rigid
+The median motion (``lifting.tracks.persons``) is then the coordinate-wise median of these rigid
 hypotheses, made rigid the same way with its own shape: a median of rigid motions is not rigid
 itself.
 """
@@ -46,18 +46,18 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.linalg import solveh_banded
 
-from platypose.lifting.anthropometry import clamp_to_adult
+from platypose.lifting.anatomy.lengths import clamp_to_adult
 from platypose.lifting.camera import Camera
-from platypose.lifting.floor import Floor
-from platypose.lifting.plausibility import stance_ankles
-from platypose.lifting.representative import median_motion
-from platypose.lifting.rigid_shape import (
+from platypose.lifting.checks.plausibility import stance_ankles
+from platypose.lifting.finish.representative import median_motion
+from platypose.lifting.finish.rigid_shape import (
     BODY_JOINTS,
     RigidShape,
     body_offsets,
     clip_shape,
     rebuild,
 )
+from platypose.lifting.floor import Floor
 from platypose.lifting.rotations import kabsch, rotvec_matrices, skew
 from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
 
@@ -213,7 +213,7 @@ def rigid_paths(
     floor: tuple[float, float, float, float] | None = None,
 ) -> np.ndarray:
     """Motions ``(K, T, 17, 3)`` of one person (NaN where absent) made rigid, each with its ``shape`` (lengths
-    ``(K, 16)``, bodies ``(K, B, 3, 3)``; :func:`lifting.rigid_shape.clip_shape`). See the module.
+    ``(K, 16)``, bodies ``(K, B, 3, 3)``; :func:`lifting.finish.rigid_shape.clip_shape`). See the module.
 
     ``centres`` ``(C, 3)``: the views' centres; ``seen`` ``(T, 17, C)``: which view sees which joint;
     ``fps``: the motions' frame rate; ``floor`` ``(nx, ny, nz, d)`` or None.
@@ -311,8 +311,8 @@ def _smooth_frames(values: np.ndarray, smoothness: float) -> np.ndarray:
 
 
 def person_shape(motions: np.ndarray, views: int) -> RigidShape:
-    """The rigid shape of motions ``(K, T, 17, 3)`` (:func:`lifting.rigid_shape.clip_shape`); from one view, its
-    limb bones held to adult lengths (:mod:`lifting.anthropometry`): a camera alone cannot measure them, and
+    """The rigid shape of motions ``(K, T, 17, 3)`` (:func:`lifting.finish.rigid_shape.clip_shape`); from one view, its
+    limb bones held to adult lengths (:mod:`lifting.anatomy.lengths`): a camera alone cannot measure them, and
     the sampler's guesses ran to 12 cm forearms. Several views measure every bone: their lengths stand."""
     shape = clip_shape(motions)
     return shape if views > 1 else RigidShape(clamp_to_adult(shape.lengths), shape.bodies)

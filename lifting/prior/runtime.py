@@ -4,7 +4,7 @@
 much faster than float32 ones (measured once per process, :func:`auto_runtime`), else float32.
 
 A runner has the network's call signature ``(x_t (B, F, D), t) -> x0 (B, F, D)`` and its
-``config``, so :func:`with_runtime` can swap it into a :class:`~lifting.prior.PriorBundle`
+``config``, so :func:`with_runtime` can swap it into a :class:`~lifting.prior.model.PriorBundle`
 without the sampler knowing. Guidance always runs in float32 on the observations' device.
 """
 
@@ -23,7 +23,7 @@ import torch
 from torch import nn
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.prior import MotionPrior, PriorBundle, load_prior
+from platypose.lifting.prior.model import MotionPrior, PriorBundle, load_prior
 from platypose.lifting.settings import DEVICES, RUNTIMES
 
 BFLOAT16_GAIN = 1.5  # auto picks bfloat16 when its matrix products are at least this many times faster

@@ -8,7 +8,7 @@ the median position of all the hypotheses.
 The middle is taken over the hypotheses a body can be, facing one way (:func:`agreeing`): from one camera a pose
 and its mirror in depth fit the keypoints alike, and the per-joint median of a pose facing the camera and one
 facing away, each with its knees bent forwards, is a pose with its knees bent backwards. So, per frame, the
-hypotheses with a knee bent backwards past ``HYPEREXTENSION_MARGIN_DEG`` (:mod:`lifting.hinges`) are left out,
+hypotheses with a knee bent backwards past ``HYPEREXTENSION_MARGIN_DEG`` (:mod:`lifting.anatomy.hinges`) are left out,
 the others split by the way their pelvis faces (the two sides of the axis their facings spread along), and the
 median is taken over the side more of them take, that choice held over ``FACING_FRAMES`` frames so that the
 answer does not flip between them. A frame with no such hypothesis keeps them all.
@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 
-from platypose.lifting.hinges import HYPEREXTENSION_MARGIN_DEG, signed_flexion
+from platypose.lifting.anatomy.hinges import HYPEREXTENSION_MARGIN_DEG, signed_flexion
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 FACING_FRAMES = 9  # frames the vote for a facing is summed over (centred): a side is kept for at least this long

@@ -1,6 +1,6 @@
 """Where each person is and when: triangulated root paths, gap filling, and the frames a person is present.
 
-Arrays follow :func:`lifting.lift.lift_tracks`: keypoints ``(C, T, P, 17, 3)``
+Arrays follow :func:`lifting.tracks.stream.lift_tracks`: keypoints ``(C, T, P, 17, 3)``
 (x, y, confidence; confidence 0 = missing) on one clock ``(T,)``.
 """
 

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.file_reads import file_kind
+from platypose.lifting.files.reads import file_kind
 
 
 def existing_kind(target: Path | str, streams: bool = True) -> str | None:

@@ -3,7 +3,7 @@
 Shared by ``platypose lift --sync`` / ``calib check --sync`` and ``platypose.lift(sync=...)``:
 
 - ``none``: the calibration's ``time_offset_s`` as it is;
-- ``auto``: each view's offset estimated from its 2D keypoints (:mod:`platypose.lifting.sync`),
+- ``auto``: each view's offset estimated from its 2D keypoints (:mod:`platypose.lifting.sync.offsets`),
   logged with its confidence; an estimate of low confidence, or a large one of middling confidence, is not applied
   (the calibration's offset is kept, and that is a warning); a search stopped at its bound is a warning;
 - a JSON file ``{"cam01": 0.0, "cam02": 0.12}`` (or the ``offsets_s`` of a file written by ``auto``),
@@ -119,7 +119,7 @@ def synchronise(
     warn: Callable[[str], None],
 ) -> Synced:
     """The cameras with the time offsets ``choice`` asks for; ``keypoints[c]`` (T_c, P, J, 3) on ``frame_times[c]``."""
-    from platypose.lifting.sync import MIN_MOTION, estimate_offsets, main_person, with_offsets
+    from platypose.lifting.sync.offsets import MIN_MOTION, estimate_offsets, main_person, with_offsets
 
     names = [c.name for c in cameras]
     if isinstance(choice, Mapping):
@@ -171,7 +171,7 @@ def synchronise(
 def trusted_offsets(
     estimate: Any, cameras: Sequence[Camera], shortest_s: float, warn: Callable[[str], None]
 ) -> list[float]:
-    """Each camera's offset: the estimate (:class:`platypose.lifting.sync.SyncEstimate`) where it can be trusted,
+    """Each camera's offset: the estimate (:class:`platypose.lifting.sync.offsets.SyncEstimate`) where it can be trusted,
     else the calibration's (said once per camera): an estimate under ``LOW_CONFIDENCE`` is not applied, nor one
     moving a view by more than ``LARGE_SHARE`` of the shortest clip (``shortest_s``) under ``HIGH_CONFIDENCE``."""
     offsets = [float(v) for v in estimate.offsets_s]

@@ -17,10 +17,10 @@ import numpy as np
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
-from platypose.lifting.lift import lift_stream
-from platypose.lifting.prior import PriorBundle
-from platypose.lifting.root import fill_gaps, triangulated_root
+from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.settings import ROOT_MODES, SamplerConfig, WindowSettings
+from platypose.lifting.tracks.roots import fill_gaps, triangulated_root
+from platypose.lifting.tracks.stream import lift_stream
 from platypose.lifting.triangulation import view_median_errors
 
 MIN_ROOT_COVERAGE = 0.5  # share of frames with a triangulated pelvis needed to use the path (gaps interpolated)

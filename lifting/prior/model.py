@@ -21,9 +21,9 @@ import numpy as np
 import torch
 from torch import nn
 
-from platypose.lifting.atomic import atomic_open
 from platypose.lifting.errors import InputError
-from platypose.lifting.prior_checks import (
+from platypose.lifting.files.atomic import atomic_open
+from platypose.lifting.prior.checks import (
     CONFIG_BOUNDS,
     PIECES_FORMAT,
     check_config,
@@ -35,14 +35,14 @@ from platypose.lifting.prior_checks import (
     is_pieces_index,
     join_pieces,
 )
-from platypose.lifting.representation import FEATURES_PER_FRAME, Normalizer
-from platypose.lifting.schedule import TRAIN_STEPS
+from platypose.lifting.prior.features import FEATURES_PER_FRAME, Normalizer
+from platypose.lifting.prior.schedule import TRAIN_STEPS
 from platypose.lifting.skeleton import JOINT_NAMES
 
 CHECKPOINT_FORMAT = "platypose-prior"
 CHECKPOINT_VERSION = 1
 MAX_WINDOW_FRAMES = 4096
-DEFAULT_PRIOR = Path(__file__).resolve().parent / "priors" / "default.pt"
+DEFAULT_PRIOR = Path(__file__).resolve().parent / "weights" / "default.pt"
 PIECE_BYTES = 16 * 2**20  # larger checkpoints are written as pieces of at most this size beside a small index
 
 
@@ -239,7 +239,7 @@ def write_checkpoint_bytes(path: Path, data: bytes, piece_bytes: int = PIECE_BYT
 
 def read_checkpoint_bytes(path: Path) -> bytes:
     """The bytes of the checkpoint at ``path``: the file itself, or the pieces its index names, joined and checked
-    (:func:`lifting.prior_checks.join_pieces`)."""
+    (:func:`lifting.prior.checks.join_pieces`)."""
     data = path.read_bytes()
     return join_pieces(path, data) if is_pieces_index(data[:256]) else data
 

@@ -1,6 +1,6 @@
 """The words that say what is wrong with a person's lift: one sentence per person, the same wherever it is shown.
 
-A person's plausibility report (:mod:`lifting.plausibility`) carries ``flags`` (names) and the figures behind them;
+A person's plausibility report (:mod:`lifting.checks.plausibility`) carries ``flags`` (names) and the figures behind them;
 :func:`flag_text` turns them into one sentence, which the lift stores in the report as ``flag_text`` so the console,
 ``log.txt``, ``summary.json``, the report picture and the rerun recording all say the same. Only what is wrong is
 flagged: under the floor, sliding, a spread over ``SPREAD``, limb bones outside human lengths, joints outside human
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.lifting.body_checks import HINGE_SPEED_DEG_S
-from platypose.lifting.plausibility import ON_FLOOR, SPREAD, UNDER_FLOOR
+from platypose.lifting.checks.body import HINGE_SPEED_DEG_S
+from platypose.lifting.checks.plausibility import ON_FLOOR, SPREAD, UNDER_FLOOR
 
 
 def _frames(frames: list[int], shown: int = 8) -> str:
@@ -68,7 +68,7 @@ def flag_text(report: dict) -> str:
 
 def support_text(levels: list[dict]) -> str:
     """Where a person stands off the floor, from their support ``levels``
-    (:func:`lifting.plausibility.support_levels`)."""
+    (:func:`lifting.checks.plausibility.support_levels`)."""
     parts = [
         f"{abs(level['height_m']):.2f} m {'above' if level['height_m'] > 0 else 'below'} the floor in frames "
         f"{level['first_frame']}-{level['last_frame']}"

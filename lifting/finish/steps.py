@@ -1,0 +1,99 @@
+"""Everything that happens to a take after sampling, in order, behind :func:`finish_take`.
+
+1. one grounded view: each solved root's depth steadied along its ray (:mod:`platypose.lifting.finish.steady_depth`);
+2. rigid people: one shape per hypothesis over the clip (:func:`platypose.lifting.finish.rigid.rigid_person`);
+3. the median motion's reprojection against the keypoints, per view (:func:`report_reprojection`);
+4. plausibility of each person (:mod:`platypose.lifting.checks.plausibility`), said in one line each;
+5. on an estimated floor, every output moved into the estimated world (:mod:`platypose.lifting.finish.world`).
+
+The arrays are changed in place; what the result's ``meta`` keeps is returned.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from platypose.lifting.camera import Camera
+from platypose.lifting.checks.flags import person_lines
+from platypose.lifting.checks.plausibility import plausibility
+from platypose.lifting.finish.rigid import rigid_person
+from platypose.lifting.finish.steady_depth import steady_person
+from platypose.lifting.finish.world import level_on_floor
+from platypose.lifting.floor import Floor
+from platypose.lifting.job_log import JobLog
+from platypose.lifting.tracks.persons import reprojection_report
+
+
+@dataclass(frozen=True)
+class FinishedTake:
+    """What finishing a take leaves besides its arrays: the cameras the outputs are in (moved into the estimated
+    world where the floor was estimated), and the ``meta`` entries ``floor``, ``reprojection_px``, ``plausibility``
+    (per person) and ``rigid_bones`` (per person)."""
+
+    cameras: tuple[Camera, ...]
+    floor: dict | None
+    reprojection_px: dict[str, float]
+    plausibility: list[dict]
+    rigid_bones: dict[str, dict]
+
+
+def finish_take(
+    hypotheses,
+    median,
+    keypoints: np.ndarray,
+    times: np.ndarray,
+    track_ids: np.ndarray,
+    cameras: Sequence[Camera],
+    roots: Sequence[np.ndarray | None],
+    fps: float,
+    plane: np.ndarray | None,
+    floor: Floor | None,
+    floor_meta: dict | None,
+    log: JobLog,
+) -> FinishedTake:
+    """Finish the sampled ``hypotheses`` (P, N, T, 17, 3) and ``median`` (P, T, 17, 3) of persons ``track_ids`` seen
+        as ``keypoints`` (C, T, P, 17, 3) on ``times`` by ``cameras``, with their root paths ``roots`` (None: solved per
+        hypothesis), grounded on ``plane`` (the sampler's floor, or None), checked against ``floor`` (``floor_meta`` its
+    meta entry; None: no floor). Each step is logged."""
+    if len(cameras) == 1 and plane is not None:  # one grounded view: steady each solved root's depth
+        for p, track in ((p, t) for p, t in enumerate(track_ids) if roots[p] is None):
+            seen = (np.nan_to_num(keypoints[0, :, p, :, 2]) > 0).sum(axis=-1)  # joints seen per frame
+            moved = steady_person(hypotheses, p, cameras[0], fps, plane, seen, times)
+            log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
+    rigid = {}
+    for p, track in enumerate(track_ids):
+        began = time.perf_counter()
+        rigid[f"p{track}"] = stats = rigid_person(hypotheses, median, keypoints, cameras, p, fps, plane)
+        log(
+            f"person {track}: made rigid in {time.perf_counter() - began:.1f} s (the sampler's median motion "
+            f"stretched its bones by up to {1000 * stats['stretch_m']:.0f} mm); its joints moved "
+            f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
+        )
+    report = report_reprojection(median, keypoints, cameras, log)
+    persons = plausibility(hypotheses, keypoints, floor, fps, median=median, cameras=cameras)
+    for track, person in zip(track_ids, persons):
+        person["track_id"] = int(track)
+    for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
+        log(line)
+    if floor_meta and floor_meta["source"] == "estimated":  # outputs in the estimated world: z = 0 the floor, z up
+        camera, floor_meta = level_on_floor(floor, floor_meta, cameras[0], (hypotheses, median))
+        cameras = [camera]
+        log(f"outputs in the {floor_meta['frame']}")
+    return FinishedTake(tuple(cameras), floor_meta, report, persons, rigid)
+
+
+def report_reprojection(median, keypoints: np.ndarray, cameras: Sequence[Camera], log: JobLog) -> dict[str, float]:
+    """:func:`platypose.lifting.tracks.persons.reprojection_report` logged: one line of per-view pixels, then its warnings."""
+    report, warnings = reprojection_report(median, keypoints, cameras)
+    if report:
+        log(
+            "median motion against the keypoints (median px per view): "
+            + ", ".join(f"{name} {value:.1f}" for name, value in report.items())
+        )
+    for warning in warnings:
+        log.warning(warning)
+    return report

@@ -1,0 +1,1 @@
+"""Lifting tracks: each person's root path, windows sampled in batches and stitched, streamed into arrays."""
