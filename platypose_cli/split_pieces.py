@@ -25,6 +25,7 @@ import numpy as np
 
 from platypose.lifting.errors import InputError
 
+DEATHS = 2  # on this machine, a piece is run again after its worker died this many times (as Ray's max_retries)
 PIECES = ".pieces"  # in OUT/<name>/: piece results of a split lift, until its files are written
 Task = tuple[Callable, tuple]  # a module-level function and its (picklable) arguments
 
@@ -81,13 +82,13 @@ def lift_piece(prior_settings, inputs: dict, path: str) -> None:
         np.savez(stream, hypotheses=hypotheses, energy=energy)
 
 
-def _retry_message(name: str, err: BaseException) -> str:
-    return f"piece {name} failed twice: {type(err).__name__}: {' '.join(str(err).split())}"
+def _retry_message(name: str, err: BaseException, attempts: int) -> str:
+    return f"piece {name} failed {attempts} times: {type(err).__name__}: {' '.join(str(err).split())}"
 
 
 class LocalPieces:
-    """Piece tasks in ``workers`` spawned processes of this machine (each with ``threads`` threads); a task that fails
-    other than for bad input is run once more (in a new pool if its worker died)."""
+    """Piece tasks in ``workers`` spawned processes of this machine (each with ``threads`` threads); a task that raises
+    other than for bad input is run once more, and the tasks of a pool whose worker died are run again in a new one."""
 
     def __init__(self, workers: int, threads: int) -> None:
         self.workers, self.threads, self.pool = workers, threads, None
@@ -113,32 +114,39 @@ class LocalPieces:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
     def run(self, tasks: Sequence[Task], names: Sequence[str], each: Callable[[int], None] = lambda i: None) -> None:
-        """Run ``tasks``; ``each(i)`` as task i finishes. InputError of a task is raised as it is; a task that fails
-        twice raises RuntimeError naming it."""
+        """Run ``tasks``; ``each(i)`` as task i finishes. InputError of a task is raised as it is; a task that raises
+        twice, or is in the pool when a worker dies ``DEATHS`` times, raises RuntimeError naming it."""
         from concurrent.futures.process import BrokenProcessPool
 
-        futures = {self.pool.submit(fn, *args): (i, 0) for i, (fn, args) in enumerate(tasks)}
+        futures = {self.pool.submit(fn, *args): (i, 0, 0) for i, (fn, args) in enumerate(tasks)}
         while futures:
             done, _ = wait(list(futures), return_when=FIRST_COMPLETED)
             for future in done:
                 if future not in futures:  # started again in a new pool
                     continue
-                i, attempt = futures.pop(future)
+                i, failed, deaths = futures.pop(future)
                 try:
                     future.result()
                 except InputError:
                     raise
+                except BrokenProcessPool as err:  # a worker died: every task still in the pool starts again
+                    if deaths >= DEATHS:
+                        raise RuntimeError(_retry_message(names[i], err, DEATHS + 1)) from err
+                    self.pool.shutdown(wait=False, cancel_futures=True)
+                    self.pool = self._new_pool()
+                    again = [(i, failed, deaths)] + list(futures.values())
+                    futures = {self.pool.submit(*_call(tasks[j])): (j, f, d + 1) for j, f, d in again}
                 except Exception as err:
-                    if attempt >= 1:
-                        raise RuntimeError(_retry_message(names[i], err)) from err
-                    if isinstance(err, BrokenProcessPool):  # every task still in the dead pool starts again
-                        self.pool.shutdown(wait=False, cancel_futures=True)
-                        self.pool = self._new_pool()
-                        again = list(futures.values())
-                        futures = {self.pool.submit(tasks[j][0], *tasks[j][1]): (j, k) for j, k in again}
-                    futures[self.pool.submit(tasks[i][0], *tasks[i][1])] = (i, attempt + 1)
-                    continue
-                each(i)
+                    if failed >= 1:
+                        raise RuntimeError(_retry_message(names[i], err, 2)) from err
+                    futures[self.pool.submit(*_call(tasks[i]))] = (i, failed + 1, deaths)
+                else:
+                    each(i)
+
+
+def _call(task: Task) -> tuple:
+    """A task as ``submit`` takes it: the function, then its arguments."""
+    return (task[0], *task[1])
 
 
 def on_ray_worker(fn: Callable, args: tuple, threads: int, cwd: str) -> None:

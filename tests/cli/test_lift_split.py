@@ -1,0 +1,241 @@
+"""``platypose lift --split-seconds``: one input's detection and lifting spread over piece tasks and joined (split_pieces,
+split_join), on the real sports2d demo video and its MoveNet detections with the session's tiny prior: pieces detect
+exactly the frames of an unsplit run, persons keep their hypotheses through a crossing at a seam, a resumed split
+redoes only the pieces that had not finished, a piece that fails (or whose worker dies) once is run again, bad values
+are one line."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from platypose.cli.detection import DetectOptions, cached_detector
+from platypose.cli.lift_batch import run_batch
+from platypose.cli.lift_jobs import discover_jobs
+from platypose.cli.lift_run import RunSettings, run_job
+from platypose.cli.split_pieces import PIECES, LocalPieces, SplitExecutor
+from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
+
+DEMO = "video/sports2d-demo"
+
+
+class InProcess:
+    """A piece pool that runs the tasks here, one after another; ``stop_at``: raise ``error`` before that task."""
+
+    def __init__(self, stop_at: int | None = None, error: type[BaseException] = RuntimeError) -> None:
+        self.stop_at, self.error, self.ran = stop_at, error, []
+
+    def __enter__(self) -> InProcess:
+        return self
+
+    def __exit__(self, *failure) -> None:
+        return None
+
+    def run(self, tasks, names, each=lambda i: None) -> None:
+        for i, (fn, args) in enumerate(tasks):
+            if len(self.ran) == self.stop_at:
+                raise self.error("stopped")
+            fn(*args)
+            self.ran.append(names[i])
+            each(i)
+
+
+def real_tracks(data_dir):
+    """The demo's MoveNet detections tracked (2 persons, 230 frames at 30 fps)."""
+    from platypose.detectors.cache import read_detections
+    from platypose.detectors.keypoints import to_our_joints
+    from platypose.detectors.tracking import track_detections
+
+    _, detections, indices = read_detections(data_dir / DEMO / "movenet-detections.npz")
+    return track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
+
+
+def seed_detections(data_dir, video: Path, folder: Path) -> None:
+    """The bundled MoveNet detections of ``video`` as its detection cache in ``folder`` (nothing is detected)."""
+    from platypose.detectors.cache import DetectionCache, cache_key, read_detections
+
+    options = DetectOptions(threads=1)
+    name = cached_detector(None, None, None, 1, options.provider, options.movenet_size).name
+    _, detections, indices = read_detections(data_dir / DEMO / "movenet-detections.npz")
+    folder.mkdir(parents=True, exist_ok=True)
+    DetectionCache(folder, video.stem).save(cache_key(video, name, 1, None), detections, indices)
+
+
+def test_pieces_detect_the_frames_of_an_unsplit_run(data_dir, tmp_path):
+    """Every 10th frame of the demo video detected in 3 s pieces (seeks into the video) is what one pass detects:
+    the same frame indices and the same keypoints, written as the video's detection cache."""
+    from platypose.cli.split_join import detect_in_pieces
+    from platypose.detectors.cache import DetectionCache, cache_key
+    from platypose.detectors.pipeline import detect_frames
+
+    video = data_dir / DEMO / "demo.mp4"
+    options = DetectOptions(threads=1, stride=10)
+    pool = InProcess()
+    detect_in_pieces(video, options, tmp_path / "demo", 3.0, pool)
+    assert len(pool.ran) == 3  # frames 0-89, 90-179, 180-end
+    model = cached_detector(None, None, None, 1, options.provider, options.movenet_size)
+    joined = DetectionCache(tmp_path / "demo", "demo").load(cache_key(video, model.name, 10, None))
+    detections, indices = detect_frames(video, model, stride=10)
+    assert np.array_equal(joined[1], indices) and np.array_equal(indices, np.arange(0, 230, 10))
+    assert all(np.array_equal(a, b) for a, b in zip(joined[0], detections))
+
+
+def test_persons_keep_their_hypotheses_through_a_crossing_at_a_seam(data_dir, tiny_prior, prior_file, tmp_path):
+    """The walker of the demo and his mirror image cross at frame 114; split there (pieces of 3.8 s), each person's
+    joined median reprojects onto that person's own keypoints around the seam (no swap of identities in the lift)
+    about as closely as the unsplit lift's and far from the other person's, and persons are absent in exactly the
+    frames they are in the unsplit lift."""
+    from platypose.cli.split_join import SplitLifter
+    from platypose.lifting.calibration import load_calibration
+    from platypose.lifting.tracks.persons import lift_persons
+    from platypose.lifting.tracks.roots import presence
+
+    walker = real_tracks(data_dir).keypoints[:, 1]
+    times = real_tracks(data_dir).frame_times
+    mirror = walker.copy()
+    mirror[..., 0] = 1768 - walker[..., 0]
+    keypoints = np.stack([walker, mirror], axis=1)[None]  # (1, T, 2, 17, 3)
+    centre = np.nanmedian(keypoints[0, :, :, :, 0], axis=-1)  # (T, 2)
+    crossing = int(np.nanargmin(np.abs(centre[:, 0] - centre[:, 1])))
+    assert 100 < crossing < 130
+    camera = load_calibration(data_dir / DEMO / "Calib_demo.toml").camera("demo")
+    windows, config = WindowSettings(), SamplerConfig(samples=4, seed=3)
+    absent = ~presence(keypoints, times, windows.max_gap)
+    pool = InProcess()
+    split = SplitLifter(pool, PriorSettings(path=prior_file), float(times[crossing] - times[0]), tmp_path, str)
+    medians = {}
+    for name, lifter in (("whole", lift_persons), ("split", split)):
+        hypotheses = np.empty((2, 4, len(times), 17, 3), np.float32)
+        medians[name] = np.empty((2, len(times), 17, 3), np.float32)
+        energy = np.empty((2, 4, len(times)), np.float32)
+        lifter(tiny_prior, keypoints, times, [camera], [None, None], absent, config, windows, hypotheses,
+               medians[name], energy)  # fmt: skip
+        assert np.array_equal(np.isnan(hypotheses).all(axis=(1, 3, 4)), absent)
+    assert len(pool.ran) == 3  # pieces of 0-3.8 s, 3.8-7.6 s, and the rest
+    near = slice(crossing - 15, crossing + 15)
+    for p in range(2):
+        projected = {name: camera.project(m[p, near].reshape(-1, 3)).reshape(30, 17, 2) for name, m in medians.items()}
+        own = {
+            name: np.nanmedian(np.linalg.norm(xy - keypoints[0, near, p, :, :2], axis=-1))
+            for name, xy in projected.items()
+        }
+        other = np.nanmedian(np.linalg.norm(projected["split"] - keypoints[0, near, 1 - p, :, :2], axis=-1))
+        assert own["split"] < 1.5 * own["whole"] + 5, own
+        assert other > 5 * own["split"], (other, own)
+
+
+def lift_settings_for(data_dir, prior_file, out: Path) -> RunSettings:
+    """Settings of a split lift of the demo (3 s pieces), 4 hypotheses, npz only."""
+    from platypose.pipeline import take_settings
+
+    take = take_settings(sampler=SamplerConfig(samples=4, seed=3), windows=WindowSettings())
+    return RunSettings(
+        out=out, cams=data_dir / DEMO / "Calib_demo.toml", prior=PriorSettings(path=Path(prior_file)),
+        detect=DetectOptions(threads=1), take=take, formats=("npz",), quiet=True, split_seconds=3.0,
+    )  # fmt: skip
+
+
+def test_a_resumed_split_redoes_only_the_pieces_left(data_dir, prior_file, tmp_path):
+    """A split lift interrupted after its first piece keeps that piece; ``--resume`` lifts the other two and writes
+    the same arrays as a split lift run in one go; the piece folder goes once the files are written."""
+    from platypose.exporters.npz import read_npz
+
+    video = data_dir / DEMO / "demo.mp4"
+    (job,) = discover_jobs([video])
+    results = {}
+    for run in ("interrupted", "in one go"):
+        settings = lift_settings_for(data_dir, prior_file, tmp_path / run)
+        seed_detections(data_dir, video, tmp_path / run / job.name)
+        if run == "interrupted":
+            with pytest.raises(KeyboardInterrupt):
+                run_job(job, settings, pieces=InProcess(stop_at=1, error=KeyboardInterrupt))
+            assert len(list((tmp_path / run / job.name / PIECES).glob("lift.*.npz"))) == 1
+            assert not (tmp_path / run / job.name / "lift.json").exists()
+        pool = InProcess()
+        (entry,) = run_batch(
+            [job], settings, resume=True, executor=SplitExecutor(lambda threads, quiet, pool=pool: pool)
+        )
+        assert entry["status"] == "ok", entry
+        assert len(pool.ran) == (2 if run == "interrupted" else 3)
+        assert not (tmp_path / run / job.name / PIECES).exists()
+        results[run] = read_npz(tmp_path / run / job.name / "demo.npz")
+    a, b = results.values()
+    assert list(a.track_ids) == list(b.track_ids) == [0, 1]
+    assert np.array_equal(a.hypotheses, b.hypotheses, equal_nan=True)
+    assert np.array_equal(a.median, b.median, equal_nan=True)
+
+
+def fails_once(marker: str) -> None:
+    """A piece task that fails the first time it runs (it leaves ``marker``), then succeeds."""
+    if not os.path.exists(marker):
+        Path(marker).touch()
+        raise RuntimeError("a transient failure")
+
+
+def dies_once(marker: str) -> None:
+    """A piece task whose worker process dies the first time (it leaves ``marker``)."""
+    if not os.path.exists(marker):
+        Path(marker).touch()
+        os._exit(3)
+
+
+def always_fails(marker: str) -> None:
+    """A piece task that always fails."""
+    raise RuntimeError(f"broken {Path(marker).name}")
+
+
+def test_a_piece_that_fails_once_is_run_again(tmp_path):
+    """On this machine's processes, a piece task that raises, or whose worker dies, once is run again and the split
+    goes on; one that fails twice stops it with a line naming the piece."""
+    done = []
+    tasks = [
+        (fails_once, (str(tmp_path / "a"),)),
+        (dies_once, (str(tmp_path / "b"),)),
+        (fails_once, (str(tmp_path / "c"),)),
+    ]
+    with LocalPieces(2, 1) as pool:
+        pool.run(tasks, ["0", "1", "2"], done.append)
+        assert sorted(done) == [0, 1, 2]
+        with pytest.raises(RuntimeError, match="piece 7 failed 2 times: RuntimeError: broken x"):
+            pool.run([(always_fails, (str(tmp_path / "x"),))], ["7"])
+
+
+def test_on_ray_a_piece_whose_worker_dies_is_run_again(tmp_path):
+    """On Ray (a private 2-CPU instance), a piece task whose worker dies once is run again by Ray."""
+    import ray
+
+    from platypose.cli.split_pieces import RayPieces
+
+    os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the task function is this module's
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
+    try:
+        done = []
+        RayPieces(ray, 1, 2, 1).run([(dies_once, (str(tmp_path / "b"),))], ["0"], done.append)
+        assert done == [0] and (tmp_path / "b").exists()
+    finally:
+        ray.shutdown()
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--split-seconds", "0", "--jobs", "2"], "--split-seconds 0: give a length in seconds above 0"),
+        (["--split-seconds=-3", "--jobs", "2"], "--split-seconds -3: give a length in seconds above 0"),
+        (["--split-seconds", "nan", "--jobs", "2"], "--split-seconds nan: give a length in seconds above 0"),
+        (["--split-seconds", "1.5", "--jobs", "2"], "--split-seconds 1.5: shorter than the 2 s two neighbouring"),
+        (["--split-seconds", "3", "--max-gap", "2", "--jobs", "2"], "shorter than the 4 s two neighbouring"),
+        (["--split-seconds", "3"], "--split-seconds: the pieces run in parallel; add --jobs N (N >= 2) or --executor"),
+        (["--split-seconds", "3", "--executor", "ray", "--collect"], "--split-seconds: not with --collect"),
+    ],
+)
+def test_bad_split_values_are_one_line(run_cli, data_dir, tmp_path, extra, message):
+    code, out, err = run_cli("lift", str(data_dir / DEMO / "demo.mp4"), "--out", str(tmp_path / "out"), "-q", *extra)
+    assert code == 2, (out, err)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], err
+    assert not (tmp_path / "out" / "demo").exists()
