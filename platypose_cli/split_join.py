@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import pickle
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -54,15 +55,19 @@ def split_hooks(pool, settings, name: str, log) -> tuple[SplitLifter, Callable[[
 
     def prepare(source: Path) -> None:
         if not is_keypoint_source(source):
-            detect_in_pieces(source, settings.detect, folder, settings.split_seconds, pool)
+            started = time.perf_counter()
+            count = detect_in_pieces(source, settings.detect, folder, settings.split_seconds, pool)
+            if count:
+                log(f"{source}: detected in {count} piece(s) of {settings.split_seconds:g} s, "
+                    f"{time.perf_counter() - started:.1f} s")  # fmt: skip
 
     return lifter, prepare
 
 
-def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool) -> None:
+def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool) -> int:
     """Detect ``source`` (a video) in pieces of ``split_s`` seconds run by ``pool`` and write the joined detections
     as its detection cache in ``folder`` (nothing to do when that cache is current); pieces already detected by an
-    earlier run (``folder/.pieces``) are not detected again."""
+    earlier run (``folder/.pieces``) are not detected again. The number of pieces detected now."""
     from platypose.cli.detection import cached_detector
     from platypose.detectors.cache import DetectionCache, cache_key, read_detections
     from platypose.detectors.video import video_info
@@ -75,7 +80,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool) -
     key = cache_key(source, name, detect.stride, detect.max_frames)
     cache = DetectionCache(folder, source.stem)
     if cache.load(key) is not None:
-        return
+        return 0
     info = video_info(source)
     stamps = frame_stamps(source)
     step = max(int(round(split_s * info.fps / detect.stride)), 1) * detect.stride  # a multiple of the stride
@@ -99,6 +104,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool) -
         detections += found
         indices.append(at)
     cache.save(key, detections, np.concatenate(indices) if indices else np.zeros(0, np.int64))
+    return len(tasks)
 
 
 class SplitLifter:
