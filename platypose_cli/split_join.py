@@ -55,16 +55,12 @@ def split_hooks(pool, settings, name: str, log) -> tuple[SplitLifter, Callable[[
 
     def prepare(source: Path) -> None:
         if not is_keypoint_source(source):
-            started = time.perf_counter()
-            count = detect_in_pieces(source, settings.detect, folder, settings.split_seconds, pool)
-            if count:
-                log(f"{source}: detected in {count} piece(s) of {settings.split_seconds:g} s, "
-                    f"{time.perf_counter() - started:.1f} s")  # fmt: skip
+            detect_in_pieces(source, settings.detect, folder, settings.split_seconds, pool, log)
 
     return lifter, prepare
 
 
-def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool) -> int:
+def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, log: Callable[[str], None]) -> int:
     """Detect ``source`` (a video) in pieces of ``split_s`` seconds run by ``pool`` and write the joined detections
     as its detection cache in ``folder`` (nothing to do when that cache is current); pieces already detected by an
     earlier run (``folder/.pieces``) are not detected again. The number of pieces detected now."""
@@ -97,7 +93,12 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool) -
         if DetectionCache(path.parent, path.name.removesuffix(".detections.npz")).load(piece_key) is None:
             stamp = int(stamps[start]) if start < len(stamps) else None
             tasks.append((detect_piece, (str(source), detect, start, stamp, count, str(path), piece_key)))
-    pool.run(tasks, [f"{source.name}:{i}" for i in range(len(tasks))])
+    started = time.perf_counter()
+    seconds = pool.run(tasks, [f"{source.name}:{i}" for i in range(len(tasks))])
+    if tasks:
+        log(
+            f"{source}: {len(tasks)} piece(s) of {split_s:g} s detected {piece_times(seconds, time.perf_counter() - started)}"
+        )
     detections, indices = [], []
     for path in paths:
         _, found, at = read_detections(path)
@@ -157,8 +158,18 @@ class SplitLifter:
             if progress is not None:
                 progress(list(range(P)), done[0], len(tasks))
 
-        self.pool.run(tasks, names, each)
+        started = time.perf_counter()
+        seconds = self.pool.run(tasks, names, each)
+        if tasks:
+            self.log(f"{len(tasks)} piece(s) lifted {piece_times(seconds, time.perf_counter() - started)}")
         join_pieces(pieces, persons, paths, times, absent, margin, hypotheses, median, energy)
+
+
+def piece_times(seconds: Sequence[float | None], wall: float) -> str:
+    """How long pieces took: the wall time of them all, and each on its worker (median, largest)."""
+    each = np.array([s for s in seconds or [] if s is not None])
+    told = f", each {np.median(each):.1f} s median, {each.max():.1f} s at most on its worker" if len(each) else ""
+    return f"in {wall:.1f} s{told}"
 
 
 def _load(path: Path, who: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:

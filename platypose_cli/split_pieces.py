@@ -40,9 +40,10 @@ def remove_pieces(out: Path, name: str) -> None:
     shutil.rmtree(piece_folder(out, name), ignore_errors=True)
 
 
-def detect_piece(video: str, detect, start: int, stamp: int | None, count: int | None, path: str, key: str) -> None:
+def detect_piece(video: str, detect, start: int, stamp: int | None, count: int | None, path: str, key: str) -> float:
     """Detect frames ``start ..`` (``count`` of them, None: to the end) of ``video`` with the detector of ``detect``
-    (DetectOptions), every ``detect.stride``-th by index; save them (:class:`DetectionCache` layout) at ``path``."""
+    (DetectOptions), every ``detect.stride``-th by index; save them (:class:`DetectionCache` layout) at ``path``.
+    The seconds it took."""
     from platypose.cli.detection import cached_detector
     from platypose.detectors.cache import DetectionCache
     from platypose.detectors.video_range import iter_frame_range
@@ -51,6 +52,7 @@ def detect_piece(video: str, detect, start: int, stamp: int | None, count: int |
         detect.detector, detect.detector_format, detect.person_detector, detect.threads, detect.provider,
         detect.movenet_size,
     )  # fmt: skip
+    started = time.perf_counter()
     detections, indices = [], []
     for index, frame in iter_frame_range(video, start, stamp, count, detect.stride):
         detections.append(np.asarray(model(frame), dtype=np.float32))
@@ -59,12 +61,13 @@ def detect_piece(video: str, detect, start: int, stamp: int | None, count: int |
     DetectionCache(target.parent, target.name.removesuffix(".detections.npz")).save(
         key, detections, np.asarray(indices, dtype=np.int64)
     )
+    return time.perf_counter() - started
 
 
-def lift_piece(prior_settings, inputs: dict, path: str) -> None:
+def lift_piece(prior_settings, inputs: dict, path: str) -> float:
     """Lift one stretch of a take (:func:`platypose.lifting.tracks.persons.lift_persons` on ``inputs``: keypoints, times,
     cameras, roots, absent, config, windows) with the prior of ``prior_settings``; save its hypotheses and energy
-    (float32, NaN where absent) atomically at ``path``."""
+    (float32, NaN where absent) atomically at ``path``. The seconds it took (the prior loaded, once per process)."""
     from platypose.cli.lift_run import _prior
     from platypose.lifting.files.atomic import atomic_open
     from platypose.lifting.tracks.persons import lift_persons
@@ -74,12 +77,15 @@ def lift_piece(prior_settings, inputs: dict, path: str) -> None:
     hypotheses = np.empty((P, N, t, 17, 3), np.float32)
     energy = np.empty((P, N, t), np.float32)
     median = np.empty((P, t, 17, 3), np.float32)
+    prior = _prior(prior_settings)
+    started = time.perf_counter()
     lift_persons(
-        _prior(prior_settings), inputs["keypoints"], inputs["times"], inputs["cameras"], inputs["roots"],
+        prior, inputs["keypoints"], inputs["times"], inputs["cameras"], inputs["roots"],
         inputs["absent"], inputs["config"], inputs["windows"], hypotheses, median, energy,
     )  # fmt: skip
     with atomic_open(path) as stream:
         np.savez(stream, hypotheses=hypotheses, energy=energy)
+    return time.perf_counter() - started
 
 
 def _retry_message(name: str, err: BaseException, attempts: int) -> str:
@@ -113,12 +119,13 @@ class LocalPieces:
                 process.terminate()
         self.pool.shutdown(wait=True, cancel_futures=True)
 
-    def run(self, tasks: Sequence[Task], names: Sequence[str], each: Callable[[int], None] = lambda i: None) -> None:
-        """Run ``tasks``; ``each(i)`` as task i finishes. InputError of a task is raised as it is; a task that raises
+    def run(self, tasks: Sequence[Task], names: Sequence[str], each: Callable[[int], None] = lambda i: None) -> list:
+        """Run ``tasks``; their results in task order, ``each(i)`` as task i finishes. InputError of a task is raised as it is; a task that raises
         twice, or is in the pool when a worker dies ``DEATHS`` times, raises RuntimeError naming it."""
         from concurrent.futures.process import BrokenProcessPool
 
         futures = {self.pool.submit(fn, *args): (i, 0, 0) for i, (fn, args) in enumerate(tasks)}
+        results: list = [None] * len(tasks)
         while futures:
             done, _ = wait(list(futures), return_when=FIRST_COMPLETED)
             for future in done:
@@ -126,7 +133,7 @@ class LocalPieces:
                     continue
                 i, failed, deaths = futures.pop(future)
                 try:
-                    future.result()
+                    results[i] = future.result()
                 except InputError:
                     raise
                 except BrokenProcessPool as err:  # a worker died: every task still in the pool starts again
@@ -142,6 +149,7 @@ class LocalPieces:
                     futures[self.pool.submit(*_call(tasks[i]))] = (i, failed + 1, deaths)
                 else:
                     each(i)
+        return results
 
 
 def _call(task: Task) -> tuple:
@@ -149,14 +157,14 @@ def _call(task: Task) -> tuple:
     return (task[0], *task[1])
 
 
-def on_ray_worker(fn: Callable, args: tuple, threads: int, cwd: str) -> None:
+def on_ray_worker(fn: Callable, args: tuple, threads: int, cwd: str):
     """A piece task on a Ray worker: the driver's working folder (relative paths), ``threads`` threads."""
     from platypose.cli.lift_batch import limit_threads
 
     if os.path.isdir(cwd):
         os.chdir(cwd)
     limit_threads(threads)
-    fn(*args)
+    return fn(*args)
 
 
 class RayPieces:
@@ -172,7 +180,7 @@ class RayPieces:
     def __exit__(self, *failure) -> None:
         return None
 
-    def run(self, tasks: Sequence[Task], names: Sequence[str], each: Callable[[int], None] = lambda i: None) -> None:
+    def run(self, tasks: Sequence[Task], names: Sequence[str], each: Callable[[int], None] = lambda i: None) -> list:
         """As :meth:`LocalPieces.run`."""
         from platypose.cli.lift_ray import ray_failure
 
@@ -184,12 +192,13 @@ class RayPieces:
             for i, (fn, args) in enumerate(tasks)
         }
         pending = list(refs)
+        results: list = [None] * len(tasks)
         try:
             while pending:
                 done, pending = ray.wait(pending, num_returns=1, timeout=None)
                 for ref in done:
                     try:
-                        ray.get(ref)
+                        results[refs[ref]] = ray.get(ref)
                     except ray.exceptions.RayError as err:
                         cause = getattr(err, "cause", None)
                         if isinstance(cause, InputError):
@@ -200,6 +209,7 @@ class RayPieces:
             for ref in pending:
                 ray.cancel(ref, force=True)
             raise
+        return results
 
 
 class SplitExecutor:

@@ -36,13 +36,15 @@ class InProcess:
     def __exit__(self, *failure) -> None:
         return None
 
-    def run(self, tasks, names, each=lambda i: None) -> None:
+    def run(self, tasks, names, each=lambda i: None) -> list:
+        results = []
         for i, (fn, args) in enumerate(tasks):
             if len(self.ran) == self.stop_at:
                 raise self.error("stopped")
-            fn(*args)
+            results.append(fn(*args))
             self.ran.append(names[i])
             each(i)
+        return results
 
 
 def real_tracks(data_dir):
@@ -76,8 +78,9 @@ def test_pieces_detect_the_frames_of_an_unsplit_run(data_dir, tmp_path):
     video = data_dir / DEMO / "demo.mp4"
     options = DetectOptions(threads=1, stride=10)
     pool = InProcess()
-    detect_in_pieces(video, options, tmp_path / "demo", 3.0, pool)
-    assert len(pool.ran) == 3  # frames 0-89, 90-179, 180-end
+    lines = []
+    assert detect_in_pieces(video, options, tmp_path / "demo", 3.0, pool, lines.append) == 3
+    assert len(pool.ran) == 3 and "3 piece(s) of 3 s detected in" in lines[0]  # frames 0-89, 90-179, 180-end
     model = cached_detector(None, None, None, 1, options.provider, options.movenet_size)
     joined = DetectionCache(tmp_path / "demo", "demo").load(cache_key(video, model.name, 10, None))
     detections, indices = detect_frames(video, model, stride=10)
