@@ -61,14 +61,14 @@ def run_take(
     arguments: dict | None = None,
     arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
     progress: Callable[[list[int], int, int], None] | None = None,
-    lifter: Callable = lift_persons,
+    lifter: Callable | None = None,
 ) -> LiftResult:
     """The LiftResult of the take seen by ``views`` (name, source) under ``calibration`` (None: one view, a default
     camera), lifted as ``take`` says with the prior ``prior()`` gives (called once the inputs are read and checked).
 
     ``what`` names the take in errors, ``described`` the calibration (its file), ``cams_option`` the option a
     missing calibration is asked for by (``--cams`` in the command). ``arguments`` go into ``meta``
-    as given; ``arrays``, ``progress`` and ``lifter`` as :func:`lift_take` takes them. InputError for bad
+    as given; ``arrays``, ``progress`` and ``lifter`` (None: :func:`lift_persons`) as :func:`lift_take` takes them. InputError for bad
     input, before any lifting.
     """
     from platypose import __version__
@@ -121,7 +121,7 @@ def run_take(
         log,
         floor,
         everyone,
-        lifter,
+        lifter or lift_persons,
     )
     timings["lift_s"] = time.perf_counter() - started
     meta = {
