@@ -231,10 +231,7 @@ class SplitExecutor:
         here = replace(settings, detect=replace(settings.detect, threads=threads))
         with self.make_pool(threads, settings.quiet) as pool:
             for index in todo:
-                started = time.perf_counter()
-                entry = run_job(jobs[index], here, pieces=pool)
-                entry.setdefault("seconds", round(time.perf_counter() - started, 2))
-                record(index, entry)
+                record(index, run_job(jobs[index], here, pieces=pool))
                 bar.update(1)
 
 
