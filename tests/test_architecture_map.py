@@ -57,7 +57,10 @@ def defines(path: Path, dotted: str) -> bool:
         return node is not None
     return isinstance(node, ast.ClassDef) and any(
         getattr(child, "name", None) == member
-        or any(isinstance(t, ast.Name) and t.id == member for t in getattr(child, "targets", [getattr(child, "target", None)]))
+        or any(
+            isinstance(t, ast.Name) and t.id == member
+            for t in getattr(child, "targets", [getattr(child, "target", None)])
+        )
         for child in node.body
     )
 
@@ -81,7 +84,7 @@ def test_every_function_a_page_places_in_a_module_is_defined_there(page: Path) -
 def test_the_map_holds_dotted_pipeline_references() -> None:
     """``platypose.pipeline.run_take`` and the like in the map name a function of that module."""
     text = ARCHITECTURE.read_text(encoding="utf-8")
-    dotted = set(re.findall(r"`(platypose\.pipeline\.\w+)`", text)) | set(re.findall(r"(platypose\.pipeline\.\w+)", text))
+    dotted = set(re.findall(r"platypose\.pipeline\.\w+", text))
     assert dotted, "the map names no function of the take pipeline"
     for name in dotted:
         assert defines(REPO / "platypose" / "pipeline.py", name.rsplit(".", 1)[1]), name
@@ -177,3 +180,31 @@ def test_docstrings_name_no_lifting_module_that_is_not_there() -> None:
                     if not resolves(name):
                         broken.append(f"{path.relative_to(REPO)}:{line}: {mention}")
     assert not broken, "docstrings name modules that are not there:\n" + "\n".join(broken)
+
+
+def anchors(page: Path) -> set[str]:
+    """The anchors of a Markdown page: GitHub's slug of every heading (repeats numbered), and every ``<a id>``."""
+    text = page.read_text(encoding="utf-8")
+    found = set(re.findall(r'<a id="([^"]+)">', text))
+    seen: dict[str, int] = {}
+    in_code = False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            in_code = not in_code
+        heading = re.match(r"#{1,6} (.+)", line)
+        if heading and not in_code:
+            slug = re.sub(r"[^\w\- ]", "", heading.group(1).strip().lower()).replace(" ", "-")
+            found.add(slug if slug not in seen else f"{slug}-{seen[slug]}")
+            seen[slug] = seen.get(slug, 0) + 1
+    return found
+
+
+@pytest.mark.parametrize("page", [*reference_pages(), REPO / "README.md"], ids=lambda page: page.name)
+def test_every_link_into_a_page_finds_its_anchor(page: Path) -> None:
+    """A link such as ``results.md#speed`` or ``#gaps`` lands on a heading or an ``<a id>`` of that page."""
+    wrong = []
+    for target, anchor in re.findall(r"\]\(((?:[\w./-]+\.md)?)#([\w-]+)\)", page.read_text(encoding="utf-8")):
+        linked = page if not target else (page.parent / target).resolve()
+        if not linked.is_file() or anchor not in anchors(linked):
+            wrong.append(f"{target}#{anchor}")
+    assert not wrong, f"{page.name} links to anchors that are not there: {wrong}"
