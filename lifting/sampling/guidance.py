@@ -1,7 +1,7 @@
 """The guidance problem: the energy of a batch of windows, their placement and the guidance steps on them.
 
 The state guided is ``x0`` (normalised windows, which fix the motion up to a shift) plus a
-world offset per frame (:mod:`lifting.placement`). Guidance moves the decoded joints by damped
+world offset per frame (:mod:`lifting.sampling.placement`). Guidance moves the decoded joints by damped
 Gauss-Newton (or the paper's gradient) steps on the reprojection energy plus the structural and
 anchor terms, accepts or cuts each step, and writes the accepted move back into windows and offsets.
 """
@@ -130,7 +130,7 @@ class GuidedProblem:
     def camera_frame(self) -> tuple[torch.Tensor, torch.Tensor] | None:
         """The camera's ``(R, t)`` (world -> camera) when guidance runs in its frame, else None (world frame).
 
-        One camera with Gauss-Newton steps (:meth:`lifting.views.OneView.guidance_frame`).
+        One camera with Gauss-Newton steps (:meth:`lifting.sampling.views.OneView.guidance_frame`).
         """
         return self.views.guidance_frame(self.config)
 
@@ -168,11 +168,11 @@ class GuidedProblem:
         return features_to_joints(grad_x * -self.std).reshape(B, N, F, -1, 3).movedim(-1, 0)
 
     def add_extra_terms(self, joints, energy, grad, curvature, anchor: torch.Tensor | None = None):
-        """Add the structural energies and the joint limits (:mod:`lifting.anatomy.hinges`; autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
+        """Add the structural energies and the joint limits (:mod:`lifting.anatomy.hinges`; autograd, small), the floor's (:mod:`lifting.sampling.grounding`) and the anchor (analytic)
         to the reprojection terms.
 
         ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
-        :func:`lifting.energy.reprojection_terms` returns them, in the frame of ``joints`` and of
+        :func:`lifting.sampling.energy.reprojection_terms` returns them, in the frame of ``joints`` and of
         ``anchor`` (the anchor's joints; both energies are the same in any rigid frame).
         """
         c = self.config
