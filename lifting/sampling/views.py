@@ -54,7 +54,7 @@ class OneView:
         in its axes, where the Jacobian rows are (1, 0, -u) and (0, 1, -v); every energy is the same there."""
         return (self.rotation, self.translation) if config.direction == "gauss-newton" else None
 
-    def settle_move(
+    def depth_smoothed_move(
         self,
         start: torch.Tensor,
         moved: torch.Tensor,
@@ -76,7 +76,7 @@ class OneView:
         smoothed_move = smoothed - start
         return torch.where(torch.isfinite(smoothed_move), smoothed_move, moved)  # frames without a root keep theirs
 
-    def settle(
+    def fit_and_spread(
         self, fitted: torch.Tensor, obs: Observations, draws: torch.Tensor, config: SamplerConfig, fps: float
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """(fitted, hypotheses): one camera has nothing redundant to measure noise by, both are the fit."""
@@ -100,7 +100,7 @@ class SeveralViews:
         """Guidance runs in world axes."""
         return None
 
-    def settle_move(
+    def depth_smoothed_move(
         self,
         start: torch.Tensor,
         moved: torch.Tensor,
@@ -111,7 +111,7 @@ class SeveralViews:
         """The guidance move as it is: the views hold every joint's depth."""
         return moved
 
-    def settle(
+    def fit_and_spread(
         self, fitted: torch.Tensor, obs: Observations, draws: torch.Tensor, config: SamplerConfig, fps: float
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """(fitted, hypotheses): the guided fit ``(B, N, F, 17, 3)`` moved by the noise fit, and the hypotheses
