@@ -9,9 +9,13 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings.fields import check_types, choose, require, setting
+
+if TYPE_CHECKING:
+    from platypose.lifting.floor import Floor
 
 ROBUST_LOSSES = ("l2", "geman-mcclure")
 STEP_RULES = ("backtrack", "paper")
@@ -230,7 +234,7 @@ class TakeSettings:
         from platypose.lifting.floor import parse_floor
         from platypose.lifting.sync.choice import check_choice
 
-        parse_floor(self.floor)
+        object.__setattr__(self, "_floor_choice", parse_floor(self.floor))  # parsed once, here
         if isinstance(self.sync, Mapping):
             object.__setattr__(self, "sync", dict(self.sync))
         elif not isinstance(self.sync, str):
@@ -239,3 +243,9 @@ class TakeSettings:
         for name, cls in (("sampler", SamplerConfig), ("windows", WindowSettings)):
             if not isinstance(getattr(self, name), cls):
                 raise InputError(f"{name} must be a {cls.__name__}, got {getattr(self, name)!r}", option=name)
+
+    @property
+    def floor_choice(self) -> Floor | str | None:
+        """The floor ``floor`` names, as :func:`platypose.lifting.floor.parse_floor` read it when these settings were
+        made: a Floor (source "given"), "auto" or None."""
+        return self._floor_choice
