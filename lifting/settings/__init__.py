@@ -1,8 +1,8 @@
 """Every settings class of the library, with each field's help beside it, checked once (no torch, numpy or cv2).
 
-By job: :mod:`.fields` (a field with its help, the checks every class makes), :mod:`.lift` (the sampler, the
-windows, the prior to load, how a take is lifted), :mod:`.detection` (how a view's 2D is read or detected),
-:mod:`.training` (the prior's architecture, training, distillation). Every class is importable from here.
+By job: :mod:`~platypose.lifting.settings.fields` (a field with its help, the checks every class makes), :mod:`~platypose.lifting.settings.lift` (the sampler, the
+windows, the prior to load, how a take is lifted), :mod:`~platypose.lifting.settings.detection` (how a view's 2D is read or detected),
+:mod:`~platypose.lifting.settings.training` (the prior's architecture, training, distillation). Every class is importable from here.
 """
 
 from platypose.lifting.settings.detection import DetectOptions
