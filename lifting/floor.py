@@ -97,12 +97,14 @@ CALIBRATED_FLOOR = Floor((0.0, 0.0, 1.0), 0.0, "calibration")
 ESTIMATE = "estimate"
 
 
-def floor_for_lift(spec: Floor | str | None, calibration_meta: dict | None) -> Floor | str | None:
-    """The floor a lift uses for ``spec`` (:func:`parse_floor`): a given plane as it is, None for none, and for
-    "auto" the calibration's z = 0 when its cameras are placed in a world (``calibration_meta`` of a file whose
-    extrinsics were all given), else ``ESTIMATE`` (no calibration, or cameras at the default pose)."""
-    if spec != "auto":
-        return spec
+def floor_for_lift(choice: Floor | str | None, calibration_meta: dict | None) -> Floor | str | None:
+    """The floor a lift uses for the user's ``choice`` (:func:`parse_floor` of ``--floor``, kept by
+    ``TakeSettings.floor_choice``): a given plane as it is, None for none, and for "auto" the calibration's z = 0
+    when its cameras are placed in a world (``calibration_meta`` of a file whose extrinsics were all given), else
+    ``ESTIMATE`` (no calibration, or cameras at the default pose). The Floor returned is the one object the take's
+    sampler and finishing use (``platypose.pipeline.lift_take``), so its source is the user's choice."""
+    if choice != "auto":
+        return choice
     if calibration_meta is None:
         return ESTIMATE
     assumptions = " ".join(calibration_meta.get("assumptions", []))

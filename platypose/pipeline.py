@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.types import PoseTrack2D
+from platypose.detectors.view_reader import ViewRead
 from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import CODEC_BLOCK, SIZE_TOLERANCE, Camera, codec_padded
@@ -39,7 +40,7 @@ from platypose.lifting.tracks.persons import lift_persons
 from platypose.lifting.tracks.quick_floor import quick_floor
 from platypose.lifting.tracks.roots import presence
 
-Reader = Callable[[Path], tuple[PoseTrack2D, str]]  # a view's source -> its tracks and how they were obtained
+Reader = Callable[[Path], ViewRead]  # a view's source -> its tracks and how they were obtained
 
 
 def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
@@ -75,7 +76,7 @@ def run_take(
     from platypose.detectors.person_choice import describe_choice
     from platypose.detectors.take import take_keypoints
     from platypose.detectors.view_agreement import disagreeing_views
-    from platypose.lifting.floor import ESTIMATE, floor_for_lift, parse_floor
+    from platypose.lifting.floor import floor_for_lift
     from platypose.lifting.sync.choice import synchronise
     from platypose.lifting.tracks.persons import root_kinds
 
@@ -86,7 +87,7 @@ def run_take(
             size = _video_size(source)
             if size is not None:
                 check_image_size(camera, size, str(source), JobLog())  # raises for a mismatch; small ones warn later
-    floor = floor_for_lift(parse_floor(take.floor), None if calibration is None else calibration.meta)
+    floor = floor_for_lift(take.floor_choice, None if calibration is None else calibration.meta)
     started = time.perf_counter()
     tracks = [_read_view(read, name, source, log) for name, source in views]
     timings = {"keypoints_s": time.perf_counter() - started}
@@ -238,8 +239,9 @@ def lift_take(
     ``progress(group, done, total)`` counts the windows lifted of each group of persons (``group``: their indices,
     or :data:`~platypose.lifting.tracks.quick_floor.QUICK_LIFT` for the windows of the floor's quick lift).
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
-    sampler; ``ESTIMATE`` (one camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`)
-    and grounds on it, or lifts without a floor where too few standing ankles are found; None: no floor.
+    sampler (its plane replaces ``sampler.floor``) and is the floor finishing keeps them on; ``ESTIMATE`` (one
+    camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`) and grounds on it, or lifts
+    without a floor where too few standing ankles are found; None: no floor.
     ``everyone`` (1, T, P', 17, 3): the keypoints of everyone in the take when ``keypoints`` hold only the persons
     chosen, so the estimated floor does not depend on whom the user chose. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
     person, :mod:`platypose.lifting.checks.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
@@ -275,9 +277,7 @@ def lift_take(
     energy = arrays((P, N, T), "energy")
     lifter(prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress)
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
-    finished = finish_take(
-        hypotheses, median, keypoints, times, track_ids, cameras, roots, fps, sampler.floor, floor, floor_meta, log
-    )
+    finished = finish_take(hypotheses, median, keypoints, times, track_ids, cameras, roots, fps, floor, floor_meta, log)
     meta = {
         "prior_sha256": prior.checksum,
         "reprojection_px": finished.reprojection_px,
@@ -313,9 +313,10 @@ def _video_size(source: Path) -> tuple[int, int] | None:
 def _read_view(read: Reader, name: str, source: Path, log: JobLog) -> PoseTrack2D:
     """One view's tracks, logged with how long they took; their notes become warnings."""
     started = time.perf_counter()
-    tracks, how = read(source)
+    view = read(source)
+    tracks = view.tracks
     log(
-        f"view {name}: {source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, "
+        f"view {name}: {source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), {view.how}, "
         f"{time.perf_counter() - started:.1f} s"
     )
     for note in tracks.notes:

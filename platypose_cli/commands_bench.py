@@ -115,6 +115,7 @@ def clip_section(prior, video: Path, seconds: float, threads: int | None, say, p
         "lift_cpu_s_per_person_minute": timing.lift_cpu_s / max(timing.person_frames / (60 * CLIP_FPS), 1e-9),
         "detect_peak_rss_mb": timing.detect_peak_rss_mb,
         "peak_rss_mb": timing.peak_rss_mb,
+        "phases": {name: list(span) for name, span in timing.phases.items()},
     }
 
 
@@ -170,6 +171,8 @@ def report_lines(report: dict) -> list[str]:
             _row("CPU seconds (detection + lifting)", f"{e['detect_cpu_s']:.0f} + {e['lift_cpu_s']:.0f}"),
             _row("peak RSS MiB after detection", f"{e['detect_peak_rss_mb']:.0f}"),
             _row("peak RSS MiB after lifting", f"{e['peak_rss_mb']:.0f}"),
+            "  phases (seconds from the start to the end):",
+            *(_row(f"  {name}", f"{start:.1f}-{end:.1f}") for name, (start, end) in e["phases"].items()),
         ]
     lines.append(f"peak RSS of the whole run: {report['peak_rss_mb']:.0f} MiB")
     if m["load_average"][0] > m["cores"]:

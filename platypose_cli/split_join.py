@@ -44,20 +44,21 @@ def _digest(*parts) -> str:
     return h.hexdigest()[:24]
 
 
-def split_hooks(pool, settings, name: str, log) -> tuple[SplitLifter, Callable[[Path], None]]:
+def split_hooks(pool, settings, name: str, log, read: Callable) -> tuple[SplitLifter, Callable]:
     """For job ``name`` lifted with ``settings`` (RunSettings with ``split_seconds``) over ``pool``: the lifter
-    :func:`platypose.pipeline.run_take` takes, and what to do before a view is read (a video is detected in
-    pieces into its detection cache; keypoint files are read whole)."""
+    :func:`platypose.pipeline.run_take` takes, and ``read`` (a view reader) preceded, for a video, by its detection
+    in pieces into the detection cache ``read`` then finds (keypoint files are read whole)."""
     from platypose.detectors.sources import is_keypoint_source
 
     folder = settings.out / name
     lifter = SplitLifter(pool, settings.prior, settings.split_seconds, piece_folder(settings.out, name), log)
 
-    def prepare(source: Path) -> None:
+    def split_read(source: Path):
         if not is_keypoint_source(source):
             detect_in_pieces(source, settings.detect, folder, settings.split_seconds, pool, log)
+        return read(source)
 
-    return lifter, prepare
+    return lifter, split_read
 
 
 def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, log: Callable[[str], None]) -> int:
@@ -69,10 +70,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
     from platypose.detectors.video import video_info
     from platypose.detectors.video_range import frame_stamps
 
-    name = cached_detector(
-        detect.detector, detect.detector_format, detect.person_detector, detect.threads, detect.provider,
-        detect.movenet_size,
-    ).name  # fmt: skip
+    name = cached_detector(detect).name
     key = cache_key(source, name, detect.stride, detect.max_frames)
     cache = DetectionCache(folder, source.stem)
     if cache.load(key) is not None:

@@ -48,10 +48,7 @@ def detect_piece(video: str, detect, start: int, stamp: int | None, count: int |
     from platypose.detectors.cache import DetectionCache
     from platypose.detectors.video_range import iter_frame_range
 
-    model = cached_detector(
-        detect.detector, detect.detector_format, detect.person_detector, detect.threads, detect.provider,
-        detect.movenet_size,
-    )  # fmt: skip
+    model = cached_detector(detect)
     started = time.perf_counter()
     detections, indices = [], []
     for index, frame in iter_frame_range(video, start, stamp, count, detect.stride):

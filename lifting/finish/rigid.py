@@ -26,7 +26,7 @@ view (in most frames) each bone's direction and each body's rotation is then smo
 (``s`` sum of squared accelerations against the squared change, ``SMOOTHNESS`` at 30 fps: a change
 at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the clip's shape:
 rigid and smooth. Rebuilt so from the pelvis, a foot that stood still in the sampler's motion would slide
-(the sampler holds stance ankles, :mod:`lifting.grounding`): so each ankle that stands there (stance as
+(the sampler holds stance ankles, :mod:`lifting.sampling.grounding`): so each ankle that stands there (stance as
 :func:`lifting.checks.plausibility.stance_ankles` finds it, however briefly) goes back to where the sampler planted
 it (a run of standing frames at its mean, where the run stays within ``HOLD_SPREAD`` of it), the knee onto the circle
 that thigh and shin allow (:func:`two_bone_limb`). Several views need no smoothing (it cost them
@@ -210,13 +210,13 @@ def rigid_paths(
     centres: np.ndarray,
     seen: np.ndarray,
     fps: float,
-    floor: tuple[float, float, float, float] | None = None,
+    floor: Floor | None = None,
 ) -> np.ndarray:
     """Motions ``(K, T, 17, 3)`` of one person (NaN where absent) made rigid, each with its ``shape`` (lengths
     ``(K, 16)``, bodies ``(K, B, 3, 3)``; :func:`lifting.finish.rigid_shape.clip_shape`). See the module.
 
     ``centres`` ``(C, 3)``: the views' centres; ``seen`` ``(T, 17, C)``: which view sees which joint;
-    ``fps``: the motions' frame rate; ``floor`` ``(nx, ny, nz, d)`` or None.
+    ``fps``: the motions' frame rate; ``floor``: the floor they stand on, or None.
     """
     joints = np.asarray(joints, np.float64)
     K, T = joints.shape[:2]
@@ -236,8 +236,7 @@ def rigid_paths(
         directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
         smooth = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
         placed[:, span] = smooth
-    plane = None if floor is None else Floor(tuple(floor[:3]), float(floor[3]), "lift")
-    placed = hold_stance_legs(placed, joints, stance_ankles(joints, plane, fps, min_stance=0.0), shape.lengths)
+    placed = hold_stance_legs(placed, joints, stance_ankles(joints, floor, fps, min_stance=0.0), shape.lengths)
     return _above_floor(placed, joints, floor)
 
 
@@ -294,12 +293,12 @@ def hold_stance_legs(placed: np.ndarray, sampled: np.ndarray, stance: np.ndarray
     return out
 
 
-def _above_floor(placed: np.ndarray, before: np.ndarray, floor: tuple[float, float, float, float] | None) -> np.ndarray:
+def _above_floor(placed: np.ndarray, before: np.ndarray, floor: Floor | None) -> np.ndarray:
     """Frames of ``placed`` ``(..., 17, 3)`` whose lowest joint is under the floor and under where it was in
     ``before``, raised along the floor's normal to there (to the floor if it was above it)."""
     if floor is None:
         return placed
-    normal, offset = np.asarray(floor[:3]), float(floor[3])
+    normal, offset = np.asarray(floor.normal), floor.offset
     lowest = (placed @ normal).min(axis=-1) + offset
     allowed = np.minimum((before @ normal).min(axis=-1) + offset, 0.0)
     return placed + np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
@@ -325,9 +324,10 @@ def rigid_person(
     cameras: Sequence[Camera],
     person: int,
     fps: float,
-    floor: tuple[float, float, float, float] | None = None,
+    floor: Floor | None = None,
 ) -> dict[str, float]:
-    """Make person ``person``'s hypotheses ``(P, N, T, 17, 3)`` and median ``(P, T, 17, 3)`` rigid, in place.
+    """Make person ``person``'s hypotheses ``(P, N, T, 17, 3)`` and median ``(P, T, 17, 3)`` rigid, in place, none
+    of their frames taken under ``floor`` (None: no floor).
 
     Arrays may be memory maps: ``HYPOTHESES_AT_ONCE`` hypotheses, or ``MEDIAN_CHUNK`` frames of all, are in
     memory at a time. ``keypoints`` ``(C, T, P, 17, 3)`` say which view sees which joint (confidence > 0). The median is

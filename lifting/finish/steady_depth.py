@@ -29,7 +29,7 @@ from scipy.sparse.linalg import spsolve
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.checks.plausibility import standing_heights
-from platypose.lifting.floor import ANKLES, plane_floor
+from platypose.lifting.floor import ANKLES, Floor
 
 CUTOFF_HZ = 3.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
 AIRBORNE_WEIGHT = 0.005  # data weight of frames whose feet do not stand (changes over about 0.8 Hz smoothed)
@@ -122,16 +122,15 @@ def steady_person(
     p: int,
     camera: Camera,
     fps: float,
-    plane: tuple | None,
+    floor: Floor | None,
     seen: np.ndarray,
     times: np.ndarray | None = None,
     chunk: int = 1024,
 ) -> float:
     """Steady the depth of person ``p`` of ``hypotheses`` ``(P, N, T, 17, 3)`` (an array or anything indexed like one)
-    seen by ``camera`` (``seen`` ``(T,)``: joints it sees per frame) standing on the floor ``plane`` (nx, ny, nz, d)
-    or None, at frame ``times`` ``(T,)`` (default: every 1 / ``fps``), in place; the largest change of a pelvis
+    seen by ``camera`` (``seen`` ``(T,)``: joints it sees per frame) standing on ``floor``
+    (None: heights along z), at frame ``times`` ``(T,)`` (default: every 1 / ``fps``), in place; the largest change of a pelvis
     depth made (metres)."""
-    floor = None if plane is None else plane_floor(*plane, "given")
     T = hypotheses.shape[2]
     pelvis = np.concatenate([np.asarray(hypotheses[p, :, s : s + chunk, 0], np.float64) for s in range(0, T, chunk)], 1)
     ankles = np.concatenate(

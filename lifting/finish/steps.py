@@ -50,24 +50,23 @@ def finish_take(
     cameras: Sequence[Camera],
     roots: Sequence[np.ndarray | None],
     fps: float,
-    plane: np.ndarray | None,
     floor: Floor | None,
     floor_meta: dict | None,
     log: JobLog,
 ) -> FinishedTake:
     """Finish the sampled ``hypotheses`` (P, N, T, 17, 3) and ``median`` (P, T, 17, 3) of persons ``track_ids`` seen
-        as ``keypoints`` (C, T, P, 17, 3) on ``times`` by ``cameras``, with their root paths ``roots`` (None: solved per
-        hypothesis), grounded on ``plane`` (the sampler's floor, or None), checked against ``floor`` (``floor_meta`` its
-    meta entry; None: no floor). Each step is logged."""
-    if len(cameras) == 1 and plane is not None:  # one grounded view: steady each solved root's depth
+    as ``keypoints`` (C, T, P, 17, 3) on ``times`` by ``cameras``, with their root paths ``roots`` (None: solved per
+    hypothesis), on ``floor``, the one the sampler grounded them on (``floor_meta`` its meta entry; None: no floor).
+    Each step is logged."""
+    if len(cameras) == 1 and floor is not None:  # one grounded view: steady each solved root's depth
         for p, track in ((p, t) for p, t in enumerate(track_ids) if roots[p] is None):
             seen = (np.nan_to_num(keypoints[0, :, p, :, 2]) > 0).sum(axis=-1)  # joints seen per frame
-            moved = steady_person(hypotheses, p, cameras[0], fps, plane, seen, times)
+            moved = steady_person(hypotheses, p, cameras[0], fps, floor, seen, times)
             log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
     rigid = {}
     for p, track in enumerate(track_ids):
         began = time.perf_counter()
-        rigid[f"p{track}"] = stats = rigid_person(hypotheses, median, keypoints, cameras, p, fps, plane)
+        rigid[f"p{track}"] = stats = rigid_person(hypotheses, median, keypoints, cameras, p, fps, floor)
         log(
             f"person {track}: made rigid in {time.perf_counter() - began:.1f} s (the sampler's median motion "
             f"stretched its bones by up to {1000 * stats['stretch_m']:.0f} mm); its joints moved "

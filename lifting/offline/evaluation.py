@@ -3,7 +3,7 @@
 Windows are cut evenly from each clip (at the prior's frame rate), moved to
 where the cameras look, projected (optionally with pixel noise), lifted by
 the sequence sampler and by the frame-by-frame baseline (every frame sampled
-on its own, as ZeDO does), and scored with :mod:`lifting.metrics`.
+on its own, as ZeDO does), and scored with :mod:`lifting.offline.metrics`.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import numpy as np
 from platypose.lifting.camera import Camera, project
 from platypose.lifting.finish.representative import median_motion
 from platypose.lifting.finish.rigid import person_shape, rigid_paths
+from platypose.lifting.floor import plane_floor
 from platypose.lifting.offline import metrics
 from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.sampling.sampler import cameras_and_rays, sample
@@ -184,14 +185,15 @@ def rigid_windows(
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.finish.rigid.rigid_paths`, each
     hypothesis on its own shape over its window, :func:`lifting.finish.rigid.person_shape`), every view seeing every
-    joint but on the ``hidden`` frames (F,)."""
+    joint but on the ``hidden`` frames (F,), none taken under ``floor`` (the sampler's plane, or None)."""
+    ground = None if floor is None else plane_floor(*floor, "evaluation")
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
     if hidden is not None:
         seen[hidden] = False
     out = np.empty_like(hypotheses)
     for b, window in enumerate(np.asarray(hypotheses, np.float64)):
-        out[b] = rigid_paths(window, person_shape(window, len(cameras)), centres, seen, fps, floor)
+        out[b] = rigid_paths(window, person_shape(window, len(cameras)), centres, seen, fps, ground)
     return out
 
 

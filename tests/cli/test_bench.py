@@ -184,8 +184,8 @@ def test_bench_cli_reports_consistent_positive_figures(run_cli, tiny_prior_path,
 
 
 def test_bench_cli_end_to_end_on_a_real_clip(run_cli, tiny_prior_path, data_dir, tmp_path) -> None:
-    """Half a second of the real demo video: detected (one person or more), every person lifted where present;
-    times and memory positive."""
+    """Half a second of the real demo video: detected (one person or more), every person lifted where present, in
+    lift's phases (the floor's quick lift, the lift, finishing); times and memory positive."""
     out = tmp_path / "bench.json"
     video = data_dir / "video" / "sports2d-demo" / "demo.mp4"
     args = ["--threads", "1", "--clip-seconds", "0.5", "--video", video, "--persons", "all", "--json", out, "-q"]
@@ -199,6 +199,10 @@ def test_bench_cli_end_to_end_on_a_real_clip(run_cli, tiny_prior_path, data_dir,
     assert e["detect_s"] > 0 and e["lift_s"] > 0 and e["total_s"] == pytest.approx(e["detect_s"] + e["lift_s"])
     assert 100 < e["detect_peak_rss_mb"] <= e["peak_rss_mb"]
     assert f"{e['lift_s']:.1f}" in stdout
+    # lifted as platypose lift lifts it: the floor estimated under a quick lift, then the lift, then finishing
+    assert list(e["phases"]) == ["detection", "floor quick lift", "lift", "finishing"]
+    bounds = [t for span in e["phases"].values() for t in span]
+    assert bounds == sorted(bounds) and bounds[-1] - bounds[2] == pytest.approx(e["lift_s"], abs=0.5)
 
 
 @pytest.mark.parametrize(

@@ -14,12 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.cli.detection import DetectOptions, cached_detector
+from platypose.cli.detection import cached_detector
 from platypose.cli.lift_batch import run_batch
 from platypose.cli.lift_jobs import discover_jobs
 from platypose.cli.lift_run import RunSettings, run_job
 from platypose.cli.split_pieces import PIECES, LocalPieces, SplitExecutor
-from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
+from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, WindowSettings
 
 DEMO = "video/sports2d-demo"
 
@@ -62,7 +62,7 @@ def seed_detections(data_dir, video: Path, folder: Path) -> None:
     from platypose.detectors.cache import DetectionCache, cache_key, read_detections
 
     options = DetectOptions(threads=1)
-    name = cached_detector(None, None, None, 1, options.provider, options.movenet_size).name
+    name = cached_detector(options).name
     _, detections, indices = read_detections(data_dir / DEMO / "movenet-detections.npz")
     folder.mkdir(parents=True, exist_ok=True)
     DetectionCache(folder, video.stem).save(cache_key(video, name, 1, None), detections, indices)
@@ -81,7 +81,7 @@ def test_pieces_detect_the_frames_of_an_unsplit_run(data_dir, tmp_path):
     lines = []
     assert detect_in_pieces(video, options, tmp_path / "demo", 3.0, pool, lines.append) == 3
     assert len(pool.ran) == 3 and "3 piece(s) of 3 s detected in" in lines[0]  # frames 0-89, 90-179, 180-end
-    model = cached_detector(None, None, None, 1, options.provider, options.movenet_size)
+    model = cached_detector(options)
     joined = DetectionCache(tmp_path / "demo", "demo").load(cache_key(video, model.name, 10, None))
     detections, indices = detect_frames(video, model, stride=10)
     assert np.array_equal(joined[1], indices) and np.array_equal(indices, np.arange(0, 230, 10))

@@ -129,7 +129,7 @@ def test_rigid_paths_are_rigid_smooth_and_above_the_floor(real_clips):
     centres = np.stack([c.center for c in cams])
     shape = clip_shape(noisy[None])
     seen = np.ones((len(truth), 17, 1), bool)
-    rigid = rigid_paths(noisy[None], shape, centres[:1], seen, 30.0, CALIBRATED_FLOOR.plane)[0]
+    rigid = rigid_paths(noisy[None], shape, centres[:1], seen, 30.0, CALIBRATED_FLOOR)[0]
     on = np.isfinite(rigid).all(axis=(1, 2))
     assert not on[20] and on.sum() == len(truth) - 1
     lengths, bodies = shape.lengths[0], shape.bodies[0]
@@ -177,7 +177,7 @@ def test_one_view_rigid_feet_stand_still(real_clips):
     shape = clip_shape(noisy[None])
     centres = np.stack([c.center for c in ring_cameras(4)])[:1]
     seen = np.ones((len(truth), 17, 1), bool)
-    rigid = rigid_paths(noisy[None], shape, centres, seen, 30.0, CALIBRATED_FLOOR.plane)
+    rigid = rigid_paths(noisy[None], shape, centres, seen, 30.0, CALIBRATED_FLOOR)
     np.testing.assert_allclose(bone_lengths(rigid[0]), np.broadcast_to(shape.lengths[0], (len(truth), 16)), atol=1e-9)
     before, after = stance_slides(noisy[None], CALIBRATED_FLOOR), stance_slides(rigid, CALIBRATED_FLOOR)
     assert after.size > 0.3 * before.size
@@ -192,7 +192,7 @@ def test_a_real_lift_is_rigid_and_keeps_its_image(tiny_prior, athlete):
     kp, t = keypoints[:1, :40], times[:40]
     config = SamplerConfig(samples=4, steps=4, skip=1, guidance_iters=2, floor=CALIBRATED_FLOOR.plane)
     settings = WindowSettings(16, 4)
-    result = lift_take(tiny_prior, kp, t, np.array([0]), cameras[:1], [None], config, settings)
+    result = lift_take(tiny_prior, kp, t, np.array([0]), cameras[:1], [None], config, settings, floor=CALIBRATED_FLOOR)
     hyps, median = np.asarray(result.hypotheses[0], np.float64), np.asarray(result.median[0], np.float64)
     for motion in (*hyps, median):
         lengths = bone_lengths(motion)
@@ -229,7 +229,17 @@ def test_the_bvh_of_a_real_lift_fits_within_the_issue_target(athlete, views, tmp
         from platypose.lifting.tracks.persons import root_paths
 
         root = root_paths(keypoints, times, cameras)
-    result = lift_take(prior, keypoints[:views], times, np.array([0]), cameras[:views], root, config, WindowSettings())
+    result = lift_take(
+        prior,
+        keypoints[:views],
+        times,
+        np.array([0]),
+        cameras[:views],
+        root,
+        config,
+        WindowSettings(),
+        floor=CALIBRATED_FLOOR,
+    )
     fit = write_bvh(result.median[0], result.fps, tmp_path / "athlete.bvh")
     assert fit.mean_m <= 0.010 and fit.max_m <= 0.040, fit
     assert fit.stretch_m < 1e-4, fit

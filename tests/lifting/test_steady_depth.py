@@ -35,7 +35,7 @@ def test_a_gap_and_a_too_near_airborne_return_are_bridged_from_where_the_person_
     before = hypotheses.copy()
     path_before, step_before = pelvis_path(before[0, 0, :, 0])
     seen = np.where(np.arange(90) < 30, 17, 0) + np.where(np.arange(90) >= 50, 17, 0)  # every joint where present
-    moved = steady_person(hypotheses, 0, camera, 30.0, FLOOR.plane, seen)
+    moved = steady_person(hypotheses, 0, camera, 30.0, FLOOR, seen)
     after = hypotheses[0, 0, :, 0]
     path_after, step_after = pelvis_path(after)
     assert step_before > 3.0 and step_after < 1.0, (step_before, step_after)
