@@ -82,7 +82,7 @@ def test_a_real_one_view_forearm_that_swings_in_a_frame_is_flagged_with_its_fram
 
     from platypose.lifting.checks.body import HINGE_SPEED_DEG_S, hinge_jumps
 
-    lifts = Path(__file__).parents[1] / "data" / "lifts"
+    lifts = Path(__file__).parents[2] / "data" / "lifts"
     assert hinge_jumps(np.load(lifts / "pose2sim_4views_median.npy"), fps=60.0) == {}
     one_view = np.load(lifts / "pose2sim_cam01_median.npy")
     jumps = hinge_jumps(one_view, fps=60.0)
