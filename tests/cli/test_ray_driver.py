@@ -1,5 +1,6 @@
-"""``-q`` with ``--executor ray``: a Ray cluster started by the lift prints no Ray warnings (issue 30 item 13:
-Ray's token-authentication warning came through ``-q``); the lift's own flags still print."""
+"""What connecting to Ray does to our process: with ``-q`` a Ray cluster started by the lift prints no Ray warnings
+(Ray's token-authentication warning once came through ``-q``) while the lift's own flags still print, and Ray's
+driver leaves our SIGTERM handler in place."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Names and messages on the console and in files: characters that reverse, hide or break lines are never printed
-raw, and file names that are not UTF-8 do not stop a log from being written (issue 40, items 17 and 22)."""
+raw, and file names that are not UTF-8 do not stop a log from being written."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``eval`` prints a table or refuses (issue 40, "Also"): no empty table with exit 0, no floor at 1e300."""
+"""``eval`` prints a table or refuses: no empty table with exit 0, no floor at 1e300."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 17.6 and 17.11: train refuses bad options and stops on a non-finite loss; a prior with non-finite
+"""``train`` refuses bad options and stops on a non-finite loss; a prior with non-finite
 weights is refused when loaded (also by prior-info)."""
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ def test_the_shipped_prior_is_finite():
     ],
 )
 def test_sampler_options_out_of_range(options, needle):
-    """Issue 17.11: --seed 1e23 and --samples 1e9 ended in internal exceptions; infinite weights were accepted."""
+    """--seed 1e23 and --samples 1e9 once ended in internal exceptions; infinite weights were accepted."""
     from platypose.lifting.settings import SamplerConfig
 
     with pytest.raises(ValueError, match=needle.replace("*", r"\*").replace(".", r"\.")):

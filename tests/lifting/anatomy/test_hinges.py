@@ -1,4 +1,4 @@
-"""Signed hinges and the joint-limit energy guidance adds (lifting/anatomy/hinges.py, issue 42)."""
+"""Signed hinges and the joint-limit energy guidance adds (lifting/anatomy/hinges.py)."""
 
 from __future__ import annotations
 
