@@ -1,6 +1,6 @@
 """Plausibility checks shared by the keypoint readers: every bad value is an InputError naming the file.
 
-Bounds (stated here, tested in tests/test_keypoint_checks.py):
+Bounds (stated here):
 
 - image size: 1 to ``MAX_IMAGE_SIDE`` pixels a side; fps: finite, above 0 and at most ``MAX_FPS``;
 - frame numbers: whole numbers; two files (or entries) in a row may be at most ``MAX_GAP_FRAMES``

@@ -8,8 +8,6 @@ written. docs/api.md shows it end to end.
 from __future__ import annotations
 
 import dataclasses
-import math
-import numbers
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, replace
@@ -21,7 +19,7 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.job_log import JobLog
 from platypose.lifting.prior.model import PriorBundle
-from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
+from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, WindowSettings
 
 
 class Prior:
@@ -89,6 +87,7 @@ def lift(
     for a bad one, and for bad input, as the CLI.
     """
     from platypose.detectors.sources import view_name
+    from platypose.detectors.view_reader import ViewReader
     from platypose.pipeline import run_take, take_settings
 
     sources = _sources(views)
@@ -101,13 +100,7 @@ def lift(
         sampler=_sampler(sampler, sampler_fields),
         windows=_instance("windows", windows, WindowSettings) or WindowSettings(),
     )
-    read = _ViewReader(
-        _path("detector", detector, optional=True),
-        _count("stride", stride),
-        None if threads is None else _count("threads", threads),
-        None if fps is None else _positive("fps", fps),
-        _image_size(image_size),
-    )
+    detect = DetectOptions(detector=detector, stride=stride, threads=threads, fps=fps, image_size=image_size)
     if say is not None and not callable(say):
         raise InputError(f"say must be a function taking a line of text, got {say!r}", option="say")
     load_prior = _prior_loader(prior)
@@ -120,7 +113,7 @@ def lift(
         "root_trajectory": str(take.root_trajectory) if take.root_trajectory is not None else None,
         "floor": take.floor,
         "sync": dict(take.sync) if isinstance(take.sync, Mapping) else str(take.sync),
-        "stride": read.stride,
+        "stride": detect.stride,
         "sampler": asdict(take.sampler),
         "windows": asdict(take.windows),
     }
@@ -128,7 +121,7 @@ def lift(
         [(view_name(s), s) for s in sources],
         calibration,
         take,
-        read,
+        ViewReader(detect),
         load_prior,
         _Log(say),
         what=", ".join(map(str, sources)),
@@ -198,29 +191,6 @@ def _path(name: str, value: object, optional: bool = False) -> Path | None:
     raise InputError(f"{name} must be a path, got {value!r}", option=name)
 
 
-def _count(name: str, value: object) -> int:
-    """``value`` as an integer >= 1; InputError naming ``name`` otherwise."""
-    if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= 1:
-        return int(value)
-    raise InputError(f"{name} must be an integer >= 1, got {value!r}", option=name)
-
-
-def _positive(name: str, value: object) -> float:
-    """``value`` as a positive finite number; InputError naming ``name`` otherwise."""
-    if isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value) and value > 0:
-        return float(value)
-    raise InputError(f"{name} must be a positive number, got {value!r}", option=name)
-
-
-def _image_size(value: object) -> tuple[int, int] | None:
-    """``(height, width)`` in pixels, or None; InputError naming ``image_size`` otherwise."""
-    if value is None:
-        return None
-    if isinstance(value, Sequence) and not isinstance(value, str) and len(value) == 2:
-        return _count("image_size", value[0]), _count("image_size", value[1])
-    raise InputError(f"image_size must be (height, width) in pixels, got {value!r}", option="image_size")
-
-
 def _instance(name: str, value: object, cls: type):
     """``value`` if it is None or a ``cls``; InputError naming ``name`` otherwise."""
     if value is None or isinstance(value, cls):
@@ -238,26 +208,3 @@ def _sampler(sampler: object, fields: dict[str, object]) -> SamplerConfig:
             f"lift: unknown argument(s) {', '.join(unknown)} (not a SamplerConfig field)", option=unknown[0]
         )
     return replace(base, **fields)
-
-
-class _ViewReader:
-    """The 2D tracks of one view: read when it holds keypoints, else detected (the detector loaded once)."""
-
-    def __init__(self, detector: Path | None, stride: int, threads: int | None, fps, image_size) -> None:
-        self.detector, self.stride, self.threads, self.model = detector, stride, threads, None
-        self.fps, self.image_size = fps, image_size
-
-    def __call__(self, source: Path):
-        """(tracks, how they were obtained)."""
-        from platypose.detectors.sources import is_keypoint_source, read_keypoints
-
-        if is_keypoint_source(source):
-            return read_keypoints(source, fps=self.fps, image_size=self.image_size), "read"
-        from platypose.detectors.contracts import load_detector
-        from platypose.detectors.pipeline import detect_video
-
-        if not source.is_file():
-            raise InputError(f"{source}: no such video or keypoint file")
-        if self.model is None:
-            self.model = load_detector(self.detector, threads=self.threads)
-        return detect_video(source, self.model, stride=self.stride), "detected"

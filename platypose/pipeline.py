@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.types import PoseTrack2D
+from platypose.detectors.view_reader import ViewRead
 from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import CODEC_BLOCK, SIZE_TOLERANCE, Camera, codec_padded
@@ -39,7 +40,7 @@ from platypose.lifting.tracks.persons import lift_persons
 from platypose.lifting.tracks.quick_floor import quick_floor
 from platypose.lifting.tracks.roots import presence
 
-Reader = Callable[[Path], tuple[PoseTrack2D, str]]  # a view's source -> its tracks and how they were obtained
+Reader = Callable[[Path], ViewRead]  # a view's source -> its tracks and how they were obtained
 
 
 def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
@@ -311,9 +312,10 @@ def _video_size(source: Path) -> tuple[int, int] | None:
 def _read_view(read: Reader, name: str, source: Path, log: JobLog) -> PoseTrack2D:
     """One view's tracks, logged with how long they took; their notes become warnings."""
     started = time.perf_counter()
-    tracks, how = read(source)
+    view = read(source)
+    tracks = view.tracks
     log(
-        f"view {name}: {source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), {how}, "
+        f"view {name}: {source} -> {tracks.num_frames} frames, {tracks.num_persons} track(s), {view.how}, "
         f"{time.perf_counter() - started:.1f} s"
     )
     for note in tracks.notes:

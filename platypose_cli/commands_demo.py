@@ -76,9 +76,8 @@ def demo(
 ) -> None:
     """Lift the bundled Pose2Sim balancing take (real lab videos, 4-camera calibration) and say where the files are."""
     from platypose.cli.commands_lift import finish, lift_settings
-    from platypose.cli.detection import DetectOptions
     from platypose.cli.lift_batch import run_batch
-    from platypose.lifting.settings import WindowSettings
+    from platypose.lifting.settings import DetectOptions, WindowSettings
 
     take = demo_take()
     job = demo_job(take, source)

@@ -7,7 +7,9 @@ from pathlib import Path
 import typer
 
 from platypose.cli.app import app
-from platypose.cli.detection import Detection, DetectOptions, image_size_option
+from platypose.cli.detection import command_reader, image_size_option
+from platypose.cli.options import field_option
+from platypose.lifting.settings import DetectOptions
 
 
 def _summary(tracks, seconds: float, frames_run: int | None) -> list[str]:
@@ -72,36 +74,20 @@ def detect(
     cams: Path | None = typer.Option(
         None, "--cams", help="Calibration: the sources are synchronised views, people get one ID across views."
     ),
-    detector: Path | None = typer.Option(
-        None, "--detector", help="Pose model .onnx (default: the bundled MoveNet MultiPose)."
-    ),
-    detector_format: str | None = typer.Option(
-        None,
-        "--detector-format",
-        help="Model contract: movenet, yolo-pose, rtmo, rtmpose, heatmap (default: recognised).",
-    ),
-    person_detector: Path | None = typer.Option(
-        None, "--person-detector", help="Person detector .onnx for top-down models (rtmpose, heatmap)."
-    ),
-    movenet_size: int = typer.Option(
-        384, "--movenet-size", help="MoveNet input: longer side in pixels (multiple of 32)."
-    ),
-    threads: int | None = typer.Option(None, "--threads", help="onnxruntime intra-op threads (default: all cores)."),
-    provider: str = typer.Option("CPUExecutionProvider", "--provider", help="onnxruntime execution provider."),
+    detector: Path | None = field_option(DetectOptions, "detector"),
+    detector_format: str | None = field_option(DetectOptions, "detector_format"),
+    person_detector: Path | None = field_option(DetectOptions, "person_detector"),
+    movenet_size: int = field_option(DetectOptions, "movenet_size"),
+    threads: int | None = field_option(DetectOptions, "threads"),
+    provider: str = field_option(DetectOptions, "provider"),
     persons: str = typer.Option(
         "all", "--persons", help="Who to keep: all, largest, largest:N (the N largest), ids id:0,2, or @X,Y."
     ),
-    stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame."),
-    max_frames: int | None = typer.Option(None, "--max-frames", min=1, help="Stop after this many processed frames."),
-    fps: float | None = typer.Option(
-        None, "--fps", help="Frame rate of precomputed keypoints (default: from the video beside them)."
-    ),
-    image_size: str | None = typer.Option(
-        None, "--image-size", help="HEIGHTxWIDTH of precomputed keypoints (default: from the video)."
-    ),
-    cache: bool = typer.Option(
-        True, "--cache/--no-cache", help="Reuse detections cached in OUT/<name>/ from an earlier run."
-    ),
+    stride: int = field_option(DetectOptions, "stride"),
+    max_frames: int | None = field_option(DetectOptions, "max_frames"),
+    fps: float | None = field_option(DetectOptions, "fps"),
+    image_size: str | None = field_option(DetectOptions, "image_size"),
+    cache: bool = field_option(DetectOptions, "cache"),
     compare: Path | None = typer.Option(
         None,
         "--compare",
@@ -134,21 +120,22 @@ def detect(
 
         raise InputError(f"two sources share the output name {names}; give them different names")
     options = DetectOptions(
-        detector,
-        detector_format,
-        person_detector,
-        movenet_size,
-        threads,
-        provider,
-        stride,
-        max_frames,
-        fps,
-        image_size,
-        cache,
+        detector=detector,
+        detector_format=detector_format,
+        person_detector=person_detector,
+        movenet_size=movenet_size,
+        threads=threads,
+        provider=provider,
+        stride=stride,
+        max_frames=max_frames,
+        fps=fps,
+        image_size=image_size_option(image_size),
+        cache=cache,
     )
-    detection = Detection(options)
-    results = [detection.tracks(source, out / name, quiet) for source, name in zip(sources, names)]
-    views = [tracks for tracks, _, _ in results]
+    folders = {source: out / name for source, name in zip(sources, names)}
+    read = command_reader(options, folders.__getitem__, quiet)
+    results = [read(source) for source in sources]
+    views = [r.tracks for r in results]
     if cameras is not None:
         from platypose.detectors.multiview import match_across_views
 
@@ -159,15 +146,15 @@ def detect(
             from platypose.lifting.errors import InputError
 
             raise InputError(f"--compare {compare}: compare one source at a time")
-        comparison = _comparison(views[0], compare, fps, image_size_option(image_size))
+        comparison = _comparison(views[0], compare, fps, options.image_size)
     keep = persons_to_keep(views, persons)
-    for name, tracks, (_, seconds, frames_run) in zip(names, views, results):
+    for name, tracks, result in zip(names, views, results):
         tracks = tracks if keep is None else tracks.select(keep)
         written = [
             write_keypoints_npz(tracks, out / name / f"{name}_keypoints2d.npz"),
             write_keypoints_csv(tracks, out / name / f"{name}_keypoints2d.csv"),
         ]
-        typer.echo("\n".join(_summary(tracks, seconds, frames_run)))
+        typer.echo("\n".join(_summary(tracks, result.seconds, result.frames)))
         for note in tracks.notes:
             typer.echo(f"warning: {note}", err=True)
         for path in written:

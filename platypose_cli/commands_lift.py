@@ -9,9 +9,9 @@ import typer
 
 from platypose.cli.app import app
 from platypose.cli.brief_help import brief_help, help_all_option
-from platypose.cli.detection import DetectOptions
+from platypose.cli.detection import image_size_option
 from platypose.cli.options import as_json, field_option, settings_options
-from platypose.lifting.settings import TakeSettings
+from platypose.lifting.settings import DetectOptions, TakeSettings
 
 if TYPE_CHECKING:
     from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
@@ -150,15 +150,9 @@ def lift(
         "sub-folders/files named after the cameras (cam01_json for cam_01).",
         rich_help_panel="Input",
     ),
-    detector: Path | None = typer.Option(
-        None, "--detector", help="Pose model .onnx (default: bundled MoveNet).", rich_help_panel="Input"
-    ),
-    detector_format: str | None = typer.Option(
-        None, "--detector-format", help="Model contract (default: recognised).", rich_help_panel="Input"
-    ),
-    person_detector: Path | None = typer.Option(
-        None, "--person-detector", help="Person detector for top-down models.", rich_help_panel="Input"
-    ),
+    detector: Path | None = field_option(DetectOptions, "detector", "Input", short=True),
+    detector_format: str | None = field_option(DetectOptions, "detector_format", "Input", short=True),
+    person_detector: Path | None = field_option(DetectOptions, "person_detector", "Input", short=True),
     out: Path = typer.Option(
         Path("out"), "--out", help="Output folder: OUT/<name>/ per input, OUT/summary.json.", rich_help_panel="Output"
     ),
@@ -173,13 +167,9 @@ def lift(
     root: str = field_option(TakeSettings, "root", "People"),
     root_trajectory: Path | None = field_option(TakeSettings, "root_trajectory", "People"),
     sync: str = field_option(TakeSettings, "sync", "Input"),
-    fps: float | None = typer.Option(
-        None, "--fps", help="Frame rate of keypoints without a video beside them.", rich_help_panel="Input"
-    ),
-    image_size: str | None = typer.Option(
-        None, "--image-size", help="HEIGHTxWIDTH of keypoints without a video.", rich_help_panel="Input"
-    ),
-    stride: int = typer.Option(1, "--stride", min=1, help="Detect every N-th frame.", rich_help_panel="Input"),
+    fps: float | None = field_option(DetectOptions, "fps", "Input", short=True),
+    image_size: str | None = field_option(DetectOptions, "image_size", "Input", short=True),
+    stride: int = field_option(DetectOptions, "stride", "Input"),
     jobs: int = typer.Option(1, "--jobs", min=1, help="Inputs lifted in parallel processes.", rich_help_panel="Run"),
     executor: str = typer.Option(
         "local",
@@ -256,7 +246,13 @@ def lift(
     check_readable_inputs(given)
     job_list = _own_folders(job_list, out)
     detect = DetectOptions(
-        detector, detector_format, person_detector, threads=threads, stride=stride, fps=fps, image_size=image_size
+        detector=detector,
+        detector_format=detector_format,
+        person_detector=person_detector,
+        threads=threads,
+        stride=stride,
+        fps=fps,
+        image_size=image_size_option(image_size),
     )
     settings = lift_settings(
         out,

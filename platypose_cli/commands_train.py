@@ -11,9 +11,9 @@ from pathlib import Path
 import typer
 
 from platypose.cli.app import app
-from platypose.cli.options import settings_options
+from platypose.cli.options import field_option, settings_options
 from platypose.lifting.errors import InputError
-from platypose.lifting.settings import DistilConfig, TrainConfig
+from platypose.lifting.settings import DistilConfig, PriorArchitecture, TrainConfig
 
 
 @app.command("train")
@@ -33,12 +33,12 @@ def train(
     precision: str = typer.Option(
         "auto", help="Forward passes in float32 or bfloat16 (autocast); auto: bfloat16 on cuda, float32 on cpu."
     ),
-    layers: int = typer.Option(4, help="Transformer layers."),
-    width: int = typer.Option(256, help="Token width."),
-    heads: int = typer.Option(4, help="Attention heads."),
-    ff_width: int = typer.Option(512, help="Feed-forward width."),
-    max_frames: int = typer.Option(64, help="Longest window the prior handles."),
-    fps: float = typer.Option(30.0, help="Frame rate the prior runs at; clips are resampled to it."),
+    layers: int = field_option(PriorArchitecture, "layers"),
+    width: int = field_option(PriorArchitecture, "width"),
+    heads: int = field_option(PriorArchitecture, "heads"),
+    ff_width: int = field_option(PriorArchitecture, "ff_width"),
+    max_frames: int = field_option(PriorArchitecture, "max_frames"),
+    fps: float = field_option(PriorArchitecture, "fps"),
     resume: bool = typer.Option(False, "--resume", help="Continue from the checkpoint at --out."),
     threads: int = typer.Option(0, help="Torch threads (0: torch's default)."),
     log_file: Path = typer.Option(None, help="Also append JSON lines of losses here."),

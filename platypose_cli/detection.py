@@ -1,14 +1,17 @@
-"""Turning one view (video or precomputed keypoints) into 2D tracks; shared by ``detect`` and ``lift``."""
+"""The command's hooks on the one view reader (:mod:`platypose.detectors.view_reader`): the model loaded once per
+process, a progress bar per video, the parsing of ``--image-size``."""
 
 from __future__ import annotations
 
 import functools
 import sys
-import time
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import typer
+
+from platypose.lifting.settings import DetectOptions
 
 
 def image_size_option(value: str | None) -> tuple[int, int] | None:
@@ -23,85 +26,30 @@ def image_size_option(value: str | None) -> tuple[int, int] | None:
     return int(height), int(width)
 
 
-@dataclass(frozen=True)
-class DetectOptions:
-    """Settings for reading or detecting one source."""
-
-    detector: Path | None = None
-    detector_format: str | None = None
-    person_detector: Path | None = None
-    movenet_size: int = 384
-    threads: int | None = None
-    provider: str = "CPUExecutionProvider"
-    stride: int = 1
-    max_frames: int | None = None
-    fps: float | None = None
-    image_size: str | None = None
-    cache: bool = True
-
-
 @functools.lru_cache(maxsize=4)
-def cached_detector(
-    detector: Path | None,
-    detector_format: str | None,
-    person_detector: Path | None,
-    threads: int | None,
-    provider: str,
-    movenet_size: int,
-):
-    """The detector for these options, loaded once per process (a batch worker keeps it for its next inputs)."""
-    from platypose.detectors.contracts import load_detector
+def cached_detector(options: DetectOptions):
+    """The detector of ``options``, loaded once per process (a batch worker keeps it for its next inputs)."""
+    from platypose.detectors.view_reader import load_model
 
-    return load_detector(detector, detector_format, person_detector, threads, provider, movenet_size)
+    return load_model(options)
 
 
-class Detection:
-    """Turns one source into tracks: reads precomputed keypoints or runs the (lazily loaded) model on a video."""
+def command_reader(options: DetectOptions, cache_dir: Callable[[Path], Path], quiet: bool):
+    """The view reader of ``lift`` and ``detect``: the process's model, detections cached in ``cache_dir(source)``
+    (with ``options.cache``), a progress bar per video (hidden with ``quiet``)."""
+    from platypose.detectors.view_reader import ViewReader
 
-    def __init__(self, options: DetectOptions) -> None:
-        self.options = options
-        self.model = None
-
-    def tracks(self, source: Path, folder: Path, quiet: bool):
-        """(tracks, seconds, frames detected: None for precomputed keypoints, 0 when read from the cache)."""
-        from platypose.detectors.sources import is_keypoint_source, read_keypoints
-
-        o = self.options
-        started = time.perf_counter()
-        if is_keypoint_source(source):
-            tracks = read_keypoints(source, fps=o.fps, image_size=image_size_option(o.image_size))
-            return tracks, time.perf_counter() - started, None
-        from platypose.detectors.pipeline import detect_video
-        from platypose.detectors.video import video_info
-
-        info = video_info(source)
-        if self.model is None:
-            self.model = cached_detector(
-                o.detector,
-                o.detector_format,
-                o.person_detector,
-                o.threads,
-                o.provider,
-                o.movenet_size,
-            )
-        total = -(-info.frame_count // o.stride)
-        total = min(total, o.max_frames) if o.max_frames else total
-        started = time.perf_counter()
+    @contextmanager
+    def bar(source: Path, total: int) -> Iterator[Callable[[int, int], None]]:
         done = [0]
         with typer.progressbar(
             length=max(total, 1), label=f"detecting {source.name}", file=sys.stderr, hidden=quiet
-        ) as bar:
+        ) as shown:
 
             def progress(count: int, _total: int) -> None:
-                bar.update(count - done[0])
+                shown.update(count - done[0])
                 done[0] = count
 
-            tracks = detect_video(
-                source,
-                self.model,
-                stride=o.stride,
-                max_frames=o.max_frames,
-                progress=progress,
-                cache_dir=folder if o.cache else None,
-            )
-        return tracks, time.perf_counter() - started, done[0]
+            yield progress
+
+    return ViewReader(options, cached_detector, cache_dir if options.cache else None, bar)

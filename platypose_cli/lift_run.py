@@ -36,7 +36,7 @@ import typer
 
 from platypose.cli.app import describe_os_error
 from platypose.cli.bookkeeping import read_record, valid_failure, valid_manifest
-from platypose.cli.detection import Detection, DetectOptions
+from platypose.cli.detection import command_reader
 from platypose.cli.input_stamps import input_stamp
 from platypose.cli.lift_jobs import Job
 from platypose.cli.locks import exclusive_lock
@@ -46,7 +46,7 @@ from platypose.cli.output_set import changed_files, digests
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.atomic import existing_kind, write_text_atomic
 from platypose.lifting.job_log import JobLog
-from platypose.lifting.settings import PriorSettings, TakeSettings
+from platypose.lifting.settings import DetectOptions, PriorSettings, TakeSettings
 
 JOB_LOCK = ".lift.lock"  # in OUT/<name>/: held by the one run writing that folder
 SYNC_FILE = "sync_offsets.json"  # offsets estimated by --sync auto, for reuse as --sync FILE
@@ -126,14 +126,7 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path):
         from platypose.lifting.calibration import load_calibration
 
         calibration = load_calibration(settings.cams)
-    detection = Detection(settings.detect)
-
-    def read(source: Path):
-        tracks, _, frames = detection.tracks(source, settings.out / job.name, settings.quiet)
-        return tracks, "read" if frames is None else (
-            "from the cache" if frames == 0 else f"detected in {frames} frames"
-        )
-
+    read = command_reader(settings.detect, lambda _: settings.out / job.name, settings.quiet)
     bars = _GroupBars(settings.quiet)
     try:
         result = run_take(

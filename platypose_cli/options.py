@@ -66,12 +66,16 @@ def flags(group: str) -> tuple[Flag, ...]:
     return tuple(made)
 
 
-def field_option(cls: type, name: str, panel: str | None = None):
-    """A typer option ``--name`` for field ``name`` of settings class ``cls``, with the field's default and help."""
+def field_option(cls: type, name: str, panel: str | None = None, *, short: bool = False):
+    """A typer option for field ``name`` of settings class ``cls``: ``--name`` (``--name/--no-name`` for a switch)
+    with the field's default and help (its ``short`` help, where it has one, with ``short``), its ``minimum`` as the
+    option's range."""
     field = cls.__dataclass_fields__[name]
-    return typer.Option(
-        field.default, "--" + name.replace("_", "-"), help=field.metadata["help"], rich_help_panel=panel
-    )
+    meta, flag = field.metadata, "--" + name.replace("_", "-")
+    names = (f"{flag}/--no-{flag[2:]}",) if isinstance(field.default, bool) else (flag,)
+    ranged = {} if meta.get("minimum") is None else {"min": meta["minimum"]}
+    shown = (short and meta.get("short")) or meta["help"]
+    return typer.Option(field.default, *names, help=shown, rich_help_panel=panel, **ranged)
 
 
 def settings_options(

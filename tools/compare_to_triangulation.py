@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from platypose.exporters.npz import read_npz
+from platypose.lifting.calibration.matching import align_frames
 from platypose.lifting.finish.rigid import rigid_paths
 from platypose.lifting.finish.rigid_shape import clip_shape
 from platypose.lifting.skeleton import JOINT_INDEX
@@ -66,9 +67,21 @@ def rigid_reference(path: Path, reference: np.ndarray) -> np.ndarray:
     return rigid_paths(reference[None], clip_shape(reference[None]), centres, seen, result.fps)[0]
 
 
-def compare(path: Path, reference: np.ndarray, rigid: np.ndarray) -> str:
-    """One Markdown row of figures for the lift ``path`` against ``reference`` ``(T, 17, 3)`` and its ``rigid`` one."""
+def at_times(reference: np.ndarray, reference_times: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """``reference`` ``(T, ...)`` at ``times`` (a lift of every N-th frame, ``--stride N``): the frame within half a
+    reference frame of each, NaN where none is."""
+    step = np.median(np.diff(reference_times)) if len(reference_times) > 1 else np.inf
+    index = align_frames(times, reference_times, 0.5 * step)
+    return np.where((index >= 0)[(...,) + (None,) * (reference.ndim - 1)], reference[index], np.nan)
+
+
+def compare(path: Path, reference: np.ndarray, rigid: np.ndarray, reference_times: np.ndarray) -> str:
+    """One Markdown row of figures for the lift ``path`` against ``reference`` ``(T, 17, 3)`` and its ``rigid`` one,
+    both at ``reference_times`` (T,), paired with the lift's frames by time."""
     result = read_npz(path)
+    if len(result.frame_times) != len(reference_times) or not np.allclose(result.frame_times, reference_times):
+        reference = at_times(reference, reference_times, np.asarray(result.frame_times))
+        rigid = at_times(rigid, reference_times, np.asarray(result.frame_times))
     hyps = np.asarray(result.hypotheses)[0].astype(np.float64)  # (N, T, 17, 3)
     median = np.asarray(result.median)[0].astype(np.float64)
     frames = np.isfinite(reference).all(axis=(-1, -2)) & np.isfinite(hyps).all(axis=(0, -1, -2))
@@ -126,7 +139,7 @@ def main() -> None:
     )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for path in lifts:
-        print(compare(path, reference, rigid))
+        print(compare(path, reference, rigid, np.asarray(read_npz(lifts[0]).frame_times)))
 
 
 if __name__ == "__main__":

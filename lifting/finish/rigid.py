@@ -26,7 +26,7 @@ view (in most frames) each bone's direction and each body's rotation is then smo
 (``s`` sum of squared accelerations against the squared change, ``SMOOTHNESS`` at 30 fps: a change
 at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the clip's shape:
 rigid and smooth. Rebuilt so from the pelvis, a foot that stood still in the sampler's motion would slide
-(the sampler holds stance ankles, :mod:`lifting.grounding`): so each ankle that stands there (stance as
+(the sampler holds stance ankles, :mod:`lifting.sampling.grounding`): so each ankle that stands there (stance as
 :func:`lifting.checks.plausibility.stance_ankles` finds it, however briefly) goes back to where the sampler planted
 it (a run of standing frames at its mean, where the run stays within ``HOLD_SPREAD`` of it), the knee onto the circle
 that thigh and shin allow (:func:`two_bone_limb`). Several views need no smoothing (it cost them

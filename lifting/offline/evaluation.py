@@ -3,7 +3,7 @@
 Windows are cut evenly from each clip (at the prior's frame rate), moved to
 where the cameras look, projected (optionally with pixel noise), lifted by
 the sequence sampler and by the frame-by-frame baseline (every frame sampled
-on its own, as ZeDO does), and scored with :mod:`lifting.metrics`.
+on its own, as ZeDO does), and scored with :mod:`lifting.offline.metrics`.
 """
 
 from __future__ import annotations

@@ -37,6 +37,7 @@ from platypose.lifting.prior.checks import (
 )
 from platypose.lifting.prior.features import FEATURES_PER_FRAME, Normalizer
 from platypose.lifting.prior.schedule import TRAIN_STEPS
+from platypose.lifting.settings import PriorArchitecture
 from platypose.lifting.skeleton import JOINT_NAMES
 
 CHECKPOINT_FORMAT = "platypose-prior"
@@ -47,16 +48,10 @@ PIECE_BYTES = 16 * 2**20  # larger checkpoints are written as pieces of at most 
 
 
 @dataclass(frozen=True)
-class PriorConfig:
-    """Size and data layout of the prior network."""
+class PriorConfig(PriorArchitecture):
+    """Size and data layout of the prior network: its architecture (the fields ``train`` has as options) and the
+    sizes the schedule and the features fix."""
 
-    layers: int = 4
-    width: int = 256
-    heads: int = 4
-    ff_width: int = 512
-    dropout: float = 0.1
-    max_frames: int = 64
-    fps: float = 30.0
     diffusion_steps: int = TRAIN_STEPS
     features: int = FEATURES_PER_FRAME
 

@@ -25,7 +25,7 @@ Given a floor ``n . x + d = 0`` (world metres, ``n`` up; :mod:`lifting.floor`):
   still in the image. Sliding holds stance ankles wherever they stand (a roof too); contact pulls only
   those within ``CONTACT_BAND`` of their stance height on the floor. One view's depth smoothing after
   guidance leaves stance ankles where guidance held them and sinks no joint under the floor
-  (:meth:`Grounding.sunk`).
+  (:meth:`Grounding.pushed_below_floor`).
 """
 
 from __future__ import annotations
@@ -81,7 +81,7 @@ class Grounding:
         normal = rotation @ self.normal
         return normal, self.offset - float(normal @ translation)
 
-    def held(
+    def stance_and_floor(
         self, joints: torch.Tensor, rotation: torch.Tensor | None, translation: torch.Tensor | None
     ) -> tuple[torch.Tensor, torch.Tensor, float]:
         """(stance, normal, offset) for guidance at joints ``(B, N, F, 17, 3)`` in the frame ``x_c = R x + t`` (world if
@@ -132,14 +132,14 @@ class Grounding:
         return (joints > 0)[None]
 
     @staticmethod
-    def sunk(
-        start: torch.Tensor, moved: torch.Tensor, settled: torch.Tensor, normal: torch.Tensor, offset: float
+    def pushed_below_floor(
+        start: torch.Tensor, moved: torch.Tensor, smoothed_move: torch.Tensor, normal: torch.Tensor, offset: float
     ) -> torch.Tensor:
-        """Boolean ``(1, B, N, F, 17)``: joints that the move ``settled`` (after guidance's ``moved``, both from
+        """Boolean ``(1, B, N, F, 17)``: joints that the move ``smoothed_move`` (after guidance's ``moved``, both from
         ``start``, component-first ``(3, B, N, F, 17)``) puts below the floor ``(normal, offset)`` and below where
         ``moved`` left them (one view's depth smoothing runs along rays that slope down to the floor)."""
         guided = torch.einsum("c...,c->...", start + moved, normal) + offset
-        smoothed = torch.einsum("c...,c->...", start + settled, normal) + offset
+        smoothed = torch.einsum("c...,c->...", start + smoothed_move, normal) + offset
         return (smoothed < guided.clamp(max=0.0))[None]
 
     def place(self, placed: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:

@@ -1,7 +1,7 @@
 """The guidance problem: the energy of a batch of windows, their placement and the guidance steps on them.
 
 The state guided is ``x0`` (normalised windows, which fix the motion up to a shift) plus a
-world offset per frame (:mod:`lifting.placement`). Guidance moves the decoded joints by damped
+world offset per frame (:mod:`lifting.sampling.placement`). Guidance moves the decoded joints by damped
 Gauss-Newton (or the paper's gradient) steps on the reprojection energy plus the structural and
 anchor terms, accepts or cuts each step, and writes the accepted move back into windows and offsets.
 """
@@ -119,7 +119,9 @@ class GuidedProblem:
             return start + (moved - moved[..., :1])
         return start + moved
 
-    def absorb(self, x0: torch.Tensor, offset: torch.Tensor, moved: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    def apply_joint_moves(
+        self, x0: torch.Tensor, offset: torch.Tensor, moved: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
         """Windows ``x0`` ``(B*N, F, D)`` and offsets ``(B, N, F, 3)`` holding the joints moved by ``moved``
         ``(3, B, N, F, 17)``: features are linear in joint moves up to one shift per window (frame 0's root),
         which the offset takes."""
@@ -130,7 +132,7 @@ class GuidedProblem:
     def camera_frame(self) -> tuple[torch.Tensor, torch.Tensor] | None:
         """The camera's ``(R, t)`` (world -> camera) when guidance runs in its frame, else None (world frame).
 
-        One camera with Gauss-Newton steps (:meth:`lifting.views.OneView.guidance_frame`).
+        One camera with Gauss-Newton steps (:meth:`lifting.sampling.views.OneView.guidance_frame`).
         """
         return self.views.guidance_frame(self.config)
 
@@ -168,11 +170,11 @@ class GuidedProblem:
         return features_to_joints(grad_x * -self.std).reshape(B, N, F, -1, 3).movedim(-1, 0)
 
     def add_extra_terms(self, joints, energy, grad, curvature, anchor: torch.Tensor | None = None):
-        """Add the structural energies and the joint limits (:mod:`lifting.anatomy.hinges`; autograd, small), the floor's (:mod:`lifting.grounding`) and the anchor (analytic)
+        """Add the structural energies and the joint limits (:mod:`lifting.anatomy.hinges`; autograd, small), the floor's (:mod:`lifting.sampling.grounding`) and the anchor (analytic)
         to the reprojection terms.
 
         ``grad`` ``(3, B, N, F, 17)`` and ``curvature`` ``(6, B, N, F, 17)`` are component-first, as
-        :func:`lifting.energy.reprojection_terms` returns them, in the frame of ``joints`` and of
+        :func:`lifting.sampling.energy.reprojection_terms` returns them, in the frame of ``joints`` and of
         ``anchor`` (the anchor's joints; both energies are the same in any rigid frame).
         """
         c = self.config
@@ -213,7 +215,7 @@ class GuidedProblem:
             anchor = None if anchor is None else rotate_translate(anchor.movedim(-1, 0), *frame).movedim(0, -1)
         start = start.contiguous()
         if self.grounding is not None:  # stance detected per hypothesis from where guidance starts
-            self.floor_state = self.grounding.held(start.movedim(0, -1), *(frame or (None, None)))
+            self.floor_state = self.grounding.stance_and_floor(start.movedim(0, -1), *(frame or (None, None)))
         moved = torch.zeros_like(start)
         rows = (1, self.batch, -1, 1, 1)  # one hypothesis per row of the component-first arrays
         step = torch.full((x0.shape[0],), c.energy_scale, dtype=x0.dtype, device=x0.device)
@@ -237,15 +239,17 @@ class GuidedProblem:
             if c.guidance_tol > 0 and bool(converged.all()):
                 break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
         anchored = None if self.anchor is None else self.anchor.mask
-        settled = self.views.settle_move(start, moved, frame is not None, anchored, c)
+        smoothed_move = self.views.depth_smoothed_move(start, moved, frame is not None, anchored, c)
         if self.floor_state is not None:  # standing ankles stay where guidance held them, no joint sinks further
             stance, normal, level = self.floor_state
-            kept = self.grounding.standing_joints(stance) | self.grounding.sunk(start, moved, settled, normal, level)
-            settled = torch.where(kept, moved, settled)
-        moved = settled
+            kept = self.grounding.standing_joints(stance) | self.grounding.pushed_below_floor(
+                start, moved, smoothed_move, normal, level
+            )
+            smoothed_move = torch.where(kept, moved, smoothed_move)
+        moved = smoothed_move
         if frame is not None:  # the move back in world axes
             moved = rotate_translate(moved, frame[0].T)
-        return self.absorb(x0, offset, moved)
+        return self.apply_joint_moves(x0, offset, moved)
 
 
 def limit_terms(joints: torch.Tensor, weight: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:

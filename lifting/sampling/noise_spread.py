@@ -45,7 +45,7 @@ def noise_spread(
     smoothed: tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> torch.Tensor:
     """Offsets ``(B, N, F, 17, 3)`` that spread fitted world joints by their 2D noise, from the fit's packed
-    curvature ``2 J^T W J`` ``(6, B, N, F, 17)`` (:func:`lifting.energy.reprojection_terms`) and the
+    curvature ``2 J^T W J`` ``(6, B, N, F, 17)`` (:func:`lifting.sampling.energy.reprojection_terms`) and the
     observations' ``confidence`` ``(C, B, F, 17)``.
 
     ``draws`` ``(N, 17, 3)`` are standard normal, one vector per hypothesis and joint. ``variance``
@@ -53,7 +53,7 @@ def noise_spread(
     it holds the views' disagreement, which real detectors keep from frame to frame, not only their
     jitter). After a fit smoothed over frames, ``smoothed`` = (jitter variance ``(B,)``, shrink
     ``(B, F, 17)``): the jitter's part of the variance is shrunk by that factor
-    (:func:`lifting.temporal_fit.posterior_shrink`), the rest (the views' lasting disagreement) is
+    (:func:`lifting.sampling.temporal_fit.posterior_shrink`), the rest (the views' lasting disagreement) is
     not. A joint
     seen by fewer than two cameras (no depth from the views), or every joint of a window
     without redundancy, gets no offset.

@@ -1,11 +1,11 @@
 """Where each new network prediction stands in the world: known root path, or the rays' closed-form placement.
 
 The prior predicts motion up to a shift; every diffusion step's prediction is placed before
-guidance moves it (:meth:`lifting.guidance.GuidedProblem.solve_offset`):
+guidance moves it (:meth:`lifting.sampling.guidance.GuidedProblem.solve_offset`):
 
 - size prior (:func:`typical_size`): one view cannot tell a small near person from a tall far
   one, so each prediction is brought to an adult size (each hypothesis its own) before the rays
-  place it (:func:`lifting.translation.solve_translation`);
+  place it (:func:`lifting.sampling.translation.solve_translation`);
 - depth limit (:func:`limit_depth`, one view): roots far nearer or farther than their window's
   median hypothesis come back along their rays;
 - continuation (:class:`Anchor`, :func:`continuation_ramp`): a window that continues the one

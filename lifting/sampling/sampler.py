@@ -121,7 +121,7 @@ def sample(
         if progress is not None:
             progress(i + 1, len(steps))
     with torch.no_grad():
-        fitted, joints = views.settle(problem.world_joints(x0, offset), obs, draws, config, prior.fps)
+        fitted, joints = views.fit_and_spread(problem.world_joints(x0, offset), obs, draws, config, prior.fps)
         energy = reprojection_energy(joints, raw, config.robust, config.robust_scale)
     return SampleResult(joints.cpu().numpy(), energy.cpu().numpy(), fitted.cpu().numpy())
 

@@ -114,7 +114,7 @@ def acceleration_weight(noise: torch.Tensor, fps: float) -> torch.Tensor:
 def posterior_shrink(curvature: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
     """Per window, frame and joint ``(B, F, 17)``: the variance of the smoothed fit over that of the frame's own
     least-squares fit, ``h [(h I + 2 w D^T D)^-1]_ff``, with h each joint's mean data curvature (one value per axis)
-    from the fit's packed curvature ``(6, B, N, F, 17)`` (:func:`lifting.energy.reprojection_terms`).
+    from the fit's packed curvature ``(6, B, N, F, 17)`` (:func:`lifting.sampling.energy.reprojection_terms`).
 
     The noise spread of several cameras draws from the least-squares uncertainty; after the
     smoothing fit, which averages neighbouring frames, its draws are shrunk by this factor.

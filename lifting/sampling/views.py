@@ -46,7 +46,7 @@ class OneView:
 
     def limit_offset(self, roots: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
         """Offsets ``(B, N, F, 3)`` of ``roots`` ``(B, N, F, 3)`` with the placed roots' depths limited
-        (:func:`lifting.placement.limit_depth`): a few poorly fitting early predictions fell towards the camera."""
+        (:func:`lifting.sampling.placement.limit_depth`): a few poorly fitting early predictions fell towards the camera."""
         return limit_depth(roots + offset, self.rotation, self.translation) - roots
 
     def guidance_frame(self, config: SamplerConfig) -> tuple[torch.Tensor, torch.Tensor] | None:
@@ -54,7 +54,7 @@ class OneView:
         in its axes, where the Jacobian rows are (1, 0, -u) and (0, 1, -v); every energy is the same there."""
         return (self.rotation, self.translation) if config.direction == "gauss-newton" else None
 
-    def settle_move(
+    def depth_smoothed_move(
         self,
         start: torch.Tensor,
         moved: torch.Tensor,
@@ -63,7 +63,7 @@ class OneView:
         config: SamplerConfig,
     ) -> torch.Tensor:
         """The guidance move ``(3, B, N, F, 17)`` from ``start`` after which every joint's depth path is smoothed
-        (:mod:`lifting.depth_smoothing`); ``start`` and ``moved`` are in the camera's frame or (not ``in_camera``)
+        (:mod:`lifting.sampling.depth_smoothing`); ``start`` and ``moved`` are in the camera's frame or (not ``in_camera``)
         the world's; ``anchored`` ``(B, F)`` marks frames held to the window before. Joints that are not finite
         (frames outside a given root path) keep ``moved``."""
         if config.depth_smoothness <= 0:
@@ -76,7 +76,7 @@ class OneView:
         smoothed_move = smoothed - start
         return torch.where(torch.isfinite(smoothed_move), smoothed_move, moved)  # frames without a root keep theirs
 
-    def settle(
+    def fit_and_spread(
         self, fitted: torch.Tensor, obs: Observations, draws: torch.Tensor, config: SamplerConfig, fps: float
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """(fitted, hypotheses): one camera has nothing redundant to measure noise by, both are the fit."""
@@ -100,7 +100,7 @@ class SeveralViews:
         """Guidance runs in world axes."""
         return None
 
-    def settle_move(
+    def depth_smoothed_move(
         self,
         start: torch.Tensor,
         moved: torch.Tensor,
@@ -111,11 +111,11 @@ class SeveralViews:
         """The guidance move as it is: the views hold every joint's depth."""
         return moved
 
-    def settle(
+    def fit_and_spread(
         self, fitted: torch.Tensor, obs: Observations, draws: torch.Tensor, config: SamplerConfig, fps: float
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """(fitted, hypotheses): the guided fit ``(B, N, F, 17, 3)`` moved by the noise fit, and the hypotheses
-        spread from it by ``draws`` (:mod:`lifting.noise_spread`); with both steps off, both are the fit."""
+        spread from it by ``draws`` (:mod:`lifting.sampling.noise_spread`); with both steps off, both are the fit."""
         if not (config.noise_fit or config.noise_spread):
             return fitted, fitted
         energy, _, curvature = reprojection_terms(fitted, obs)

@@ -351,7 +351,7 @@ class _WindowRunner:
 
 def only_viewer(keypoints: np.ndarray) -> int | None:
     """The one camera seeing a window of keypoints ``(C, B, F, 17, 3)`` when no other sees it (and there are several),
-    else None: the sampler's one-view steps (:mod:`lifting.views`) are then that window's, among any cameras."""
+    else None: the sampler's one-view steps (:mod:`lifting.sampling.views`) are then that window's, among any cameras."""
     seeing = np.flatnonzero((np.nan_to_num(keypoints[..., 2]) > 0).reshape(len(keypoints), -1).any(-1))
     return int(seeing[0]) if len(keypoints) > 1 and len(seeing) == 1 else None
 

@@ -74,7 +74,7 @@ def test_a_non_finite_loss_stops_training_and_writes_nothing(real_clips, tmp_pat
 
 def test_a_loss_that_turns_nan_stops_training(real_clips, tmp_path, monkeypatch):
     """A model whose output turns NaN mid-run (divergence): the run stops naming the iteration, nothing written."""
-    from platypose.lifting.prior.model import model as prior_module
+    from platypose.lifting.prior import model as prior_module
 
     calls = {"n": 0}
     forward = prior_module.MotionPrior.forward

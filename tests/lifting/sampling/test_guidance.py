@@ -1,4 +1,4 @@
-"""The guidance problem (lifting/sampling/guidance.py): moves of the joints absorbed into the features, the
+"""The guidance problem (lifting/sampling/guidance.py): moves of the joints applied to the features, the
 gradient direction, the stop when the fit gains nothing, and guidance in the camera frame."""
 
 import numpy as np
@@ -28,12 +28,12 @@ def _problem(prior, truth, views, root=False, **config):
 
 
 @pytest.mark.parametrize("root", [False, True])
-def test_moving_joints_then_absorbing_the_move_decodes_to_the_moved_joints(tiny_prior, heldout_window, root):
+def test_moving_joints_then_applying_the_move_decodes_to_the_moved_joints(tiny_prior, heldout_window, root):
     problem, x0 = _problem(tiny_prior, heldout_window, views=1, root=root)
     offset = problem.solve_offset(x0)
     start = problem.world_joints(x0, offset).movedim(-1, 0)
     moved = 0.05 * torch.randn(start.shape, generator=torch.Generator().manual_seed(1))
-    decoded = problem.world_joints(*problem.absorb(x0, offset, moved))
+    decoded = problem.world_joints(*problem.apply_joint_moves(x0, offset, moved))
     assert torch.allclose(decoded, problem.displaced(start, moved).movedim(0, -1), atol=1e-5)
     if root:  # the pelvis stays on the known path
         assert torch.allclose(

@@ -1,27 +1,17 @@
-"""Every settings class of the library, with each field's help beside it, checked once (no torch, numpy or cv2).
-
-A field made with :func:`setting` carries its help; ``option=True`` makes it a command-line option of every
-command using its class (``platypose.cli.options`` builds the flags from these fields, ``--`` and the field name
-with dashes, plus the ``also`` spellings). Every check raises
-:class:`~platypose.lifting.errors.InputError` with ``option`` set to the field's name, and the message names
-the field as it is spelled here (the CLI puts the flag in its place). Values are checked by their declared
-type first: a Python ``int`` where an integer is asked, any real number where a float is (stored as
-``float``), ``True``/``False`` for switches, a path (``str`` or ``Path``) where a path is.
-"""
+"""The settings of a lift: the sampler, the windows, the prior to load, and how one take is lifted."""
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import numbers
 import os
-import typing
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from platypose.lifting.errors import InputError
+from platypose.lifting.settings.fields import check_types, choose, require, setting
 
 ROBUST_LOSSES = ("l2", "geman-mcclure")
 STEP_RULES = ("backtrack", "paper")
@@ -31,72 +21,6 @@ MAX_SAMPLES = 5000  # hypotheses per person: beyond this the arrays outgrow any 
 DEVICES = ("cpu", "cuda", "auto")
 RUNTIMES = ("auto", "float32", "bfloat16", "onnx")
 ROOT_MODES = ("auto", "triangulate", "solve")
-
-
-def setting(default, help: str, *, option: bool = False, also: tuple[str, ...] = (), panel: str | None = None):
-    """A dataclass field with its ``help``; ``option``: a command-line option (spelled ``--field-name`` and
-    ``also`` older spellings), shown in the help panel ``panel`` (default: its class's)."""
-    meta = {"help": help, "option": option, "also": also, "panel": panel}
-    return dataclasses.field(default=default, metadata=meta)
-
-
-def option_fields(cls: type) -> list[dataclasses.Field]:
-    """The fields of settings class ``cls`` that are command-line options."""
-    return [f for f in dataclasses.fields(cls) if f.metadata.get("option")]
-
-
-@functools.cache
-def _hints(cls: type) -> dict[str, object]:
-    return typing.get_type_hints(cls)
-
-
-def _checked(name: str, value: object, hint: object) -> object:
-    """``value`` as field ``name`` of type ``hint`` stores it; InputError naming the field otherwise."""
-    args = typing.get_args(hint)
-    if type(None) in args:
-        if value is None:
-            return None
-        (hint,) = [a for a in args if a is not type(None)]
-        args = typing.get_args(hint)
-    if hint is bool:
-        ok = isinstance(value, bool)
-        want = "True or False"
-    elif hint is int:
-        ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
-        value, want = (int(value) if ok else value), "an integer"
-    elif hint is float:
-        ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
-        value, want = (float(value) if ok else value), "a finite number"
-    elif hint is str:
-        ok, want = isinstance(value, str), "a string"
-    elif hint is Path:
-        ok, want = isinstance(value, (str, os.PathLike)), "a path"
-        value = Path(value) if ok else value
-    elif typing.get_origin(hint) is tuple:
-        want = f"{len(args)} numbers"
-        ok = isinstance(value, (tuple, list)) and len(value) == len(args)
-        items = [_checked(name, v, float) for v in value] if ok else []
-        value = tuple(items) if ok else value
-    else:
-        return value
-    if not ok:
-        raise InputError(f"{name} must be {want}, got {value!r}", option=name)
-    return value
-
-
-def check_types(settings: object) -> None:
-    """Check every field of the dataclass ``settings`` against its declared type, storing the normalised value."""
-    hints = _hints(type(settings))
-    for f in dataclasses.fields(settings):
-        object.__setattr__(settings, f.name, _checked(f.name, getattr(settings, f.name), hints[f.name]))
-
-
-def require(checks: list[tuple[bool, str, str]]) -> None:
-    """Raise InputError(message, option=field) for the first ``(ok, field, message)`` that is not ok."""
-    for ok, name, message in checks:
-        if not ok:
-            raise InputError(message, option=name)
-
 
 MAX_SAMPLER_VALUE = 1e6  # any number of the sampler's settings; float32 squares stay finite under 3.4e38
 
@@ -167,10 +91,10 @@ class SamplerConfig:
                 (self.energy_scale > 0, "energy_scale", f"energy_scale must be positive, got {self.energy_scale}"),
                 (0 < self.decay < 1, "decay", f"decay must be in (0, 1), got {self.decay}"),
                 (self.grow >= 1, "grow", f"grow must be >= 1, got {self.grow}"),
-                (self.direction in DIRECTIONS, "direction", _choose("direction", self.direction, DIRECTIONS)),
+                (self.direction in DIRECTIONS, "direction", choose("direction", self.direction, DIRECTIONS)),
                 (self.damping > 0, "damping", f"damping must be positive, got {self.damping}"),
-                (self.step_rule in STEP_RULES, "step_rule", _choose("step_rule", self.step_rule, STEP_RULES)),
-                (self.robust in ROBUST_LOSSES, "robust", _choose("robust", self.robust, ROBUST_LOSSES)),
+                (self.step_rule in STEP_RULES, "step_rule", choose("step_rule", self.step_rule, STEP_RULES)),
+                (self.robust in ROBUST_LOSSES, "robust", choose("robust", self.robust, ROBUST_LOSSES)),
                 (self.robust_scale > 0, "robust_scale", f"robust_scale must be positive, got {self.robust_scale}"),
                 (self.translation_smoothness >= 0, "translation_smoothness", "translation_smoothness must be >= 0"),
                 (
@@ -192,15 +116,11 @@ class SamplerConfig:
                     "floor weights must be >= 0",
                 ),
                 (0 <= self.support_spread <= 0.2, "support_spread", "support_spread must be in [0, 0.2] m"),
-                (self.solver in SOLVERS, "solver", _choose("solver", self.solver, SOLVERS)),
+                (self.solver in SOLVERS, "solver", choose("solver", self.solver, SOLVERS)),
                 (self.solver == "ddim" or self.eta == 0, "eta", "the dpm2m solver is deterministic: eta must be 0"),
                 (0 < self.temperature <= 2, "temperature", f"temperature must be in (0, 2], got {self.temperature}"),
             ]
         )
-
-
-def _choose(name: str, value: str, choices: tuple[str, ...]) -> str:
-    return f"unknown {name} {value!r}; choose {', '.join(choices)}"
 
 
 @dataclass(frozen=True)
@@ -253,8 +173,8 @@ class PriorSettings:
         check_types(self)
         require(
             [
-                (self.device in DEVICES, "device", _choose("device", self.device, DEVICES)),
-                (self.runtime in RUNTIMES, "runtime", _choose("runtime", self.runtime, RUNTIMES)),
+                (self.device in DEVICES, "device", choose("device", self.device, DEVICES)),
+                (self.runtime in RUNTIMES, "runtime", choose("runtime", self.runtime, RUNTIMES)),
             ]
         )
 
@@ -319,82 +239,3 @@ class TakeSettings:
         for name, cls in (("sampler", SamplerConfig), ("windows", WindowSettings)):
             if not isinstance(getattr(self, name), cls):
                 raise InputError(f"{name} must be a {cls.__name__}, got {getattr(self, name)!r}", option=name)
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Optimisation and augmentation settings of training a prior."""
-
-    iterations: int = setting(20000, "Optimiser steps.", option=True)
-    batch_size: int = setting(64, "Windows per step.", option=True)
-    learning_rate: float = setting(3e-4, "Peak learning rate (cosine decay).", option=True)
-    weight_decay: float = setting(1e-4, "AdamW weight decay.")
-    validation_fraction: float = setting(0.15, "Share of the clips held out for validation.")
-    time_scale: tuple[float, float] = setting((0.8, 1.25), "Range of the playback speed augmentation.")
-    bone_scale: float = setting(0.15, "Per-bone length augmentation (+-).", option=True)
-    global_scale: float = setting(0.10, "Whole-body size augmentation (+-).")
-    mirror_probability: float = setting(0.5, "Probability of a left/right mirrored window.")
-    checkpoint_every: int = setting(1000, "Write the checkpoint every this many steps.", option=True)
-    validate_every: int = setting(250, "Validate (and log) every this many steps.", option=True)
-    seed: int = setting(0, "Random seed.", option=True)
-
-    def __post_init__(self) -> None:
-        check_types(self)
-        require(
-            [
-                *_at_least_one(self, ("iterations", "batch_size", "checkpoint_every", "validate_every")),
-                (
-                    0 < self.learning_rate < 1,
-                    "learning_rate",
-                    f"learning_rate must be in (0, 1), got {self.learning_rate}",
-                ),
-                (self.weight_decay >= 0, "weight_decay", f"weight_decay must be >= 0, got {self.weight_decay}"),
-                (0 <= self.bone_scale < 1, "bone_scale", f"bone_scale must be in [0, 1), got {self.bone_scale}"),
-                (
-                    0 <= self.global_scale < 1,
-                    "global_scale",
-                    f"global_scale must be in [0, 1), got {self.global_scale}",
-                ),
-                (0 <= self.validation_fraction < 1, "validation_fraction", "validation_fraction must be in [0, 1)"),
-                (0 < self.time_scale[0] <= self.time_scale[1], "time_scale", "time_scale must be positive and ordered"),
-                (0 <= self.mirror_probability <= 1, "mirror_probability", "mirror_probability must be in [0, 1]"),
-                (0 <= self.seed < 2**63, "seed", f"seed must be in [0, 2**63), got {self.seed}"),
-            ]
-        )
-
-
-@dataclass(frozen=True)
-class DistilConfig:
-    """Settings of one halving: the ``calls`` the student makes (half the teacher's), optimisation, checkpoints.
-
-    ``start_share`` is the share of first-call rows drawn as the sampler starts them (the noise alone, no
-    signal), the rest are noised training windows like every other call's.
-    """
-
-    calls: int = setting(4, "With --distil-from: the student's network calls (half the teacher's).", option=True)
-    iterations: int = setting(4000, "Optimiser steps.")
-    batch_size: int = setting(64, "Windows per step.")
-    learning_rate: float = setting(1e-4, "Peak learning rate (cosine decay).")
-    start_share: float = setting(0.5, "Share of first-call rows started from noise alone.")
-    checkpoint_every: int = setting(250, "Write the checkpoint every this many steps.")
-    validate_every: int = setting(250, "Validate every this many steps.")
-    seed: int = setting(0, "Random seed.")
-
-    def __post_init__(self) -> None:
-        check_types(self)
-        require(
-            [
-                *_at_least_one(self, ("calls", "iterations", "batch_size", "checkpoint_every", "validate_every")),
-                (
-                    0 < self.learning_rate < 1,
-                    "learning_rate",
-                    f"learning_rate must be in (0, 1), got {self.learning_rate}",
-                ),
-                (0 <= self.start_share <= 1, "start_share", f"start_share must be in [0, 1], got {self.start_share}"),
-                (0 <= self.seed < 2**63, "seed", f"seed must be in [0, 2**63), got {self.seed}"),
-            ]
-        )
-
-
-def _at_least_one(settings: object, names: tuple[str, ...]) -> list[tuple[bool, str, str]]:
-    return [(getattr(settings, n) >= 1, n, f"{n} must be at least 1, got {getattr(settings, n)}") for n in names]

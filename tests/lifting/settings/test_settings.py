@@ -1,4 +1,4 @@
-"""lifting/settings.py: every field has its help, defaults build, and every refusal names its field."""
+"""The settings (lifting/settings/): every field has its help, defaults build, and every refusal names its field."""
 
 from __future__ import annotations
 
