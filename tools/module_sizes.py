@@ -45,6 +45,13 @@ def table(lines: dict[str, int]) -> str:
     return "\n".join(rows) + f"\n\nThe longest modules: {listed}; the limit is {LIMIT} lines, data tables excepted.\n"
 
 
+def documented(doc: Path) -> str:
+    """The table ``doc`` shows between its markers, as :func:`table` writes it; empty without the markers."""
+    _, begin, rest = doc.read_text(encoding="utf-8").partition(BEGIN)
+    shown, end, _ = rest.partition(END)
+    return shown.removeprefix("\n") if begin and end else ""
+
+
 def write(doc: Path, text: str) -> None:
     """Replace what lies between the markers of ``doc`` with ``text``."""
     content = doc.read_text(encoding="utf-8")

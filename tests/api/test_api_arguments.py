@@ -1,5 +1,5 @@
 """platypose.lift and load_result take natural Python values and refuse the rest with an InputError naming the
-argument, before any work (issue 30, item 11)."""
+argument, before any work."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Choosing whom to lift does not move an estimated floor: it comes from everyone in the take (issue: one chosen
-person re-estimated the camera at 2.15 m instead of 3.49 m)."""
+"""Choosing whom to lift does not move an estimated floor: it comes from everyone in the take (one chosen
+person once re-estimated the camera at 2.15 m instead of 3.49 m)."""
 
 from __future__ import annotations
 

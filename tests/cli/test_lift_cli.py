@@ -228,7 +228,7 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
         "2",
     )
     code, out, err = run_cli(*args)
-    assert code == 2  # both failures are bad inputs (issue 17.11: the README's exit code)
+    assert code == 2  # both failures are bad inputs (the README's exit code)
     assert "3 input(s): 1 ok, 2 failed, 0 skipped" in out
     assert "warning: good:" not in err  # no --cams is what one phone gives: said in the log and meta, not warned
     summary = json.loads((tmp_path / "summary.json").read_text())

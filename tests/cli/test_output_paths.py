@@ -1,4 +1,4 @@
-"""Issue 17.7: outputs that cannot be written (a file in the way, a folder given for a file, a read-only
+"""Outputs that cannot be written (a file in the way, a folder given for a file, a read-only
 folder, a name too long) are one-line errors naming the path, before any work, in detect, export, calib
 convert and train; nothing is left behind."""
 

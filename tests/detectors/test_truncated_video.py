@@ -1,4 +1,4 @@
-"""Issue 17.10: a truncated video (the container states more frames than decode) is reported, not silently ok."""
+"""A truncated video (the container states more frames than decode) is reported, not silently ok."""
 
 from __future__ import annotations
 

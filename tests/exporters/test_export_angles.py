@@ -91,7 +91,7 @@ def test_signs_and_sides():
 
 
 def test_hinges_bent_backwards_read_negative():
-    """Signed flexion (issue 42): a knee whose shin goes forwards and an elbow whose forearm goes backwards read
+    """Signed flexion: a knee whose shin goes forwards and an elbow whose forearm goes backwards read
     negative, as OpenSim's coordinates; the elbow's axial rotation then reads from the model's side of the turn."""
     pose = standing()
     back = np.radians(20)
@@ -115,7 +115,7 @@ def result(data_dir):
 
 
 def test_abduction_through_90_degrees_reads_no_flip():
-    """The issue's case: an arm held out sideways at 86-91 degrees of abduction, wobbling a few degrees
+    """An arm held out sideways at 86-91 degrees of abduction, wobbling a few degrees
     forwards and backwards, read frame by frame. The old sagittal-plane flexion jumped between +87 and -99;
     plane of elevation, elevation and rotation now move by a few degrees per frame."""
     rng = np.random.default_rng(3)

@@ -118,7 +118,7 @@ def test_the_shipped_files_are_the_built_ones_and_run_in_opensim(data_dir, tmp_p
 
 
 def test_ik_keeps_each_hinge_on_the_branch_the_joints_bend_and_warns_of_a_pinned_one(tmp_path):
-    """Issue 42: a one-view lift of the Pose2Sim athlete (tests/data/lifts, before the joint limits). Without a
+    """A one-view lift of the Pose2Sim athlete (tests/data/lifts, before the joint limits). Without a
     hint OpenSim's IK, which starts every frame from the one before, held an elbow on the wrong branch at its
     -20 degree limit (39 degrees from the angles CSV). Hinted, every hinge coordinate lies within 5 degrees
     (median) of our signed flexion, and the hinges our joints bend past -20 are named in the fit's warnings."""

@@ -5,9 +5,11 @@ corrupted in a temporary folder, runs ``platypose ...`` in a fresh process with 
 classified as one of:
 
 - ``clean error``: non-zero exit with a one-line ``error: ...`` (or a failed input named in the
-  summary) that is not a Python exception's text;
+  summary) that is not a Python exception's text and holds the case's words (``Run.says``: the file or option
+  and the problem; a case expecting an error without them fails as ``unchecked message``);
 - ``handled well``: the run succeeded and did what it should (e.g. warned about a truncated video);
 - ``internal message``: an error whose text is a Python exception (``ZeroDivisionError: ...``, ``Aborted!``);
+- ``wrong message``: a clean error line that lacks the words the case expects;
 - ``traceback``; ``silent wrong`` (exit 0 where an error or a warning was due, or a wrong result);
 - ``stale data`` (old outputs reported as current, or lost entries); ``hang`` (timeout);
 - ``code execution`` (a marker file that a crafted input tries to create exists afterwards).
@@ -51,7 +53,8 @@ INTERNAL = re.compile(
 
 @dataclass
 class Run:
-    """What one case runs: CLI arguments (or several runs), a check of the outcome, a marker file."""
+    """What one case runs: CLI arguments (or several runs), the words its error must hold, a check of the outcome,
+    a marker file."""
 
     args: list | None = None
     expect: str = "error"  # error | ok
@@ -61,23 +64,26 @@ class Run:
     cwd: Path | None = None
     action: Callable[[], tuple[str, str]] | None = None  # a custom run: (outcome, note)
     skip: str | None = None
+    says: tuple[str, ...] = ()  # an error's words, all in its error lines: the file or option, and the problem
+
+    def __post_init__(self) -> None:
+        assert not isinstance(self.says, str) and all(isinstance(w, str) for w in self.says), "says: a tuple of words"
 
 
 @dataclass(frozen=True)
 class Case:
-    """One audit case: the issue item it checks, its name, and what builds its run in a work folder."""
+    """One audit case: its name (the fault it checks) and what builds its run in a work folder."""
 
-    item: str
     name: str
     build: Callable[[Path], Run]
 
 
-def registry(cases: list[Case]) -> Callable[[str, str], Callable]:
-    """A decorator ``@case(item, name)`` adding the decorated builder to ``cases``."""
+def registry(cases: list[Case]) -> Callable[[str], Callable]:
+    """A decorator ``@case(name)`` adding the decorated builder to ``cases``."""
 
-    def case(item: str, name: str) -> Callable:
+    def case(name: str) -> Callable:
         def register(build: Callable[[Path], Run]) -> Callable[[Path], Run]:
-            cases.append(Case(item, name, build))
+            cases.append(Case(name, build))
             return build
 
         return register
@@ -138,6 +144,11 @@ def classify(run: Run, proc: subprocess.CompletedProcess | None) -> tuple[str, s
             return "internal message", (text or proc.stderr.strip())[:160]
         if problem:
             return ("stale data" if problem.startswith("stale") else "silent wrong"), problem
+        if not run.says:
+            return "unchecked message", f"no words to look for in {text[:200]!r}"
+        missing = [word for word in run.says if word not in text]
+        if missing:
+            return "wrong message", f"the error does not say {missing}: {text[:200]!r}"
         return "clean error", text.splitlines()[0][:160]
     if proc.returncode != 0:
         return "silent wrong", f"exit {proc.returncode}: {(error_text(proc) or proc.stderr.strip())[:160]}"

@@ -1,4 +1,4 @@
-"""Round two's audit machinery (issue 30, tests marked ``audit``): the installed ``platypose`` command in a child
+"""The audit machinery of whole runs (tests marked ``audit``): the installed ``platypose`` command in a child
 process under a 3 GB address-space limit and a time limit, in a case folder that is watched.
 
 A run is flagged for a write outside --out (a file created or changed in the case folder beside the out folder),
@@ -50,11 +50,19 @@ def _snapshot(folder: Path, skip: Path) -> dict:
 
 
 def watched(
-    case: Path, args: list, expect: str, needle: str = "", timeout: float = 240, out: Path | None = None
+    case: Path,
+    args: list,
+    expect: str,
+    needle: str | tuple[str, ...] = "",
+    timeout: float = 240,
+    out: Path | None = None,
 ) -> dict:
     """Run ``platypose *args`` in ``case`` and return its row: the flags, exit code, seconds, peak MB and a note when
-    the outcome is not the one due. ``expect``: "error" (exit 2, ``needle`` on stderr), "ok" (exit 0), "warn" (exit
-    0, ``needle`` in the output)."""
+    the outcome is not the one due. ``expect``: "error" (exit 2, every ``needle`` on stderr), "ok" (exit 0), "warn"
+    (exit 0, every ``needle`` in the output). An error or a warning names its words: the file or option, and the
+    problem."""
+    needles = (needle,) if isinstance(needle, str) else tuple(needle)
+    assert expect == "ok" or all(n.strip() not in ("", "error:") for n in needles), "no words to look for"
     case.mkdir(parents=True, exist_ok=True)
     out = Path(out) if out else case / "out"
     before = _snapshot(case, out)
@@ -85,18 +93,25 @@ def watched(
     row["outside"] = int(any(p not in before or before[p] != t for p, t in after.items()))
     lines = [line for line in (stderr or "").strip().splitlines() if line.strip()]
     if not row["hang"]:
-        if expect == "error" and not (code == 2 and lines and needle in stderr):
+        if expect == "error" and not (code == 2 and lines and all(n in stderr for n in needles)):
             row["silent"] = int(code == 0)
             row["note"] = f"exit {code}: {(lines or [''])[-1][:160]}"
         elif expect == "ok" and code != 0:
             row["note"] = f"exit {code}: {(lines or [''])[-1][:160]}"
-        elif expect == "warn" and not (code == 0 and needle in text):
+        elif expect == "warn" and not (code == 0 and all(n in text for n in needles)):
             row["silent"] = int(code == 0)
-            row["note"] = f"exit {code}, no warning {needle!r}"
+            row["note"] = f"exit {code}, no warning {needles!r}"
     return row
 
 
-def check(case: Path, args: list, expect: str, needle: str = "", timeout: float = 240, out: Path | None = None) -> dict:
+def check(
+    case: Path,
+    args: list,
+    expect: str,
+    needle: str | tuple[str, ...] = "",
+    timeout: float = 240,
+    out: Path | None = None,
+) -> dict:
     """:func:`watched`, failing the test when the run is flagged or its outcome is not the one due."""
     row = watched(case, args, expect, needle, timeout, out)
     flagged = [k for k in FLAGS if row[k]]

@@ -26,46 +26,36 @@ CASES: list[Case] = []
 case = registry(CASES)
 
 
-def says(*words: str):
-    """A check that the error lines hold ``words``."""
-
-    def check(proc) -> str | None:
-        missing = [w for w in words if w not in proc.stderr]
-        return f"the error does not say {missing}: {proc.stderr.strip()[-200:]}" if missing else None
-
-    return check
-
-
-@case("16", "persons-superscript")
+@case("persons-superscript")
 def _(w: Path) -> Run:
-    return Run(lift_args(openpose_copy(w), w / "out", "--persons", "²"), check=says("--persons", "got '²'"))
+    return Run(lift_args(openpose_copy(w), w / "out", "--persons", "²"), says=("--persons", "got '²'"))
 
 
-@case("16", "ray-port-superscript")
+@case("ray-port-superscript")
 def _(w: Path) -> Run:
     args = lift_args(openpose_copy(w), w / "out", "--executor", "ray", "--ray-address", "127.0.0.1:²")
-    return Run(args, check=says("--ray-address 127.0.0.1:²: not an address"))
+    return Run(args, says=("--ray-address 127.0.0.1:²: not an address",))
 
 
-@case("9", "persons-point-outside-the-image")
+@case("persons-point-outside-the-image")
 def _(w: Path) -> Run:
     args = lift_args(openpose_copy(w), w / "out", "--persons", "@-50000,-50000")
-    return Run(args, check=says("@-50000,-50000: the point is outside the first view's image (1088x1920 pixels"))
+    return Run(args, says=("@-50000,-50000: the point is outside the first view's image (1088x1920 pixels",))
 
 
-@case("25", "persons-plain-number-is-ambiguous")
+@case("persons-plain-number-is-ambiguous")
 def _(w: Path) -> Run:
     args = lift_args(openpose_copy(w), w / "out", "--persons", "1")
-    return Run(args, check=says("a plain number is ambiguous; write largest:1", "id:1"))
+    return Run(args, says=("a plain number is ambiguous; write largest:1", "id:1"))
 
 
-@case("21", "energy-scale-1e308")
+@case("energy-scale-1e308")
 def _(w: Path) -> Run:
     args = lift_args(openpose_copy(w), w / "out", "--energy-scale", "1e308")
-    return Run(args, check=says("energy-scale", "must be at most 1e+06 in size, got 1e+308"))
+    return Run(args, says=("energy-scale", "must be at most 1e+06 in size, got 1e+308"))
 
 
-@case("7", "calibration-time-offset-1e308")
+@case("calibration-time-offset-1e308")
 def _(w: Path) -> Run:
     full = w / "calib.json"
     done = platypose(["calib", "convert", CALIB, "--out", full], 60)
@@ -73,10 +63,10 @@ def _(w: Path) -> Run:
     content = json.loads(full.read_text())
     content["cameras"][0]["time_offset_s"] = 1e308
     full.write_text(json.dumps(content))
-    return Run(["calib", "check", full], check=says("time_offset_s 1e+308 is out of range"))
+    return Run(["calib", "check", full], says=("time_offset_s 1e+308 is out of range",))
 
 
-@case("11", "root-trajectory-npz-claiming-180-gib")
+@case("root-trajectory-npz-claiming-180-gib")
 def _(w: Path) -> Run:
     import io
     import zipfile
@@ -92,18 +82,18 @@ def _(w: Path) -> Run:
         np.lib.format.write_array(stream, np.arange(3.0))
         archive.writestr("frame_times.npy", stream.getvalue())
     args = lift_args(openpose_copy(w), w / "out", "--root-trajectory", root)
-    return Run(args, check=says("root.npz", "claims 180.0 GiB in its header"))
+    return Run(args, says=("root.npz", "claims 180.0 GiB in its header"))
 
 
-@case("13", "asf-cycle")
+@case("asf-cycle")
 def _(w: Path) -> Run:
     asf = Path(__file__).resolve().parents[2] / "data/motion/cmu-asf-amc/test.asf"
     (w / "test.asf").write_text(asf.read_text().replace("    ltibia lfoot\n", "    ltibia lfoot lfemur\n"))
     (w / "test.amc").write_bytes(asf.with_suffix(".amc").read_bytes())
-    return Run(["motion", "info", w / "test.amc"], check=says("hierarchy lists bone 'lfemur' twice"), timeout=60)
+    return Run(["motion", "info", w / "test.amc"], says=("hierarchy lists bone 'lfemur' twice",), timeout=60)
 
 
-@case("26", "calibration-of-another-size-before-detection")
+@case("calibration-of-another-size-before-detection")
 def _(w: Path) -> Run:
     full = w / "calib.json"
     done = platypose(["calib", "convert", CALIB, "--out", full], 60)
@@ -114,7 +104,7 @@ def _(w: Path) -> Run:
     full.write_text(json.dumps(content))
     video = Path(CALIB).parent / "cam01.mp4"
     args = ["lift", video, "--cams", full, *FAST, "--out", w / "out"]
-    return Run(args, check=says("calibration mismatch: calibration says 1280x720 px for camera cam_01"), timeout=60)
+    return Run(args, says=("calibration mismatch: calibration says 1280x720 px for camera cam_01",), timeout=60)
 
 
 @pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])

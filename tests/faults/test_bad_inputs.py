@@ -1,4 +1,4 @@
-"""Issue 17 (items 3, 6, 11): real files corrupted in tmp_path give one-line InputErrors naming the file, never
+"""Real files corrupted in tmp_path give one-line InputErrors naming the file, never
 a traceback, a hang or a silently wrong result."""
 
 from __future__ import annotations

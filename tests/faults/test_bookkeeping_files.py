@@ -1,5 +1,5 @@
 """Damaged bookkeeping files in --out (lift.json, failed.json, summary.json) are set aside with one warning, and
-locks and calibrations are opened only as regular files (issue 40, items 2, 10 and 15)."""
+locks and calibrations are opened only as regular files."""
 
 from __future__ import annotations
 

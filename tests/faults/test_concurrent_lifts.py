@@ -1,4 +1,4 @@
-"""Two lifts into one --out at once (issue 40, item 2): the second writer of a folder refuses, and the folder holds
+"""Two lifts into one --out at once: the second writer of a folder refuses, and the folder holds
 one run's files, as its lift.json says, never a mix."""
 
 from __future__ import annotations

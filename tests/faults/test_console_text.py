@@ -1,5 +1,5 @@
 """Names and messages on the console and in files: characters that reverse, hide or break lines are never printed
-raw, and file names that are not UTF-8 do not stop a log from being written (issue 40, items 17 and 22)."""
+raw, and file names that are not UTF-8 do not stop a log from being written."""
 
 from __future__ import annotations
 
@@ -51,3 +51,8 @@ def test_a_lift_of_a_file_whose_name_is_not_utf8_writes_its_log_and_summary(tmp_
     entry = json.loads((out / "summary.json").read_text())["inputs"][0]
     assert entry["status"] == "ok" and entry["name"] == "cam01_"
     assert "cam01\\udcff_json" in (out / "cam01_/log.txt").read_text(encoding="utf-8")
+
+
+def test_a_newline_in_a_file_name_cannot_forge_an_error_line(run_cli, tmp_path) -> None:
+    code, _, err = run_cli("calib", "check", str(tmp_path / "no\nerror: forged.toml"))
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "no?error: forged" in err, err

@@ -1,4 +1,4 @@
-"""Writes never replace what they should write into (issue 40, item 3): a device file is written through, a FIFO
+"""Writes never replace what they should write into: a device file is written through, a FIFO
 with a reader too, a FIFO without one, a symbolic link or a socket is refused with one line naming it."""
 
 from __future__ import annotations

@@ -1,6 +1,8 @@
-"""``eval`` prints a table or refuses (issue 40, "Also"): no empty table with exit 0, no floor at 1e300."""
+"""``eval`` prints a table or refuses: no empty table with exit 0, no floor at 1e300."""
 
 from __future__ import annotations
+
+import os
 
 import pytest
 from audit_support import WALK, platypose
@@ -33,3 +35,26 @@ def test_eval_refuses_what_would_print_an_empty_or_meaningless_table(args, messa
     assert "method" not in done.stdout  # no table header printed before the refusal
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], done.stderr
+
+
+def test_a_floor_plane_must_face_up() -> None:
+    for spec in ("0,0,-1,0", "1,0,0,0", "0,0,1,1e9"):
+        with pytest.raises(InputError, match="normal points up"):
+            parse_floor(spec)
+    assert parse_floor("0,0.1,1,0").normal[2] > 0.99  # a slightly tilted floor is fine
+
+
+def test_bad_eval_options_are_one_line(run_cli, data_dir, tmp_path) -> None:
+    motion = str(data_dir / "motion/deepmimic")
+    read_only = tmp_path / "ro"
+    read_only.mkdir()
+    read_only.chmod(0o500)
+    for options, needle in (
+        (["--noise-px", "nan"], "--noise-px nan"),
+        (["--noise-px", "-5"], "--noise-px -5"),
+        (["--views", "0"], "--views 0"),
+        (["--json", str(read_only / "x" / "table.json")] if os.geteuid() else ["--json", str(tmp_path)], "error:"),
+    ):
+        code, _, err = run_cli("eval", motion, *options)
+        assert code == 2 and needle in err and len(err.strip().splitlines()) == 1, (options, err)
+    read_only.chmod(0o700)

@@ -1,4 +1,4 @@
-"""``export`` and the OpenSim format, run as the real CLI (issue 40, items 4 and 23, and "Also"): --name stays
+"""``export`` and the OpenSim format, run as the real CLI: --name stays
 inside --out, SIGTERM leaves no temporary file, a full temporary disk and a missing opensim package each give one
 line, and OpenSim's model summaries stay off the console."""
 

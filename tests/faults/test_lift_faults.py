@@ -1,4 +1,4 @@
-"""Issue 17 items 4, 8, 9 and 11 (concurrency): --resume, staging folders, warnings, summary.json, stale outputs,
+"""--resume, staging folders, warnings, summary.json, stale outputs,
 SIGTERM and Ctrl-C, on real OpenPose keypoints of the Pose2Sim take with the tiny prior."""
 
 from __future__ import annotations
@@ -226,7 +226,7 @@ def test_ctrl_c_with_two_jobs_keeps_finished_inputs(data_dir, prior_file, tmp_pa
 
 
 def test_staging_folder_of_a_long_job_name(tmp_path):
-    """Issue 17.11: file names over ~225 characters; the staging folder name stays short enough."""
+    """File names over ~225 characters; the staging folder name stays short enough."""
     from platypose.cli.lift_run import remove_stale_staging, staging_folder
 
     name = "x" * 240

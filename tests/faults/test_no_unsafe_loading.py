@@ -1,4 +1,4 @@
-"""Issue 17.1 kept: nothing in the package unpickles or runs code from a file (np.load with pickles, torch.load
+"""Nothing in the package unpickles or runs code from a file (np.load with pickles, torch.load
 without weights_only, yaml.load, pickle.load, eval, exec); the one allowed unpickler resolves numpy arrays only."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""One output folder per input: names that collide in a batch, and a folder an earlier run wrote for another input
-(issue 40, item 1). The audit case runs the real CLI twice into one --out."""
+"""One output folder per input: names that collide in a batch, and a folder an earlier run wrote for another input.
+The audit case runs the real CLI twice into one --out."""
 
 from __future__ import annotations
 

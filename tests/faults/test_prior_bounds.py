@@ -62,3 +62,38 @@ def test_sampler_numbers_are_bounded(value) -> None:
     with pytest.raises(InputError, match=r"energy_scale must be at most 1e\+06 in size, got") as err:
         SamplerConfig(energy_scale=value)
     assert err.value.option == "energy_scale"
+
+
+def _edited_prior(source, path, edit) -> str:
+    """The checkpoint ``source`` with ``edit(payload)`` applied, saved to ``path``."""
+    import torch
+
+    payload = torch.load(source, weights_only=True)
+    edit(payload)
+    torch.save(payload, path)
+    return str(path)
+
+
+@pytest.mark.parametrize(
+    "edit, needle",
+    [
+        (lambda p: p["config"].update(diffusion_steps=1e9), "diffusion_steps must be a whole number"),
+        (lambda p: p["config"].update(diffusion_steps=10**9), "diffusion_steps must be within"),
+        (lambda p: p["config"].update(layers=10**6), "layers must be within"),
+        (
+            lambda p: p["config"].update(width="64"),
+            "not a valid platypose prior (width must be a whole number, got '64')",
+        ),
+        (lambda p: p.update(config=[1, 2]), "not a valid platypose prior"),
+        (lambda p: p["manifest"].update(sampling_steps=[10**12, 3]), "sampling_steps must be decreasing"),
+        (lambda p: p["manifest"].update(distilled={"x": 1}), "'distilled' is damaged"),
+        (lambda p: p["manifest"].update(clips=[{"name": 3}]), "'clips' must list"),
+        (lambda p: p["normalizer"].update(mean=[0.0] * 7), "normalisation does not have"),
+        (lambda p: p.pop("normalizer"), "not a valid platypose prior (no 'normalizer')"),
+    ],
+)
+def test_prior_config_and_manifest_are_validated(run_cli, prior_file, tmp_path, edit, needle) -> None:
+    bad = _edited_prior(prior_file, tmp_path / "bad.pt", edit)
+    code, _, err = run_cli("prior-info", bad)
+    assert code == 2 and needle in err and len(err.strip().splitlines()) == 1, err
+    assert "Error" not in err  # the problem, not the name of a Python exception

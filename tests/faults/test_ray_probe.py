@@ -96,3 +96,53 @@ def test_ray_dials_this_machine_for_a_local_host() -> None:
 
     assert ray_address.dialled_host("127.0.0.1") == get_node_ip_address()
     assert ray_address.dialled_host("head.example") == "head.example"
+
+
+def _server(reply: bytes):
+    """A TCP server on a free local port that answers every connection with ``reply``; (port, stop)."""
+    import socket
+    import threading
+
+    listener = socket.create_server(("127.0.0.1", 0))
+    listener.settimeout(0.2)
+    stop = threading.Event()
+
+    def serve() -> None:
+        while not stop.is_set():
+            try:
+                conn, _ = listener.accept()
+            except TimeoutError:
+                continue
+            conn.recv(64)
+            conn.sendall(reply)
+            conn.close()
+
+    threading.Thread(target=serve, daemon=True).start()
+    return listener.getsockname()[1], stop
+
+
+def _closed_port() -> int:
+    import socket
+
+    with socket.create_server(("127.0.0.1", 0)) as probe:
+        return probe.getsockname()[1]
+
+
+def test_ray_address_is_checked_with_a_deadline(run_cli, batch_folder, prior_file, tmp_path) -> None:
+    import time
+
+    for bad in ("nonsense", "host:", "ray://:10001", "a b:1", "h:70000"):
+        with pytest.raises(InputError, match="not an address"):
+            check_ray_address(bad)
+    port, stop = _server(b"SSH-2.0-OpenSSH_9.6\r\n")
+    with pytest.raises(InputError, match="answers but not as a Ray cluster"):
+        check_ray_address(f"127.0.0.1:{port}", timeout_s=2)
+    stop.set()
+    started = time.monotonic()
+    for address in (f"127.0.0.1:{_closed_port()}", "nonsense"):
+        code, _, err = run_cli(
+            "lift", str(batch_folder / "good.mp4"), "--prior", prior_file, "--out", str(tmp_path),
+            "--executor", "ray", "--ray-address", address, "--quiet",
+        )  # fmt: skip
+        assert code == 2 and err.startswith("error: --ray-address") and len(err.strip().splitlines()) == 1, err
+    assert time.monotonic() - started < 30

@@ -1,4 +1,4 @@
-"""The report picture and the person pictures (issue 40, item 27): long flag text does not run into the row's title,
+"""The report picture and the person pictures: long flag text does not run into the row's title,
 a report without a video says why its thumbnails are missing, and two overlapping people do not share a picture."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A full disk while the rerun recording is written is an error for that file, never a hang (issue 17.2)."""
+"""A full disk while the rerun recording is written is an error for that file, never a hang."""
 
 from __future__ import annotations
 

@@ -1,7 +1,9 @@
-"""Issue 17.6 and 17.11: train refuses bad options and stops on a non-finite loss; a prior with non-finite
+"""``train`` refuses bad options and stops on a non-finite loss; a prior with non-finite
 weights is refused when loaded (also by prior-info)."""
 
 from __future__ import annotations
+
+import shutil
 
 import numpy as np
 import pytest
@@ -132,8 +134,22 @@ def test_the_shipped_prior_is_finite():
     ],
 )
 def test_sampler_options_out_of_range(options, needle):
-    """Issue 17.11: --seed 1e23 and --samples 1e9 ended in internal exceptions; infinite weights were accepted."""
+    """--seed 1e23 and --samples 1e9 once ended in internal exceptions; infinite weights were accepted."""
     from platypose.lifting.settings import SamplerConfig
 
     with pytest.raises(ValueError, match=needle.replace("*", r"\*").replace(".", r"\.")):
         SamplerConfig(**options)
+
+
+def test_distilling_into_the_teacher_is_refused(run_cli, data_dir, prior_file, tmp_path) -> None:
+    teacher = tmp_path / "teacher.pt"
+    shutil.copy(prior_file, teacher)
+    before = teacher.read_bytes()
+    (tmp_path / "link.pt").symlink_to(teacher)
+    for out in (teacher, tmp_path / "link.pt", tmp_path / "." / "teacher.pt"):
+        code, _, err = run_cli(
+            "train", str(data_dir / "motion/deepmimic"), "--out", str(out), "--distil-from", str(teacher),
+            "--iterations", "1",
+        )  # fmt: skip
+        assert code == 2 and "is the teacher given by --distil-from" in err, err
+    assert teacher.read_bytes() == before

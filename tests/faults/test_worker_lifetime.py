@@ -1,4 +1,4 @@
-"""``lift --jobs``: workers end with their parent, even one killed with SIGKILL (issue 40, "Also")."""
+"""``lift --jobs``: workers end with their parent, even one killed with SIGKILL."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 17.5: a one-camera calibration is never silently used for another camera's view."""
+"""A one-camera calibration is never silently used for another camera's view."""
 
 from __future__ import annotations
 

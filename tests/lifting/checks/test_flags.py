@@ -3,38 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+from standing_body import standing
 
 from platypose.lifting.checks.body import angles_out_of_range, bone_lengths_out_of_range, joint_flexions
 from platypose.lifting.checks.flags import flag_text, person_lines
 from platypose.lifting.checks.plausibility import body_plausibility
 from platypose.lifting.skeleton import JOINT_INDEX
-
-
-def standing(frames: int = 20, knee_bend_deg: float = 10.0) -> np.ndarray:
-    """A person 1.75 m tall facing +y (their right is +x), z up, knees bent forwards by ``knee_bend_deg``."""
-    j = {
-        "pelvis": (0.0, 0.0, 0.95),
-        "right_hip": (0.1, 0.0, 0.95),
-        "left_hip": (-0.1, 0.0, 0.95),
-        "spine": (0.0, 0.0, 1.2),
-        "thorax": (0.0, 0.0, 1.45),
-        "neck": (0.0, 0.0, 1.55),
-        "head": (0.0, 0.0, 1.65),
-        "right_shoulder": (0.2, 0.0, 1.45),
-        "left_shoulder": (-0.2, 0.0, 1.45),
-        "right_elbow": (0.2, 0.0, 1.15),
-        "left_elbow": (-0.2, 0.0, 1.15),
-        "right_wrist": (0.2, 0.05, 0.9),
-        "left_wrist": (-0.2, 0.05, 0.9),
-    }
-    bend = np.radians(knee_bend_deg)
-    for side, x in (("right", 0.1), ("left", -0.1)):
-        j[f"{side}_knee"] = (x, 0.0, 0.52)
-        j[f"{side}_ankle"] = (x, -0.43 * np.sin(bend), 0.52 - 0.43 * np.cos(bend))  # a flexing shin swings back
-    pose = np.zeros((17, 3))
-    for name, xyz in j.items():
-        pose[JOINT_INDEX[name]] = xyz
-    return np.repeat(pose[None], frames, axis=0)
 
 
 def test_a_standing_person_is_human():
@@ -82,7 +56,7 @@ def test_a_real_one_view_forearm_that_swings_in_a_frame_is_flagged_with_its_fram
 
     from platypose.lifting.checks.body import HINGE_SPEED_DEG_S, hinge_jumps
 
-    lifts = Path(__file__).parents[1] / "data" / "lifts"
+    lifts = Path(__file__).parents[2] / "data" / "lifts"
     assert hinge_jumps(np.load(lifts / "pose2sim_4views_median.npy"), fps=60.0) == {}
     one_view = np.load(lifts / "pose2sim_cam01_median.npy")
     jumps = hinge_jumps(one_view, fps=60.0)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from test_flags import standing
+from standing_body import standing
 
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.camera import project

@@ -35,7 +35,7 @@ def test_a_known_lens_recovers_pitch_roll_and_height(quick, pitch, roll, focal, 
     keypoints, _ = scene_keypoints(walkers(places, frames=60), pitch, roll, focal, height)
     found = estimate_camera(keypoints, np.arange(60) / 30.0, (1080, 1920), focal, METADATA, hold_focal=True)
     assert found is not None and found.problem is None
-    assert abs(found.pitch_deg - pitch) < 2.0 and abs(found.roll_deg - roll) < 2.0  # issue 35 asks 1
+    assert abs(found.pitch_deg - pitch) < 2.0 and abs(found.roll_deg - roll) < 2.0  # the aim is 1
     assert abs(found.height_m / height - 1) < 0.12  # the walkers are 1.58 m tall, the scale assumes 1.70
     assert found.focal_px == pytest.approx(focal) and found.focal_source == METADATA
     assert 0 < found.sd["pitch_deg"] < 6.0 and found.sd["height_m"] > 0

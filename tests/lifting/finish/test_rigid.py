@@ -214,9 +214,9 @@ def test_a_real_lift_is_rigid_and_keeps_its_image(tiny_prior, athlete):
 
 @pytest.mark.slow  # the shipped prior
 @pytest.mark.parametrize("views", [1, 4])
-def test_the_bvh_of_a_real_lift_fits_within_the_issue_target(athlete, views, tmp_path):
+def test_the_bvh_of_a_real_lift_fits_its_median_within_10_mm(athlete, views, tmp_path):
     """The Pose2Sim athlete (100 frames of OpenPose, cam01 alone or all four views), lifted with the shipped prior:
-    the BVH of the median motion is within mean 10 mm, max 40 mm of it (issue 16's target; the sampler's own
+    the BVH of the median motion is within mean 10 mm, max 40 mm of it (the target; the sampler's own
     motion stretches bones by 9-15 cm, which kept the fit at 24 mm mean, 112 mm max for cam01)."""
     from platypose.lifting.prior.model import load_prior
 

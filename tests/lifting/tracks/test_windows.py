@@ -61,7 +61,7 @@ def _lifted_climbing(data_dir, views: int, seconds: int, samples: int = 8, seed:
 
 @pytest.mark.slow  # the shipped prior
 def test_four_view_seams_are_no_faster_than_inside_windows(data_dir):
-    """The issue's criterion, 10 s of real climbing seen by 4 cameras: the fastest step at seams is no larger."""
+    """The criterion, 10 s of real climbing seen by 4 cameras: the fastest step at seams is no larger."""
     speed, _, seam = _lifted_climbing(data_dir, views=4, seconds=10)
     assert speed[:, seam].max() <= speed[:, ~seam].max(), (speed[:, seam].max(), speed[:, ~seam].max())
 

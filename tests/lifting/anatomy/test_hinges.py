@@ -1,4 +1,4 @@
-"""Signed hinges and the joint-limit energy guidance adds (lifting/anatomy/hinges.py, issue 42)."""
+"""Signed hinges and the joint-limit energy guidance adds (lifting/anatomy/hinges.py)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import torch
 from platypose.lifting.anatomy.hinges import HINGE_NAMES, limit_energy, signed_flexion
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
-LIFTS = Path(__file__).parents[1] / "data" / "lifts"
+LIFTS = Path(__file__).parents[2] / "data" / "lifts"
 
 
 def _bent(knee_deg: float, elbow_deg: float, neck_deg: float = 0.0) -> np.ndarray:

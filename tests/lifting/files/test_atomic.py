@@ -57,7 +57,7 @@ def test_error_keeps_the_old_target_and_removes_the_temp(tmp_path, writer):
 
 
 def test_long_target_names_up_to_the_file_system_limit(tmp_path):
-    """Issue 17.11: names over ~225 characters used to fail on the temporary name; 255 bytes now works."""
+    """Names over ~225 characters used to fail on the temporary name; 255 bytes now works."""
     target = tmp_path / ("n" * 251 + ".csv")
     assert write_text_atomic(target, "a,b\n").read_text() == "a,b\n"
     with pytest.raises(OSError):  # one more byte than the file system takes: the target itself cannot exist

@@ -8,7 +8,7 @@ import numpy as np
 
 from platypose.lifting.finish.representative import median_motion
 
-DATA = Path(__file__).parents[1] / "data" / "lifts"
+DATA = Path(__file__).parents[2] / "data" / "lifts"
 
 
 def test_where_a_hypothesis_stands_does_not_smear_the_pose():

@@ -1,4 +1,4 @@
-"""lifting/settings.py: every field has its help, defaults build, and every refusal names its field."""
+"""The settings (lifting/settings/): every field has its help, defaults build, and every refusal names its field."""
 
 from __future__ import annotations
 
@@ -79,3 +79,24 @@ def test_the_module_loads_no_torch_or_numpy():
     code = "import sys, platypose.lifting.settings; print(sorted({'torch', 'numpy'} & set(sys.modules)))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == "[]", done.stderr
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(samples=0),
+        dict(robust="cauchy"),
+        dict(skip=10),
+        dict(energy_scale=-1.0),
+        dict(step_rule="adam"),
+        dict(decay=1.5),
+        dict(depth_smoothness=-1.0),
+        dict(solver="heun"),
+        dict(solver="dpm2m", eta=0.5),
+        dict(temperature=0.0),
+        dict(temperature=2.5),
+    ],
+)
+def test_bad_sampler_settings_are_refused(bad):
+    with pytest.raises(ValueError):
+        SamplerConfig(**bad)
