@@ -174,7 +174,7 @@ def _load(path: Path, who: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
     """A piece's (hypotheses, energy) from ``path``; empty arrays for a piece nobody is in."""
     if not who:
         return np.zeros((0, 0, 0, 17, 3), np.float32), np.zeros((0, 0, 0), np.float32)
-    with np.load(path) as data:
+    with np.load(path, allow_pickle=False) as data:
         return data["hypotheses"], data["energy"]
 
 

@@ -42,7 +42,7 @@ def remove_pieces(out: Path, name: str) -> None:
 
 def detect_piece(video: str, detect, start: int, stamp: int | None, count: int | None, path: str, key: str) -> float:
     """Detect frames ``start ..`` (``count`` of them, None: to the end) of ``video`` with the detector of ``detect``
-    (DetectOptions), every ``detect.stride``-th by index; save them (:class:`DetectionCache` layout) at ``path``.
+    (DetectOptions), every ``detect.stride``-th by index; save them (:class:`~platypose.detectors.cache.DetectionCache` layout) at ``path``.
     The seconds it took."""
     from platypose.cli.detection import cached_detector
     from platypose.detectors.cache import DetectionCache
