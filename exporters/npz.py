@@ -102,6 +102,17 @@ def _text(data: np.lib.npyio.NpzFile, key: str) -> str:
     return str(value)
 
 
+def _json(data: np.lib.npyio.NpzFile, key: str) -> object:
+    """A 0-d string field read as JSON; ValueError saying what is wrong (a number of thousands of digits, which
+    Python's reader refuses in words of its own, included)."""
+    try:
+        return json.loads(_text(data, key))
+    except ValueError as err:
+        if "integer string conversion" in str(err):
+            raise ValueError(f"field {key!r} holds an integer of thousands of digits") from None
+        raise
+
+
 def read_npz(path: Path | str) -> LiftResult:
     """Read and validate a platypose npz; any problem raises InputError naming the file."""
     path = Path(path)
@@ -119,7 +130,7 @@ def read_npz(path: Path | str) -> LiftResult:
                 raise ValueError("parents differ from platypose's skeleton")
             if _text(data, "units") != "m" or _text(data, "up_axis") != "z":
                 raise ValueError("units must be 'm' and up_axis 'z'")
-            meta = json.loads(_text(data, "meta"))
+            meta = _json(data, "meta")
             if not isinstance(meta, dict):
                 raise ValueError("meta must be a JSON object")
             fields = {key: data[key] for key in ("hypotheses", "median", "keypoints2d", "frame_times", "track_ids")}
@@ -135,7 +146,7 @@ def read_npz(path: Path | str) -> LiftResult:
                 frame_times=fields["frame_times"],
                 fps=float(data["fps"]),
                 track_ids=fields["track_ids"],
-                cameras=calibration_from_dict(json.loads(_text(data, "cameras")), f"{path} cameras").cameras,
+                cameras=calibration_from_dict(_json(data, "cameras"), f"{path} cameras").cameras,
                 energy=data["energy"] if "energy" in data.files else None,
                 meta=meta,
             )

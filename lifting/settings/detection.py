@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -44,6 +43,7 @@ class DetectOptions:
         None,
         "Frame rate of precomputed keypoints (default: from the video beside them).",
         short="Frame rate of keypoints without a video beside them.",
+        finite=False,
     )
     image_size: tuple[int, int] | None = setting(
         None,
@@ -56,9 +56,8 @@ class DetectOptions:
         fps, size, threads = self.fps, self.image_size, self.threads
         if threads is not None and not _is_count(threads):
             raise InputError(f"threads must be an integer >= 1, got {threads!r}", option="threads")
-        if fps is not None and not (
-            isinstance(fps, numbers.Real) and not isinstance(fps, bool) and math.isfinite(fps) and fps > 0
-        ):
+        # the upper bound (infinity included) is the keypoint reader's to check: its message names the file
+        if fps is not None and not (isinstance(fps, numbers.Real) and not isinstance(fps, bool) and fps > 0):
             raise InputError(f"fps must be a positive number, got {fps!r}", option="fps")
         pair = isinstance(size, Sequence) and not isinstance(size, str) and len(size) == 2
         if size is not None and not (pair and all(_is_count(v) for v in size)):

@@ -31,12 +31,15 @@ def setting(
     panel: str | None = None,
     short: str | None = None,
     minimum: int | None = None,
+    finite: bool = True,
 ):
     """A dataclass field with its ``help``; ``option``: a command-line option (spelled ``--field-name`` and
     ``also`` older spellings), shown in the help panel ``panel`` (default: its class's). ``short``: the help where
     a command lists the option among many (``lift``); ``minimum``: the smallest integer the field takes (checked
-    by :func:`check_types`, and the option's range on the command line)."""
+    by :func:`check_types`, and the option's range on the command line); ``finite=False``: a float field whose upper
+    bound, infinity included, is checked later by the code that can name what it belongs to."""
     meta = {"help": help, "option": option, "also": also, "panel": panel, "short": short, "minimum": minimum}
+    meta["finite"] = finite
     return dataclasses.field(default=default, metadata=meta)
 
 
@@ -50,9 +53,9 @@ def _hints(cls: type) -> dict[str, object]:
     return typing.get_type_hints(cls)
 
 
-def _checked(name: str, value: object, hint: object, minimum: int | None = None) -> object:
-    """``value`` as field ``name`` of type ``hint`` stores it (an integer at least ``minimum``, if given); InputError
-    naming the field otherwise."""
+def _checked(name: str, value: object, hint: object, minimum: int | None = None, finite: bool = True) -> object:
+    """``value`` as field ``name`` of type ``hint`` stores it (an integer at least ``minimum``, if given; a float
+    finite unless ``finite`` is False, NaN refused either way); InputError naming the field otherwise."""
     args = typing.get_args(hint)
     if type(None) in args:
         if value is None:
@@ -67,8 +70,9 @@ def _checked(name: str, value: object, hint: object, minimum: int | None = None)
         ok = ok and (minimum is None or value >= minimum)
         value, want = (int(value) if ok else value), "an integer" if minimum is None else f"an integer >= {minimum}"
     elif hint is float:
-        ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
-        value, want = (float(value) if ok else value), "a finite number"
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and not math.isnan(value)
+        ok = ok and (math.isfinite(value) or not finite)
+        value, want = (float(value) if ok else value), "a finite number" if finite else "a number"
     elif hint is str:
         ok, want = isinstance(value, str), "a string"
     elif hint is Path:
@@ -90,7 +94,10 @@ def check_types(settings: object) -> None:
     """Check every field of the dataclass ``settings`` against its declared type, storing the normalised value."""
     hints = _hints(type(settings))
     for f in dataclasses.fields(settings):
-        value = _checked(f.name, getattr(settings, f.name), hints[f.name], f.metadata.get("minimum"))
+        metadata = f.metadata
+        value = _checked(
+            f.name, getattr(settings, f.name), hints[f.name], metadata.get("minimum"), metadata.get("finite", True)
+        )
         object.__setattr__(settings, f.name, value)
 
 

@@ -139,7 +139,10 @@ def _damaged(result: Path) -> dict:
         "times-1e4": ({"hypotheses": hyp * 1e4, "median": med * 1e4}, "from the origin"),
         "header-760GiB": ({"hypotheses": header}, "GiB"),
         "meta-deep": ({"meta": np.array("[" * 100_000 + "]" * 100_000)}, "nested too deeply"),
-        "meta-bigint": ({"meta": np.array('{"a": ' + "9" * 5000 + "}")}, "integer string conversion"),
+        "meta-bigint": (
+            {"meta": np.array('{"a": ' + "9" * 5000 + "}")},
+            "field 'meta' holds an integer of thousands of digits",
+        ),
     }
 
 

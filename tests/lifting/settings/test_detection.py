@@ -26,7 +26,7 @@ def test_every_field_has_help_and_the_defaults_build():
         ({"stride": 0}, "stride", "stride must be an integer >= 1, got 0"),
         ({"max_frames": 0}, "max_frames", "max_frames must be an integer >= 1, got 0"),
         ({"threads": 0}, "threads", "threads must be an integer >= 1, got 0"),
-        ({"fps": float("inf")}, "fps", "fps must be a positive number, got inf"),
+        ({"fps": -1.0}, "fps", "fps must be a positive number, got -1.0"),
         ({"image_size": (1080, 0)}, "image_size", "image_size must be (height, width) in pixels"),
         ({"detector": 7}, "detector", "detector must be a path, got 7"),
         ({"cache": 1}, "cache", "cache must be True or False"),
