@@ -15,23 +15,12 @@ from platypose.lifting.errors import InputError
 from platypose.media import iter_frames, open_video, upright
 
 
-def frame_stamps(path: str | Path) -> np.ndarray:
-    """Every frame's presentation stamp (N,) in the video stream's time base, sorted (from the packets, no decoding)."""
-    with open_video(path) as container:
-        stream = container.streams.video[0]
-        try:
-            stamps = [p.pts for p in container.demux(stream) if p.pts is not None and p.size > 0]
-        except av.FFmpegError as err:
-            raise InputError(f"{path}: cannot read video packets ({err})") from None
-    return np.sort(np.asarray(stamps, dtype=np.int64))
-
-
 def iter_frame_range(
     path: str | Path, start: int, stamp: int | None, count: int | None, stride: int = 1
 ) -> Iterator[tuple[int, np.ndarray]]:
     """Yield ``(frame index, upright BGR image)`` for the every-``stride``-th frames (by index) among ``count``
-    frames (None: to the end) from frame ``start``, whose stamp is ``stamp`` (:func:`frame_stamps`). Without a stamp,
-    or where decoding after the seek does not find it, the frames are decoded from the video's start."""
+    frames (None: to the end) from frame ``start``, whose stamp is ``stamp`` (:func:`platypose.media.frame_stamps`).
+    Without a stamp, or where decoding after the seek does not find it, the frames are decoded from the video's start."""
     if start == 0 or stamp is None:
         yield from _from_start(path, start, count, stride)
         return

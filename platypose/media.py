@@ -93,18 +93,24 @@ def iter_frames(path: str | Path, stride: int = 1, max_frames: int | None = None
         yield index, image
 
 
-def frame_times(path: str | Path) -> np.ndarray:
-    """Every frame's presentation time (N,) in seconds from the first frame, read from the packets (no decoding)."""
-    path = Path(path)
+def frame_stamps(path: str | Path) -> tuple[np.ndarray, float]:
+    """Every frame's presentation stamp (N,) in the video stream's time base, sorted, read from the packets (no
+    decoding), and that time base in seconds."""
     with open_video(path) as container:
         stream = container.streams.video[0]
         try:
             stamps = [p.pts for p in container.demux(stream) if p.pts is not None and p.size > 0]
         except av.FFmpegError as err:
             raise InputError(f"{path}: cannot read video packets ({_reason(err)})") from None
-        if not stamps:
-            raise InputError(f"{path}: no video frames")
-        times = np.sort(np.asarray(stamps, dtype=np.float64)) * float(stream.time_base)
+        return np.sort(np.asarray(stamps, dtype=np.int64)), float(stream.time_base)
+
+
+def frame_times(path: str | Path) -> np.ndarray:
+    """Every frame's presentation time (N,) in seconds from the first frame, read from the packets (no decoding)."""
+    stamps, time_base = frame_stamps(path)
+    if not len(stamps):
+        raise InputError(f"{Path(path)}: no video frames")
+    times = stamps.astype(np.float64) * time_base
     return times - times[0]
 
 

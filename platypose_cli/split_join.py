@@ -68,7 +68,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
     from platypose.cli.detection import cached_detector
     from platypose.detectors.cache import DetectionCache, cache_key, read_detections
     from platypose.detectors.video import video_info
-    from platypose.detectors.video_range import frame_stamps
+    from platypose.media import frame_stamps
 
     name = cached_detector(detect).name
     key = cache_key(source, name, detect.stride, detect.max_frames)
@@ -76,7 +76,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
     if cache.load(key) is not None:
         return 0
     info = video_info(source)
-    stamps = frame_stamps(source)
+    stamps = frame_stamps(source)[0]
     step = max(int(round(split_s * info.fps / detect.stride)), 1) * detect.stride  # a multiple of the stride
     starts = list(range(0, max(len(stamps), 1), step))
     pieces = piece_folder(folder.parent, folder.name)
