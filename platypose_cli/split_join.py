@@ -123,7 +123,7 @@ class SplitLifter:
         margin = margin_seconds(windows.max_gap)
         pieces = plan_pieces(times, self.split_s, margin)
         self.folder.mkdir(parents=True, exist_ok=True)
-        tasks, paths, persons, names = [], [], [], []
+        tasks, paths, persons, names, earlier = [], [], [], [], 0
         for n, piece in enumerate(pieces):
             t = piece.lifted
             who = [p for p in range(absent.shape[0]) if not absent[p, t].all()]
@@ -141,13 +141,15 @@ class SplitLifter:
             path = self.folder / f"lift.{key}.npz"
             paths.append(path)
             persons.append(who)
-            if who and not path.is_file():
+            if who and path.is_file():
+                earlier += 1
+            elif who:
                 tasks.append((lift_piece, (self.prior, inputs, str(path))))
                 names.append(f"{n} (frames {t.start}-{t.stop - 1})")
         P = absent.shape[0]
         self.log(
             f"lifting in {len(pieces)} piece(s) of {self.split_s:g} s (+{margin:g} s either side), "
-            f"{len(pieces) - len(tasks)} done earlier"
+            f"{earlier} done earlier"
         )
         done = [0]
 
