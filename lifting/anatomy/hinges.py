@@ -33,6 +33,8 @@ _HINGES = (
     ("right_shoulder", "right_elbow", "right_wrist", "trunk", -1.0),
     ("left_shoulder", "left_elbow", "left_wrist", "trunk", -1.0),
 )
+# per hinge: the joint indices of its (upper, hinge, lower) joints
+HINGE_JOINTS: tuple[tuple[int, int, int], ...] = tuple((J[top], J[mid], J[low]) for top, mid, low, _, _ in _HINGES)
 HYPEREXTENSION_MARGIN_DEG = 5.0  # a straight hinge's noise: bends backwards up to this cost nothing
 NECK_LIMIT_DEG = 70.0
 # The hinges the energy holds: the knees (the first two). An elbow's sign needs the upper arm's roll, which the
@@ -62,7 +64,7 @@ def _body_axes(joints: torch.Tensor) -> dict[str, tuple[torch.Tensor, torch.Tens
     return out
 
 
-def _carried_axis(axis: torch.Tensor, down: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+def carried_axis(axis: torch.Tensor, down: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
     """``axis`` turned by the shortest swing taking unit ``down`` onto unit ``upper`` (all ``(..., 3)``).
 
     Rodrigues' formula without dividing by the swing's sine: ``c v + w x v + w (w . v) / (1 + c)`` with
@@ -73,19 +75,32 @@ def _carried_axis(axis: torch.Tensor, down: torch.Tensor, upper: torch.Tensor) -
     return c * axis + torch.linalg.cross(w, axis) + w * _dot(w, axis)[..., None] / (1.0 + c).clamp(min=1e-3)
 
 
+def hinge_rests(joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per hinge in :data:`HINGE_NAMES` order, of joints ``(..., 17, 3)``: its neutral axis and the direction its upper
+    bone hangs in (the carrying body's ``-up``), each ``(..., 4, 3)``: the rest pose the carried axis swings from."""
+    axes = _body_axes(joints)
+    neutral, down = [], []
+    for _, _, _, frame, sign in _HINGES:
+        left, up = axes[frame]
+        neutral.append(sign * left)
+        down.append(-up)
+    return torch.stack(neutral, -2), torch.stack(down, -2)
+
+
+def hinge_bones(joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per hinge in :data:`HINGE_NAMES` order, of joints ``(..., 17, 3)``: its unit upper and lower bone, each
+    ``(..., 4, 3)``."""
+    top, mid, low = (list(column) for column in zip(*HINGE_JOINTS))
+    return _unit(joints[..., mid, :] - joints[..., top, :]), _unit(joints[..., low, :] - joints[..., mid, :])
+
+
 def hinge_bends(joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Per hinge in :data:`HINGE_NAMES` order, of joints ``(..., 17, 3)``: the sine of its bend along the carried
     axis (positive flexing, negative bending backwards) and the cosine between its bones, each ``(..., 4)``."""
-    axes = _body_axes(joints)
-    sines, cosines = [], []
-    for top, mid, low, frame, sign in _HINGES:
-        left, up = axes[frame]
-        upper = _unit(joints[..., J[mid], :] - joints[..., J[top], :])
-        lower = _unit(joints[..., J[low], :] - joints[..., J[mid], :])
-        axis = _carried_axis(sign * left, -up, upper)
-        sines.append(_dot(torch.linalg.cross(upper, lower), axis))
-        cosines.append(_dot(upper, lower))
-    return torch.stack(sines, -1), torch.stack(cosines, -1)
+    neutral, down = hinge_rests(joints)
+    upper, lower = hinge_bones(joints)
+    axis = carried_axis(neutral, down, upper)
+    return _dot(torch.linalg.cross(upper, lower), axis), _dot(upper, lower)
 
 
 def neck_cosine(joints: torch.Tensor) -> torch.Tensor:

@@ -29,7 +29,7 @@ rigid and smooth. Rebuilt so from the pelvis, a foot that stood still in the sam
 (the sampler holds stance ankles, :mod:`lifting.sampling.grounding`): so each ankle that stands there (stance as
 :func:`lifting.checks.plausibility.stance_ankles` finds it, however briefly) goes back to where the sampler planted
 it (a run of standing frames at its mean, where the run stays within ``HOLD_SPREAD`` of it), the knee onto the circle
-that thigh and shin allow (:func:`two_bone_limb`). Several views need no smoothing (it cost them
+that thigh and shin allow (:func:`lifting.finish.stance_legs.two_bone_limb`). Several views need no smoothing (it cost them
 accuracy). Last, a frame whose
 lowest joint the above took under the floor (and under where the sampler had it) is raised along
 the floor's normal to where the sampler had it.
@@ -44,11 +44,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.linalg import solveh_banded
 
 from platypose.lifting.anatomy.lengths import clamp_to_adult
+from platypose.lifting.anatomy.limits import within_limits
 from platypose.lifting.camera import Camera
 from platypose.lifting.checks.plausibility import stance_ankles
+from platypose.lifting.finish.branches import choose_branches
+from platypose.lifting.finish.hinge_speed import steady_hinges
 from platypose.lifting.finish.representative import median_motion
 from platypose.lifting.finish.rigid_shape import (
     BODY_JOINTS,
@@ -57,6 +59,8 @@ from platypose.lifting.finish.rigid_shape import (
     clip_shape,
     rebuild,
 )
+from platypose.lifting.finish.smoothing import smooth_frames
+from platypose.lifting.finish.stance_legs import hold_stance_legs
 from platypose.lifting.floor import Floor
 from platypose.lifting.rotations import kabsch, rotvec_matrices, skew
 from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
@@ -69,8 +73,6 @@ BODY_DAMPING = 1e-3  # of the Gauss-Newton system's mean diagonal
 SMOOTHNESS = 1.0  # at 30 fps: halves a bone's or body's turn at 5 Hz (scaled with the frame rate to stay there)
 MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
 HYPOTHESES_AT_ONCE = 10  # hypotheses made rigid together (their whole clip in memory)
-HOLD_SPREAD = 0.1  # metres: a standing ankle run of the sampler's that stays this near its mean is held at it
-LEGS = ((1, 2, 3), (4, 5, 6))  # (hip, knee, ankle) of the right and left leg: the order of floor.ANKLES
 ROW_CHUNK = 4096  # hypothesis-frames placed at once (each view adds 17 3x3 matrices per row)
 
 
@@ -175,29 +177,6 @@ def _place_rows(targets: np.ndarray, shape: RigidShape, centres: np.ndarray, see
     return placed
 
 
-def smooth_over_time(values: np.ndarray, smoothness: float) -> np.ndarray:
-    """Paths ``(T, ...)`` smoothed along T: the minimiser of ``|v' - v|^2 + smoothness * |D2 v'|^2``.
-
-    ``D2`` is the second difference; the system is pentadiagonal and solved banded (memory linear in T).
-    Fewer than 3 frames come back as they are.
-    """
-    T = len(values)
-    if T < 3 or smoothness <= 0:
-        return values
-    diagonal, first, second = np.zeros(T), np.zeros(T - 1), np.ones(T - 2)  # of D2^T D2, rows (1, -2, 1)
-    diagonal[:-2] += 1.0
-    diagonal[1:-1] += 4.0
-    diagonal[2:] += 1.0
-    first[:-1] -= 2.0
-    first[1:] -= 2.0
-    banded = np.zeros((3, T))  # upper form of I + s D2^T D2 (scipy.linalg.solveh_banded)
-    banded[2] = 1.0 + smoothness * diagonal
-    banded[1, 1:] = smoothness * first
-    banded[0, 2:] = smoothness * second
-    flat = values.reshape(T, -1)
-    return solveh_banded(banded, flat).reshape(values.shape)
-
-
 def present_spans(present: np.ndarray) -> list[slice]:
     """The runs of True in ``present`` ``(T,)``, as slices."""
     edges = np.diff(np.concatenate([[0], present.astype(np.int8), [0]]))
@@ -211,12 +190,15 @@ def rigid_paths(
     seen: np.ndarray,
     fps: float,
     floor: Floor | None = None,
+    limits: bool = True,
 ) -> np.ndarray:
     """Motions ``(K, T, 17, 3)`` of one person (NaN where absent) made rigid, each with its ``shape`` (lengths
     ``(K, 16)``, bodies ``(K, B, 3, 3)``; :func:`lifting.finish.rigid_shape.clip_shape`). See the module.
 
     ``centres`` ``(C, 3)``: the views' centres; ``seen`` ``(T, 17, C)``: which view sees which joint;
-    ``fps``: the motions' frame rate; ``floor``: the floor they stand on, or None.
+    ``fps``: the motions' frame rate; ``floor``: the floor they stand on, or None; ``limits``: knees and elbows
+    held within their limits (:func:`lifting.anatomy.limits.within_limits`; False: left to the caller, which
+    judges the hypotheses by them first).
     """
     joints = np.asarray(joints, np.float64)
     K, T = joints.shape[:2]
@@ -224,73 +206,28 @@ def rigid_paths(
     views = np.broadcast_to(seen, (K, *seen.shape)).reshape(K * T, *seen.shape[1:])
     placed = rigid_motion(joints.reshape(K * T, 17, 3), every, centres, views).reshape(joints.shape)
     present = np.isfinite(placed).all(axis=(0, 2, 3))
-    if not present.any() or np.median(seen[present].sum(axis=-1)) >= 2:  # several views: no jitter to take out
-        return _above_floor(placed, joints, floor)
+    if present.any() and np.median(seen[present].sum(axis=-1)) < 2:  # one view: branches, then its jitter out
+        placed = choose_branches(placed, joints, centres[np.argmax(seen.sum(axis=(0, 1)))], shape.lengths)
+        placed = _smooth_one_view(placed, present, shape, fps)
+        placed = hold_stance_legs(placed, joints, stance_ankles(joints, floor, fps, min_stance=0.0), shape.lengths)
+    else:  # several views: each frame alone, its hinges then steadied (they follow the keypoints' noise)
+        placed = steady_hinges(placed, present, fps)
+    return _above_floor(within_limits(placed) if limits else placed, joints, floor)
+
+
+def _smooth_one_view(placed: np.ndarray, present: np.ndarray, shape: RigidShape, fps: float) -> np.ndarray:
+    """Rigid motions ``(K, T, 17, 3)`` of one view with each bone's direction and each body's rotation smoothed
+    over the ``present`` ``(T,)`` runs of frames and the motion rebuilt on ``shape`` (see the module)."""
     smoothness = SMOOTHNESS * (fps / 30.0) ** 4  # the same cut-off in Hz at any frame rate
     lengths, bodies = shape.lengths[:, None], shape.bodies[:, None]  # (K, 1, ...): over frames
     for span in present_spans(present):
         here = placed[:, span]  # (K, t, 17, 3)
         turns = kabsch(bodies, body_offsets(here), np.ones(3))  # (K, t, B, 3, 3), exact: the bodies are rigid
-        turns = kabsch(np.eye(3), np.swapaxes(_smooth_frames(turns, smoothness), -1, -2), np.ones(3))
-        directions = _smooth_frames(bone_vectors(here) / lengths[..., None], smoothness)
+        turns = kabsch(np.eye(3), np.swapaxes(smooth_frames(turns, smoothness), -1, -2), np.ones(3))
+        directions = smooth_frames(bone_vectors(here) / lengths[..., None], smoothness)
         directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)
-        smooth = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
-        placed[:, span] = smooth
-    placed = hold_stance_legs(placed, joints, stance_ankles(joints, floor, fps, min_stance=0.0), shape.lengths)
-    return _above_floor(placed, joints, floor)
-
-
-def two_bone_limb(
-    root: np.ndarray, target: np.ndarray, pole: np.ndarray, upper: np.ndarray, lower: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Middle and end joints ``(M, 3)`` of limbs from ``root`` ``(M, 3)`` with bones ``upper`` and ``lower``
-    ``(M,)``: the end at ``target`` (on the line to it, as near as the limb reaches), the middle on the circle
-    both bones allow, on the side of ``pole`` (where the middle joint was)."""
-    reach = target - root
-    distance = np.linalg.norm(reach, axis=-1, keepdims=True)
-    axis = reach / np.maximum(distance, 1e-12)
-    distance = np.clip(distance, np.abs(upper - lower)[:, None] + 1e-6, (upper + lower)[:, None] - 1e-6)
-    along = (upper[:, None] ** 2 - lower[:, None] ** 2 + distance**2) / (2 * distance)
-    radius = np.sqrt(np.maximum(upper[:, None] ** 2 - along**2, 0.0))
-    side = pole - root
-    side -= np.sum(side * axis, axis=-1, keepdims=True) * axis
-    side /= np.maximum(np.linalg.norm(side, axis=-1, keepdims=True), 1e-12)
-    return root + along * axis + radius * side, root + distance * axis
-
-
-def stance_targets(ankles: np.ndarray, stance: np.ndarray) -> np.ndarray:
-    """Where ankles ``(K, T, 3)`` should be while they stand (``stance`` ``(K, T)``): each run of standing frames at
-    its mean, where the run stays within ``HOLD_SPREAD`` of it (a foot planted); elsewhere where they are."""
-    K, T = stance.shape
-    starts = stance & ~np.concatenate([np.zeros((K, 1), bool), stance[:, :-1]], axis=1)
-    run = np.cumsum(starts.ravel()).reshape(K, T) - 1  # runs numbered in row order (a run never crosses rows)
-    ids = run[stance]
-    counts = np.bincount(ids, minlength=int(starts.sum()))[:, None]
-    means = np.zeros((len(counts), 3))
-    np.add.at(means, ids, ankles[stance])
-    means /= np.maximum(counts, 1)
-    spread = np.zeros(len(counts))
-    np.maximum.at(spread, ids, np.linalg.norm(ankles[stance] - means[ids], axis=-1))
-    targets = ankles.copy()
-    targets[stance] = np.where((spread[ids] <= HOLD_SPREAD)[:, None], means[ids], ankles[stance])
-    return targets
-
-
-def hold_stance_legs(placed: np.ndarray, sampled: np.ndarray, stance: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Rigid motions ``placed`` ``(K, T, 17, 3)`` whose standing ankles (``stance`` ``(K, T, 2)``, in the sampler's
-    motions ``sampled``) go to where the sampler had them planted (:func:`stance_targets`), as near as the leg
-    (``lengths`` ``(K, 16)``) reaches from the placed hip; the knee goes onto its circle on the side where it was
-    placed. Feet that stood in the sampler's motion stand still; the bones keep their lengths."""
-    out = placed.copy()
-    for side, (hip, knee, ankle) in enumerate(LEGS):
-        standing = stance[..., side] & np.isfinite(sampled[:, :, ankle]).all(axis=-1)
-        k, t = np.nonzero(standing)
-        if len(k):
-            target = stance_targets(np.nan_to_num(sampled[:, :, ankle]), standing)[k, t]
-            thigh, shin = lengths[k, knee - 1], lengths[k, ankle - 1]  # bone b has child b + 1
-            middle, end = two_bone_limb(placed[k, t, hip], target, placed[k, t, knee], thigh, shin)
-            out[k, t, knee], out[k, t, ankle] = middle, end
-    return out
+        placed[:, span] = rebuild(here[..., 0, :], RigidShape(lengths, bodies), turns, directions)
+    return placed
 
 
 def _above_floor(placed: np.ndarray, before: np.ndarray, floor: Floor | None) -> np.ndarray:
@@ -302,11 +239,6 @@ def _above_floor(placed: np.ndarray, before: np.ndarray, floor: Floor | None) ->
     lowest = (placed @ normal).min(axis=-1) + offset
     allowed = np.minimum((before @ normal).min(axis=-1) + offset, 0.0)
     return placed + np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
-
-
-def _smooth_frames(values: np.ndarray, smoothness: float) -> np.ndarray:
-    """:func:`smooth_over_time` along axis 1 of ``values`` ``(K, T, ...)``."""
-    return np.moveaxis(smooth_over_time(np.moveaxis(values, 1, 0), smoothness), 0, 1)
 
 
 def person_shape(motions: np.ndarray, views: int) -> RigidShape:
@@ -344,10 +276,14 @@ def rigid_person(
     for start in range(0, N, HYPOTHESES_AT_ONCE):
         n = slice(start, min(start + HYPOTHESES_AT_ONCE, N))
         motions = np.asarray(hypotheses[person, n], np.float64)
-        hypotheses[person, n] = rigid_paths(motions, person_shape(motions, len(cameras)), centres, seen, fps, floor)
+        shape = person_shape(motions, len(cameras))
+        hypotheses[person, n] = rigid_paths(motions, shape, centres, seen, fps, floor, limits=False)
     for start in range(0, T, MEDIAN_CHUNK):
         t = slice(start, min(start + MEDIAN_CHUNK, T))
         median[person, t] = median_motion(np.asarray(hypotheses[person, :, t], np.float64))
+    for start in range(0, N, HYPOTHESES_AT_ONCE):  # the median judged them (knees bent backwards) before this
+        n = slice(start, min(start + HYPOTHESES_AT_ONCE, N))
+        hypotheses[person, n] = within_limits(np.asarray(hypotheses[person, n], np.float64))
     middle = np.asarray(median[person], np.float64)[None]
     median[person] = rigid_paths(middle, person_shape(middle, len(cameras)), centres, seen, fps, floor)[0]
     moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)

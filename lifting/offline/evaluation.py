@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from platypose.lifting.anatomy.limits import within_limits
 from platypose.lifting.camera import Camera, project
 from platypose.lifting.finish.representative import median_motion
 from platypose.lifting.finish.rigid import person_shape, rigid_paths
@@ -149,8 +150,9 @@ def lift_windows(
     hidden: np.ndarray | None = None,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` for true windows ``(B, F, 17, 3)`` seen by ``cameras``; ``rigid``: made
-    rigid as ``platypose lift`` makes its output (not the frame-by-frame baseline). ``hidden`` (F,): frames no
-    camera sees (a detection gap: no keypoints, no reprojection energy; the prior fills them)."""
+    rigid as ``platypose lift`` makes its output (not the frame-by-frame baseline), not yet held within the joint
+    limits (:func:`finished_windows` does that, after their answer). ``hidden`` (F,): frames no camera sees (a
+    detection gap: no keypoints, no reprojection energy; the prior fills them)."""
     rng = np.random.default_rng(config.seed + 1)
     pixels = np.stack([project(windows, c) for c in cameras])  # (C, B, F, 17, 2)
     pixels = pixels + rng.normal(0.0, noise_px, pixels.shape) if noise_px > 0 else pixels
@@ -172,7 +174,7 @@ def lift_windows(
     if frame_by_frame:
         joints = joints.reshape(B, F, config.samples, 17, 3).transpose(0, 2, 1, 3, 4)
     elif rigid:
-        joints = rigid_windows(joints, cameras, prior.fps, config.floor, hidden)
+        joints = rigid_windows(joints, cameras, prior.fps, config.floor, hidden, limits=False)
     return joints
 
 
@@ -182,10 +184,12 @@ def rigid_windows(
     fps: float,
     floor: tuple[float, float, float, float] | None,
     hidden: np.ndarray | None = None,
+    limits: bool = True,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.finish.rigid.rigid_paths`, each
     hypothesis on its own shape over its window, :func:`lifting.finish.rigid.person_shape`), every view seeing every
-    joint but on the ``hidden`` frames (F,), none taken under ``floor`` (the sampler's plane, or None)."""
+    joint but on the ``hidden`` frames (F,), none taken under ``floor`` (the sampler's plane, or None); ``limits``
+    as ``rigid_paths``'s."""
     ground = None if floor is None else plane_floor(*floor, "evaluation")
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
@@ -193,23 +197,27 @@ def rigid_windows(
         seen[hidden] = False
     out = np.empty_like(hypotheses)
     for b, window in enumerate(np.asarray(hypotheses, np.float64)):
-        out[b] = rigid_paths(window, person_shape(window, len(cameras)), centres, seen, fps, ground)
+        out[b] = rigid_paths(window, person_shape(window, len(cameras)), centres, seen, fps, ground, limits)
     return out
 
 
-def single_answers(
+def finished_windows(
     hypotheses: np.ndarray,
     cameras: Sequence[Camera],
     fps: float,
     floor: tuple[float, float, float, float] | None,
     rigid: bool,
     hidden: np.ndarray | None = None,
-) -> np.ndarray:
-    """The motion a lift would export for each window ``(B, F, 17, 3)`` (:func:`lifting.finish.representative.median_motion`
-    of its hypotheses ``(B, N, F, 17, 3)``, made rigid on its own shape as the lift's is; ``hidden`` frames (F,)
-    unseen)."""
+) -> tuple[np.ndarray, np.ndarray]:
+    """The hypotheses and the motion a lift would export for windows of :func:`lift_windows`'s hypotheses ``(B, N, F,
+    17, 3)``, as :func:`lifting.finish.rigid.rigid_person` finishes them: the answer ``(B, F, 17, 3)``
+    (:func:`lifting.finish.representative.median_motion`, made rigid on its own shape), then the hypotheses held
+    within the joint limits; ``hidden`` frames (F,) unseen. Not ``rigid``: both as they are."""
     answers = np.stack([median_motion(np.asarray(h, np.float64)) for h in hypotheses])
-    return rigid_windows(answers[:, None], cameras, fps, floor, hidden)[:, 0] if rigid else answers
+    if not rigid:
+        return hypotheses, answers
+    answers = rigid_windows(answers[:, None], cameras, fps, floor, hidden)[:, 0]
+    return within_limits(np.asarray(hypotheses, np.float64)), answers
 
 
 def evaluate(
@@ -248,7 +256,7 @@ def evaluate(
                 hyps = lift_windows(
                     prior, cameras, truth, replace(config, samples=samples), noise_px, per_frame, rigid=rigid
                 )
-                answers = single_answers(hyps, cameras, prior.fps, config.floor, rigid and not per_frame)
+                hyps, answers = finished_windows(hyps, cameras, prior.fps, config.floor, rigid and not per_frame)
                 values = score_windows(hyps, truth, clip_of_window, answers)
                 row = EvalRow(method, len(cameras), frames, samples, len(windows), values, time.time() - began)
                 rows.append(row)
@@ -290,7 +298,7 @@ def gap_rows(
     F = truth.shape[1]
     hidden = centred_gap(F, gap_s, prior.fps)
     hyps = lift_windows(prior, cameras, truth, config, noise_px, False, rigid=rigid, hidden=hidden)
-    answers = single_answers(hyps, cameras, prior.fps, config.floor, rigid, hidden)
+    hyps, answers = finished_windows(hyps, cameras, prior.fps, config.floor, rigid, hidden)
     seconds = time.time() - began
     rows = []
     for name, frames in (("gap inside", hidden), ("gap outside", ~hidden)):

@@ -11,11 +11,14 @@ import torch
 from platypose.detectors.multiview import match_across_views
 from platypose.detectors.openpose import read_openpose_folder
 from platypose.exporters.bvh import write_bvh
+from platypose.lifting.anatomy.limits import hinge_coordinates, limit_excess
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.camera import project
 from platypose.lifting.checks.plausibility import stance_slides
-from platypose.lifting.finish.rigid import place_on_sphere, rigid_motion, rigid_paths, smooth_over_time, two_bone_limb
+from platypose.lifting.finish.rigid import place_on_sphere, rigid_motion, rigid_paths
 from platypose.lifting.finish.rigid_shape import RigidShape, body_frames, body_offsets, clip_shape
+from platypose.lifting.finish.smoothing import smooth_over_time
+from platypose.lifting.finish.stance_legs import two_bone_limb
 from platypose.lifting.floor import CALIBRATED_FLOOR
 from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.rotations import rotvec_matrices
@@ -119,7 +122,8 @@ def test_one_view_puts_real_motion_back_on_its_rays(real_clips):
 def test_rigid_paths_are_rigid_smooth_and_above_the_floor(real_clips):
     """One view: bones and bodies keep the shape in every frame, the frame-to-frame jitter of joints around a
     smooth pelvis is damped, no frame goes under the floor, a frame missing (NaN) stays missing. Four views:
-    each frame is placed alone (no smoothing), nearer the truth than the noisy motion."""
+    each frame's hips, trunk and shoulders are placed alone (no smoothing), knees and elbows held within their
+    limits and steadied, all nearer the truth than the noisy motion."""
     truth = _walk(real_clips)
     rng = np.random.default_rng(3)
     noisy = truth.copy()
@@ -144,7 +148,11 @@ def test_rigid_paths_are_rigid_smooth_and_above_the_floor(real_clips):
     assert jitter(rigid) < 0.5 * jitter(noisy), (jitter(rigid), jitter(noisy))
     four = rigid_paths(noisy[None], shape, centres, np.ones((len(truth), 17, 4), bool), 30.0)[0]
     rows = RigidShape(np.broadcast_to(lengths, (len(truth), 16)), np.broadcast_to(bodies, (len(truth), 2, 3, 3)))
-    np.testing.assert_allclose(four, rigid_motion(noisy, rows, centres, np.ones((len(truth), 17, 4), bool)))
+    placed = rigid_motion(noisy, rows, centres, np.ones((len(truth), 17, 4), bool))
+    trunk = [0, 1, 4, 7, 8, 9, 10, 11, 14]  # hips, spine, head, shoulders: placed alone, as they are
+    np.testing.assert_allclose(four[:, trunk], placed[:, trunk])
+    np.testing.assert_allclose(bone_lengths(four[on]), np.broadcast_to(lengths, (on.sum(), 16)), atol=1e-9)
+    assert limit_excess(*hinge_coordinates(four[on])).max() < 1e-3
     assert np.linalg.norm(four[on] - truth[on], axis=-1).mean() < np.linalg.norm(noisy[on] - truth[on], axis=-1).mean()
 
 
