@@ -9,17 +9,18 @@ same points are a flexion with one twist and the opposite flexion with the twist
 flexion :func:`lifting.anatomy.hinges.signed_flexion`.
 
 A body holds (``FLEXION_RANGE_DEG``, ``TWIST_LIMITS_DEG``), as the bundled real motion capture does (80,210
-frames of every clip in ``data/motion``, 2 % of its knees' frames and 1-3 % of its elbows' outside them):
+frames of every clip in ``data/motion``, 1-3 % of each hinge's frames outside them):
 flexion from 10 degrees hyperextended (1 % of its knees reach past that) to fully folded; where a limb is bent past
 ``BENT_DEG`` (straighter, its axis is noise), a hip turning its knee at most 60 degrees from the carried axis
-(99.5 % of its bent knees are within 54 degrees) and a shoulder its elbow at most 85 (the reading's edge).
+(99.5 % of its knees bent past 20 degrees are within 54) and a shoulder its elbow at most 85 (the reading's edge).
 
 :func:`within_limits` moves each limb that breaks them back inside by turning its middle joint (knee, elbow)
 about the line from the limb's root to its end (the *swivel*): the hip or shoulder and the ankle or wrist stay
 where they are and so do both bones' lengths: only the middle joint moves, by the smallest turn that reaches an
 allowed pose. Where no swivel does (a limb swung about the vertical carries its axis along: a knee folded backwards
-under its hip stays backwards however it swivels), the lower bone is turned half a turn about the upper one (the
-same bend, forwards), and a limb folded past ``FLEXION_RANGE_DEG``'s end is opened in its plane to that end.
+under its hip stays backwards however it swivels), the lower bone is turned about the upper one to the nearest
+allowed axis (a backward bend becomes the same bend forwards), and a limb folded past ``FLEXION_RANGE_DEG``'s end
+is opened in its plane to that end.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from platypose.lifting.anatomy.hinges import HINGE_JOINTS, carried_axis, hinge_b
 
 FLEXION_RANGE_DEG = (-10.0, 150.0)
 TWIST_LIMITS_DEG = (60.0, 60.0, 85.0, 85.0)  # HINGE_NAMES order: knees (the hips' rotation), elbows (the shoulders')
-BENT_DEG = 20.0  # a limb bent less than this shows no axis worth limiting: its twist is free
+BENT_DEG = 10.0  # a limb bent less than this shows no axis worth limiting: its twist is free
 INSIDE_DEG = 1.0  # a limb moved back inside its limits goes this far inside, not onto their edge
 SWIVEL_STEPS = 72  # turns of the middle joint tried about the root-to-end line, a full turn
 SWIVEL_BISECTIONS = 12  # halvings between the last turn outside the limits and the first inside (5 deg / 4096)
@@ -133,8 +134,9 @@ def within_limits(joints: np.ndarray) -> np.ndarray:
     flat = out.reshape(-1, *out.shape[-2:])
     rows = np.flatnonzero(np.isfinite(flat).all(axis=(1, 2)))
     neutral, down = (v.numpy() for v in hinge_rests(torch.as_tensor(flat[rows])))
+    excess = limit_excess(*hinge_coordinates(flat[rows]))  # a limb's mending leaves the other limbs' readings
     for hinge, (top, mid, low) in enumerate(HINGE_JOINTS):
-        broken = limit_excess(*hinge_coordinates(flat[rows]))[:, hinge] > 0.0
+        broken = excess[:, hinge] > 0.0
         if not broken.any():
             continue
         some, axis, hanging = rows[broken], neutral[broken, hinge], down[broken, hinge]

@@ -208,10 +208,10 @@ def rigid_paths(
     present = np.isfinite(placed).all(axis=(0, 2, 3))
     if present.any() and np.median(seen[present].sum(axis=-1)) < 2:  # one view: branches, then its jitter out
         placed = choose_branches(placed, joints, centres[np.argmax(seen.sum(axis=(0, 1)))], shape.lengths)
-        placed = _smooth_one_view(placed, present, shape, fps)
+        placed = steady_hinges(_smooth_one_view(placed, present, shape, fps), present, fps)
         placed = hold_stance_legs(placed, joints, stance_ankles(joints, floor, fps, min_stance=0.0), shape.lengths)
     else:  # several views: each frame alone, its hinges then steadied (they follow the keypoints' noise)
-        placed = steady_hinges(placed, present, fps)
+        placed = steady_hinges(within_limits(placed), present, fps)
     return _above_floor(within_limits(placed) if limits else placed, joints, floor)
 
 
