@@ -20,7 +20,8 @@ where they are and so do both bones' lengths: only the middle joint moves, by th
 allowed pose. Where no swivel does (a limb swung about the vertical carries its axis along: a knee folded backwards
 under its hip stays backwards however it swivels), the lower bone is turned about the upper one to the nearest
 allowed axis (a backward bend becomes the same bend forwards), and a limb folded past ``FLEXION_RANGE_DEG``'s end
-is opened in its plane to that end.
+is opened in its plane to that end. A head turned from the trunk's line past ``HEAD_LIMIT_DEG`` (a neck folded
+further than real motion capture ever shows) is turned back to it.
 """
 
 from __future__ import annotations
@@ -31,9 +32,11 @@ import numpy as np
 import torch
 
 from platypose.lifting.anatomy.hinges import HINGE_JOINTS, carried_axis, hinge_bones, hinge_rests
+from platypose.lifting.skeleton import JOINT_INDEX as J
 
 FLEXION_RANGE_DEG = (-10.0, 150.0)
 TWIST_LIMITS_DEG = (60.0, 60.0, 85.0, 85.0)  # HINGE_NAMES order: knees (the hips' rotation), elbows (the shoulders')
+HEAD_LIMIT_DEG = 100.0  # the head's line (neck to head) from the trunk's (spine to thorax): 99.8 % of real frames
 BENT_DEG = 10.0  # a limb bent less than this shows no axis worth limiting: its twist is free
 INSIDE_DEG = 1.0  # a limb moved back inside its limits goes this far inside, not onto their edge
 SWIVEL_STEPS = 72  # turns of the middle joint tried about the root-to-end line, a full turn
@@ -143,7 +146,21 @@ def within_limits(joints: np.ndarray) -> np.ndarray:
         root, middle, end = flat[some, top], flat[some, mid], flat[some, low]
         flat[some, mid] = _swivelled(root, middle, end, _smallest_swivel(root, middle, end, axis, hanging, hinge))
         flat[some, low] = _mended_end(flat[some, top], flat[some, mid], end, axis, hanging, hinge)
+    flat[rows, J["head"]] = _head_within_limit(flat[rows])
     return out
+
+
+def _head_within_limit(joints: np.ndarray) -> np.ndarray:
+    """Heads ``(M, 3)`` of joints ``(M, 17, 3)`` whose line from the neck turns more than ``HEAD_LIMIT_DEG`` from the
+    trunk's turned back to that limit in the plane of the two lines (the head is a leaf: nothing else moves)."""
+    trunk = _unit(joints[:, J["thorax"]] - joints[:, J["spine"]])
+    line = joints[:, J["head"]] - joints[:, J["neck"]]
+    length = np.linalg.norm(line, axis=-1, keepdims=True)
+    angle = np.arccos(np.clip(np.sum(trunk * _unit(line), axis=-1), -1.0, 1.0))
+    side = _unit(line - np.sum(line * trunk, axis=-1, keepdims=True) * trunk)
+    limit = math.radians(HEAD_LIMIT_DEG)
+    held = joints[:, J["neck"]] + length * (math.cos(limit) * trunk + math.sin(limit) * side)
+    return np.where((angle > limit)[:, None], held, joints[:, J["head"]])
 
 
 def _mended_end(

@@ -4,17 +4,25 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
-from platypose.lifting.anatomy.hinges import HINGE_JOINTS, signed_flexion
+from platypose.lifting.anatomy.hinges import HINGE_JOINTS, neck_cosine, signed_flexion
 from platypose.lifting.anatomy.limits import (
     FLEXION_RANGE_DEG,
+    HEAD_LIMIT_DEG,
     TWIST_LIMITS_DEG,
     hinge_coordinates,
     limit_excess,
     within_limits,
 )
+from platypose.lifting.skeleton import JOINT_INDEX as J
 from platypose.lifting.skeleton import bone_lengths
 from platypose.lifting.timebase import resample
+
+
+def _head_angles(joints: np.ndarray) -> np.ndarray:
+    """Degrees between the trunk's line and the head's."""
+    return np.degrees(np.arccos(np.clip(neck_cosine(torch.as_tensor(joints)).numpy(), -1.0, 1.0)))
 
 
 def _real_motion(real_clips) -> np.ndarray:
@@ -50,14 +58,15 @@ def test_within_limits_holds_every_limb_of_noisy_motion_and_keeps_its_bones(real
     held = within_limits(noisy)
     assert limit_excess(*hinge_coordinates(held)).max() < 1e-6
     np.testing.assert_allclose(bone_lengths(held), bone_lengths(noisy), atol=1e-9)
-    limbs = [j for _, mid, low in HINGE_JOINTS for j in (mid, low)]
+    limbs = [j for _, mid, low in HINGE_JOINTS for j in (mid, low)] + [J["head"]]
     kept = [j for j in range(17) if j not in limbs]
     np.testing.assert_allclose(held[:, kept], noisy[:, kept], atol=1e-9)
     ends = [low for _, _, low in HINGE_JOINTS]
     broken = before > 0
     ends_moved = np.linalg.norm(held[:, ends] - noisy[:, ends], axis=-1) > 1e-9
     assert ends_moved[broken].mean() < 0.3, ends_moved[broken].mean()  # mostly the knee or elbow alone turns
-    inside = (before == 0).all(axis=-1)
+    assert _head_angles(held).max() <= HEAD_LIMIT_DEG + 1e-6
+    inside = (before == 0).all(axis=-1) & (_head_angles(noisy) <= HEAD_LIMIT_DEG)
     np.testing.assert_array_equal(held[inside], noisy[inside])
 
 
