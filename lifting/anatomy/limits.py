@@ -39,6 +39,7 @@ TWIST_LIMITS_DEG = (60.0, 60.0, 85.0, 85.0)  # HINGE_NAMES order: knees (the hip
 HEAD_LIMIT_DEG = 100.0  # the head's line (neck to head) from the trunk's (spine to thorax): 99.8 % of real frames
 BENT_DEG = 10.0  # a limb bent less than this shows no axis worth limiting: its twist is free
 INSIDE_DEG = 1.0  # a limb moved back inside its limits goes this far inside, not onto their edge
+ON_EDGE_DEG = 0.01  # a limb this near a limit counts as past it (float32 files would round it either way)
 SWIVEL_STEPS = 72  # turns of the middle joint tried about the root-to-end line, a full turn
 SWIVEL_BISECTIONS = 12  # halvings between the last turn outside the limits and the first inside (5 deg / 4096)
 
@@ -137,7 +138,8 @@ def within_limits(joints: np.ndarray) -> np.ndarray:
     flat = out.reshape(-1, *out.shape[-2:])
     rows = np.flatnonzero(np.isfinite(flat).all(axis=(1, 2)))
     neutral, down = (v.numpy() for v in hinge_rests(torch.as_tensor(flat[rows])))
-    excess = limit_excess(*hinge_coordinates(flat[rows]))  # a limb's mending leaves the other limbs' readings
+    flexion, twist = hinge_coordinates(flat[rows])  # a limb's mending leaves the other limbs' readings
+    excess = _past(flexion, twist, np.asarray(TWIST_LIMITS_DEG), ON_EDGE_DEG)
     for hinge, (top, mid, low) in enumerate(HINGE_JOINTS):
         broken = excess[:, hinge] > 0.0
         if not broken.any():

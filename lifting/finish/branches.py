@@ -51,12 +51,18 @@ def ray_sphere_points(centre: np.ndarray, point: np.ndarray, middle: np.ndarray,
 
 
 def limb_branches(
-    root: np.ndarray, middle: np.ndarray, end: np.ndarray, centre: np.ndarray, upper: np.ndarray, lower: np.ndarray
+    limb: np.ndarray, centre: np.ndarray, upper: np.ndarray, lower: np.ndarray, seen: np.ndarray
 ) -> np.ndarray:
-    """The four branches ``(..., 4, 2, 3)`` (middle, end) of limbs with joints ``(..., 3)`` and bone lengths
-    ``upper``, ``lower`` ``(...)`` seen from camera ``centre`` ``(3,)``: the middle joint's two, times the end's two."""
+    """The four branches ``(..., 4, 2, 3)`` (middle, end) of limbs with joints ``(..., 3, 3)`` (root, middle, end) and
+    bone lengths ``upper``, ``lower`` ``(...)`` seen from camera ``centre`` ``(3,)``: the middle joint's two, times the
+    end's two. A joint not ``seen`` ``(..., 2)`` (middle, end) has no ray: an unseen middle joint stays where it is,
+    an unseen end keeps its bone's direction from whichever middle joint."""
+    root, middle, end = limb[..., 0, :], limb[..., 1, :], limb[..., 2, :]
     middles = ray_sphere_points(centre, middle, root, upper)  # (..., 2, 3)
+    middles = np.where(seen[..., 0, None, None], middles, middle[..., None, :])
     ends = ray_sphere_points(centre, end[..., None, :], middles, lower[..., None])  # (..., 2, 2, 3)
+    carried = middles[..., None, :] + (end - middle)[..., None, None, :]
+    ends = np.where(seen[..., 1, None, None, None], ends, carried)
     middles = np.broadcast_to(middles[..., :, None, :], ends.shape)
     return np.stack([middles, ends], axis=-2).reshape(*end.shape[:-1], 4, 2, 3)
 
@@ -80,17 +86,21 @@ def viterbi(unary: np.ndarray, branches: np.ndarray) -> np.ndarray:
     return chosen
 
 
-def choose_branches(placed: np.ndarray, sampled: np.ndarray, centre: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+def choose_branches(
+    placed: np.ndarray, sampled: np.ndarray, centre: np.ndarray, seen: np.ndarray, lengths: np.ndarray
+) -> np.ndarray:
     """Motions ``(K, T, 17, 3)`` seen from one camera ``centre`` ``(3,)`` with each limb on the branches chosen over
-    all frames (see the module); ``sampled`` ``(K, T, 17, 3)`` are the sampler's joints, ``lengths`` ``(K, 16)`` the
-    bone lengths (bone ``b`` has child ``b + 1``). Absent frames (NaN) stay absent."""
+    all frames (see the module); ``sampled`` ``(K, T, 17, 3)`` are the sampler's joints, ``seen`` ``(T, 17)`` which
+    joints the camera sees (an unseen joint has no ray to choose a branch on: it keeps the one it was placed on),
+    ``lengths`` ``(K, 16)`` the bone lengths (bone ``b`` has child ``b + 1``). Absent frames (NaN) stay absent."""
     out = np.array(placed, np.float64, copy=True)
     K, T = out.shape[:2]
     neutral, down = (v.numpy() for v in hinge_rests(torch.as_tensor(np.nan_to_num(out))))  # (K, T, 4, 3)
     for hinge, (top, mid, low) in enumerate(HINGE_JOINTS):
         upper = np.broadcast_to(lengths[:, mid - 1, None], (K, T))
         lower = np.broadcast_to(lengths[:, low - 1, None], (K, T))
-        branches = limb_branches(out[:, :, top], out[:, :, mid], out[:, :, low], centre, upper, lower)  # (K,T,4,2,3)
+        sight = np.broadcast_to(seen[None, :, [mid, low]], (K, T, 2))
+        branches = limb_branches(out[:, :, [top, mid, low]], centre, upper, lower, sight)  # (K, T, 4, 2, 3)
         root = out[:, :, top, None]
         flexion, twist = limb_reading(
             _unit(branches[..., 0, :] - root),

@@ -50,6 +50,24 @@ def hinge_axes(joints: np.ndarray, twist: np.ndarray, bent: np.ndarray) -> np.nd
     return np.cos(turn) * carried + np.sin(turn) * np.cross(upper.numpy(), carried)
 
 
+def with_flexion(joints: np.ndarray, flexion: np.ndarray, hinges: tuple[int, ...] = (0, 1, 2, 3)) -> np.ndarray:
+    """Motions ``(K, T, 17, 3)`` (all present) with the lower bone of each of ``hinges`` (:data:`HINGE_JOINTS` indices)
+    turned about the hinge's axis to ``flexion`` degrees ``(K, T, 4)``: the upper bone, the twist and the bones'
+    lengths stay."""
+    out = np.array(joints, np.float64, copy=True)
+    now, twist = hinge_coordinates(out)
+    axes = hinge_axes(out, twist, np.abs(now) > BENT_DEG)
+    for h in hinges:
+        top, mid, low = HINGE_JOINTS[h]
+        upper = _unit(out[:, :, mid] - out[:, :, top])
+        length = np.linalg.norm(out[:, :, low] - out[:, :, mid], axis=-1, keepdims=True)
+        angle = np.radians(flexion[:, :, h])[..., None]
+        out[:, :, low] = out[:, :, mid] + length * (
+            np.cos(angle) * upper + np.sin(angle) * np.cross(axes[:, :, h], upper)
+        )
+    return out
+
+
 def steady_hinges(joints: np.ndarray, present: np.ndarray, fps: float) -> np.ndarray:
     """Motions ``(K, T, 17, 3)`` with each hinge's flexion smoothed over the runs of ``present`` ``(T,)`` frames (see
     the module); absent frames as they are."""
@@ -57,18 +75,9 @@ def steady_hinges(joints: np.ndarray, present: np.ndarray, fps: float) -> np.nda
     frames = np.flatnonzero(present)
     if len(frames) < 3:
         return out
-    here = out[:, frames]
-    flexion, twist = hinge_coordinates(here)  # (K, t, 4)
-    axes = hinge_axes(here, twist, np.abs(flexion) > BENT_DEG)
+    flexion, _ = hinge_coordinates(out[:, frames])  # (K, t, 4)
     runs = np.split(np.arange(len(frames)), np.flatnonzero(np.diff(frames) > 1) + 1)
-    steady = flexion.copy()
     for run in runs:
-        steady[:, run] = smooth_frames(flexion[:, run], SMOOTHNESS * (fps / 30.0) ** 4)
-    for h, (top, mid, low) in enumerate(HINGE_JOINTS):
-        upper = _unit(here[:, :, mid] - here[:, :, top])
-        length = np.linalg.norm(here[:, :, low] - here[:, :, mid], axis=-1, keepdims=True)
-        angle = np.radians(steady[:, :, h])[..., None]
-        lower = np.cos(angle) * upper + np.sin(angle) * np.cross(axes[:, :, h], upper)
-        here[:, :, low] = here[:, :, mid] + length * lower
-    out[:, frames] = here
+        flexion[:, run] = smooth_frames(flexion[:, run], SMOOTHNESS * (fps / 30.0) ** 4)
+    out[:, frames] = with_flexion(out[:, frames], flexion)
     return out

@@ -21,6 +21,7 @@ import warnings
 import numpy as np
 
 from platypose.lifting.anatomy.hinges import HYPEREXTENSION_MARGIN_DEG, signed_flexion
+from platypose.lifting.anatomy.limits import hinge_coordinates
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 FACING_FRAMES = 9  # frames the vote for a facing is summed over (centred): a side is kept for at least this long
@@ -69,16 +70,32 @@ def agreeing(hypotheses: np.ndarray) -> np.ndarray:
     return members
 
 
-def median_motion(hypotheses: np.ndarray) -> np.ndarray:
+def median_motion(hypotheses: np.ndarray, members: np.ndarray | None = None) -> np.ndarray:
     """The single answer ``(T, 17, 3)`` of hypotheses ``(N, T, 17, 3)``: the median pelvis of all of them plus the
-    median pelvis-relative pose of the :func:`agreeing` ones. Where the person stands is every hypothesis's
+    median pelvis-relative pose of the :func:`agreeing` ones (``members`` ``(N, T)``, if already known). Where the person stands is every hypothesis's
     middle: the agreeing ones change from frame to frame, and from one camera hypotheses metres apart in depth
     would make the answer's pelvis jump between them (a man on a roof, 2.5 m of spread: 3.8 m steps).
 
     A frame the hypotheses lack (NaN: the person is absent) stays NaN.
     """
-    kept = np.where(agreeing(hypotheses)[..., None, None], hypotheses, np.nan)
+    members = agreeing(hypotheses) if members is None else members
+    kept = np.where(members[..., None, None], hypotheses, np.nan)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # an absent frame's median of nothing is NaN, as it should be
         pelvis = np.nanmedian(hypotheses[..., :1, :], axis=0)
         return pelvis + np.nanmedian(kept - kept[..., :1, :], axis=0)
+
+
+def median_flexion(hypotheses: np.ndarray, members: np.ndarray) -> np.ndarray:
+    """Per frame, the median flexion ``(T, 4)`` degrees (:func:`lifting.anatomy.limits.hinge_coordinates`) of each hinge
+    of the ``members`` ``(N, T)`` among hypotheses ``(N, T, 17, 3)``; NaN where a frame is absent.
+
+    The answer's arms take it (:func:`lifting.finish.rigid.rigid_person`): the median of wrists that hypotheses put
+    on either side of a bent elbow is a straight arm none of them has."""
+    flexion, _ = hinge_coordinates(np.nan_to_num(hypotheses))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmedian(
+            np.where(members[..., None] & np.isfinite(hypotheses).all(axis=(-1, -2))[..., None], flexion, np.nan),
+            axis=0,
+        )

@@ -50,8 +50,8 @@ from platypose.lifting.anatomy.limits import within_limits
 from platypose.lifting.camera import Camera
 from platypose.lifting.checks.plausibility import stance_ankles
 from platypose.lifting.finish.branches import choose_branches
-from platypose.lifting.finish.hinge_speed import steady_hinges
-from platypose.lifting.finish.representative import median_motion
+from platypose.lifting.finish.hinge_speed import steady_hinges, with_flexion
+from platypose.lifting.finish.representative import agreeing, median_flexion, median_motion
 from platypose.lifting.finish.rigid_shape import (
     BODY_JOINTS,
     RigidShape,
@@ -73,6 +73,7 @@ BODY_DAMPING = 1e-3  # of the Gauss-Newton system's mean diagonal
 SMOOTHNESS = 1.0  # at 30 fps: halves a bone's or body's turn at 5 Hz (scaled with the frame rate to stay there)
 MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
 HYPOTHESES_AT_ONCE = 10  # hypotheses made rigid together (their whole clip in memory)
+ELBOWS = (2, 3)  # of HINGE_NAMES
 ROW_CHUNK = 4096  # hypothesis-frames placed at once (each view adds 17 3x3 matrices per row)
 
 
@@ -207,7 +208,8 @@ def rigid_paths(
     placed = rigid_motion(joints.reshape(K * T, 17, 3), every, centres, views).reshape(joints.shape)
     present = np.isfinite(placed).all(axis=(0, 2, 3))
     if present.any() and np.median(seen[present].sum(axis=-1)) < 2:  # one view: branches, then its jitter out
-        placed = choose_branches(placed, joints, centres[np.argmax(seen.sum(axis=(0, 1)))], shape.lengths)
+        view = np.argmax(seen.sum(axis=(0, 1)))
+        placed = choose_branches(placed, joints, centres[view], seen[..., view], shape.lengths)
         placed = steady_hinges(_smooth_one_view(placed, present, shape, fps), present, fps)
         placed = hold_stance_legs(placed, joints, stance_ankles(joints, floor, fps, min_stance=0.0), shape.lengths)
     else:  # several views: each frame alone, its hinges then steadied (they follow the keypoints' noise)
@@ -239,6 +241,17 @@ def _above_floor(placed: np.ndarray, before: np.ndarray, floor: Floor | None) ->
     lowest = (placed @ normal).min(axis=-1) + offset
     allowed = np.minimum((before @ normal).min(axis=-1) + offset, 0.0)
     return placed + np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
+
+
+def answer_arms(answer: np.ndarray, flexion: np.ndarray) -> np.ndarray:
+    """The rigid answer ``(T, 17, 3)`` with its elbows bent as the hypotheses' median ``flexion`` ``(T, 4)``
+    (:func:`lifting.finish.representative.median_flexion`) where it is known, then held within the limits. Its knees
+    keep the bend its planted feet give them."""
+    frames = np.isfinite(answer).all(axis=(1, 2)) & np.isfinite(flexion[:, list(ELBOWS)]).all(axis=1)
+    out = np.array(answer, np.float64, copy=True)
+    if frames.any():
+        out[frames] = within_limits(with_flexion(out[None, frames], flexion[None, frames], ELBOWS)[0])
+    return out
 
 
 def person_shape(motions: np.ndarray, views: int) -> RigidShape:
@@ -278,14 +291,26 @@ def rigid_person(
         motions = np.asarray(hypotheses[person, n], np.float64)
         shape = person_shape(motions, len(cameras))
         hypotheses[person, n] = rigid_paths(motions, shape, centres, seen, fps, floor, limits=False)
+    members = np.zeros((N, T), dtype=bool)
     for start in range(0, T, MEDIAN_CHUNK):
         t = slice(start, min(start + MEDIAN_CHUNK, T))
-        median[person, t] = median_motion(np.asarray(hypotheses[person, :, t], np.float64))
+        members[:, t] = agreeing(np.asarray(hypotheses[person, :, t], np.float64))
+        median[person, t] = median_motion(np.asarray(hypotheses[person, :, t], np.float64), members[:, t])
     for start in range(0, N, HYPOTHESES_AT_ONCE):  # the median judged them (knees bent backwards) before this
         n = slice(start, min(start + HYPOTHESES_AT_ONCE, N))
         hypotheses[person, n] = within_limits(np.asarray(hypotheses[person, n], np.float64))
+    flexion = np.concatenate(
+        [
+            median_flexion(
+                np.asarray(hypotheses[person, :, start : start + MEDIAN_CHUNK], np.float64),
+                members[:, start : start + MEDIAN_CHUNK],
+            )
+            for start in range(0, T, MEDIAN_CHUNK)
+        ]
+    )
     middle = np.asarray(median[person], np.float64)[None]
-    median[person] = rigid_paths(middle, person_shape(middle, len(cameras)), centres, seen, fps, floor)[0]
+    middle = rigid_paths(middle, person_shape(middle, len(cameras)), centres, seen, fps, floor)[0]
+    median[person] = answer_arms(middle, flexion)
     moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
     moved = moved[np.isfinite(moved)]
     return {

@@ -16,8 +16,8 @@ import numpy as np
 
 from platypose.lifting.anatomy.limits import within_limits
 from platypose.lifting.camera import Camera, project
-from platypose.lifting.finish.representative import median_motion
-from platypose.lifting.finish.rigid import person_shape, rigid_paths
+from platypose.lifting.finish.representative import agreeing, median_flexion, median_motion
+from platypose.lifting.finish.rigid import answer_arms, person_shape, rigid_paths
 from platypose.lifting.floor import plane_floor
 from platypose.lifting.offline import metrics
 from platypose.lifting.prior.model import PriorBundle
@@ -213,11 +213,14 @@ def finished_windows(
     17, 3)``, as :func:`lifting.finish.rigid.rigid_person` finishes them: the answer ``(B, F, 17, 3)``
     (:func:`lifting.finish.representative.median_motion`, made rigid on its own shape), then the hypotheses held
     within the joint limits; ``hidden`` frames (F,) unseen. Not ``rigid``: both as they are."""
-    answers = np.stack([median_motion(np.asarray(h, np.float64)) for h in hypotheses])
+    members = [agreeing(np.asarray(h, np.float64)) for h in hypotheses]
+    answers = np.stack([median_motion(np.asarray(h, np.float64), m) for h, m in zip(hypotheses, members)])
     if not rigid:
         return hypotheses, answers
     answers = rigid_windows(answers[:, None], cameras, fps, floor, hidden)[:, 0]
-    return within_limits(np.asarray(hypotheses, np.float64)), answers
+    hypotheses = within_limits(np.asarray(hypotheses, np.float64))
+    flexion = [median_flexion(h, m) for h, m in zip(hypotheses, members)]
+    return hypotheses, np.stack([answer_arms(a, f) for a, f in zip(answers, flexion)])
 
 
 def evaluate(
