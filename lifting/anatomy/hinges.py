@@ -35,6 +35,7 @@ _HINGES = (
 )
 # per hinge: the joint indices of its (upper, hinge, lower) joints
 HINGE_JOINTS: tuple[tuple[int, int, int], ...] = tuple((J[top], J[mid], J[low]) for top, mid, low, _, _ in _HINGES)
+OVERHEAD_DEG = 20.0
 HYPEREXTENSION_MARGIN_DEG = 5.0  # a straight hinge's noise: bends backwards up to this cost nothing
 NECK_LIMIT_DEG = 70.0
 # The hinges the energy holds: the knees (the first two). An elbow's sign needs the upper arm's roll, which the
@@ -100,7 +101,15 @@ def hinge_bends(joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     neutral, down = hinge_rests(joints)
     upper, lower = hinge_bones(joints)
     axis = carried_axis(neutral, down, upper)
-    return _dot(torch.linalg.cross(upper, lower), axis), _dot(upper, lower)
+    normal = torch.linalg.cross(upper, lower)
+    sine = torch.where(overhead(down, upper), torch.linalg.vector_norm(normal, dim=-1), _dot(normal, axis))
+    return sine, _dot(upper, lower)
+
+
+def overhead(down: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """Whether unit ``upper`` bones ``(..., 3)`` point within ``OVERHEAD_DEG`` of straight up (``-down``), where the
+    shortest swing from hanging, and so the carried axis, is undefined: a hinge there is read as bent forwards."""
+    return _dot(down, upper) < -math.cos(math.radians(OVERHEAD_DEG))
 
 
 def neck_cosine(joints: torch.Tensor) -> torch.Tensor:

@@ -31,7 +31,7 @@ import math
 import numpy as np
 import torch
 
-from platypose.lifting.anatomy.hinges import HINGE_JOINTS, carried_axis, hinge_bones, hinge_rests
+from platypose.lifting.anatomy.hinges import HINGE_JOINTS, carried_axis, hinge_bones, hinge_rests, overhead
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 FLEXION_RANGE_DEG = (-10.0, 150.0)
@@ -52,13 +52,16 @@ def _bend_and_turn(
     upper: np.ndarray, lower: np.ndarray, neutral: np.ndarray, down: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """The angle between the bones (0 to 180) and the turn (-180 to 180) about the upper bone from the carried axis
-    to the axis that bends the lower bone by that angle, degrees ``(...)`` (arguments as :func:`limb_reading`)."""
-    carried = carried_axis(*(torch.as_tensor(np.asarray(v, np.float64)) for v in (neutral, down, upper))).numpy()
+    to the axis that bends the lower bone by that angle, degrees ``(...)`` (arguments as :func:`limb_reading`); the
+    turn is 0 where the upper bone points overhead (:func:`lifting.anatomy.hinges.overhead`: no carried axis)."""
+    neutral, down, upper = (torch.as_tensor(np.asarray(v, np.float64)) for v in (neutral, down, upper))
+    carried, up = carried_axis(neutral, down, upper).numpy(), overhead(down, upper).numpy()
+    upper = upper.numpy()
     normal = np.cross(upper, lower)
     angle = np.degrees(np.arctan2(np.linalg.norm(normal, axis=-1), np.sum(upper * lower, axis=-1)))
     axis = _unit(normal)
     turn = np.degrees(np.arctan2(np.sum(np.cross(carried, axis) * upper, axis=-1), np.sum(carried * axis, axis=-1)))
-    return angle, turn
+    return angle, np.where(up, 0.0, turn)
 
 
 def limb_reading(

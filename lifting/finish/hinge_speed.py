@@ -46,8 +46,9 @@ def hinge_axes(joints: np.ndarray, twist: np.ndarray, bent: np.ndarray) -> np.nd
     twist = np.stack(
         [[_filled(twist[k, :, h], bent[k, :, h]) for h in range(twist.shape[2])] for k in range(len(twist))]
     ).transpose(0, 2, 1)
-    turn = np.radians(twist)[..., None]
-    return np.cos(turn) * carried + np.sin(turn) * np.cross(upper.numpy(), carried)
+    turn, upper = np.radians(twist)[..., None], upper.numpy()
+    axes = np.cos(turn) * carried + np.sin(turn) * np.cross(upper, carried)
+    return _unit(axes - np.sum(axes * upper, axis=-1, keepdims=True) * upper)  # overhead, the carried axis is not
 
 
 def with_flexion(joints: np.ndarray, flexion: np.ndarray, hinges: tuple[int, ...] = (0, 1, 2, 3)) -> np.ndarray:
@@ -68,16 +69,23 @@ def with_flexion(joints: np.ndarray, flexion: np.ndarray, hinges: tuple[int, ...
     return out
 
 
-def steady_hinges(joints: np.ndarray, present: np.ndarray, fps: float) -> np.ndarray:
-    """Motions ``(K, T, 17, 3)`` with each hinge's flexion smoothed over the runs of ``present`` ``(T,)`` frames (see
-    the module); absent frames as they are."""
+def steady_hinges(
+    joints: np.ndarray,
+    present: np.ndarray,
+    fps: float,
+    flexion: np.ndarray | None = None,
+    hinges: tuple[int, ...] = (0, 1, 2, 3),
+) -> np.ndarray:
+    """Motions ``(K, T, 17, 3)`` with the flexion of each of ``hinges`` smoothed over the runs of ``present`` ``(T,)``
+    frames (see the module), or set to ``flexion`` ``(K, T, 4)`` degrees smoothed so (a target from elsewhere);
+    absent frames as they are."""
     out = np.array(joints, np.float64, copy=True)
     frames = np.flatnonzero(present)
     if len(frames) < 3:
         return out
-    flexion, _ = hinge_coordinates(out[:, frames])  # (K, t, 4)
+    flexion = hinge_coordinates(out[:, frames])[0] if flexion is None else np.array(flexion[:, frames], np.float64)
     runs = np.split(np.arange(len(frames)), np.flatnonzero(np.diff(frames) > 1) + 1)
     for run in runs:
         flexion[:, run] = smooth_frames(flexion[:, run], SMOOTHNESS * (fps / 30.0) ** 4)
-    out[:, frames] = with_flexion(out[:, frames], flexion)
+    out[:, frames] = with_flexion(out[:, frames], flexion, hinges)
     return out

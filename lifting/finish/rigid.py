@@ -20,23 +20,25 @@ that ray comes within reach; where it does not, the joint takes the nearest reac
 Several views weigh the image displacement in all of them. A joint no view sees moves as little as
 it can in space.
 
-Each frame is solved alone, and with one view, where a bone lies nearly across the ray, a small
-change of length needs a large change of depth: frame-to-frame jitter. So for a person seen by one
-view (in most frames) each bone's direction and each body's rotation is then smoothed over time
-(``s`` sum of squared accelerations against the squared change, ``SMOOTHNESS`` at 30 fps: a change
-at 5 Hz is halved, slower ones pass) and the motion rebuilt from the pelvis with the clip's shape:
-rigid and smooth. Rebuilt so from the pelvis, a foot that stood still in the sampler's motion would slide
-(the sampler holds stance ankles, :mod:`lifting.sampling.grounding`): so each ankle that stands there (stance as
-:func:`lifting.checks.plausibility.stance_ankles` finds it, however briefly) goes back to where the sampler planted
-it (a run of standing frames at its mean, where the run stays within ``HOLD_SPREAD`` of it), the knee onto the circle
-that thigh and shin allow (:func:`lifting.finish.stance_legs.two_bone_limb`). Several views need no smoothing (it cost them
-accuracy). Last, a frame whose
-lowest joint the above took under the floor (and under where the sampler had it) is raised along
+Each frame is solved alone, and with one view a limb's middle and end joints each have two places on their
+rays, equal in the image: placed frame by frame, knees and elbows bend one way, then the other. So for a person
+seen by one view (in most frames), each limb's branch is chosen over the whole motion first
+(:mod:`lifting.finish.branches`: a Viterbi pass weighing the joint limits, the sampler's depth and the move
+between frames). Where a bone lies nearly across the ray, a small change of length needs a large change of
+depth: frame-to-frame jitter. So each bone's direction and each body's rotation is then smoothed over time
+(:func:`lifting.finish.smoothing.smooth_over_time`, ``SMOOTHNESS`` at 30 fps: a change at 5 Hz is halved,
+slower ones pass), the motion rebuilt from the pelvis with the clip's shape, each hinge's flexion steadied the
+same way (:mod:`lifting.finish.hinge_speed`), and each ankle that stood in the sampler's motion put back where the
+sampler planted it (:mod:`lifting.finish.stance_legs`). Several views need no smoothing of the bones (it cost them
+accuracy), but their hinges follow the keypoints' noise: those are steadied (:mod:`lifting.finish.hinge_speed`).
+Last, every knee, elbow and head is moved inside the limits a body holds (:mod:`lifting.anatomy.limits`), and a
+frame whose lowest joint the above took under the floor (and under where the sampler had it) is raised along
 the floor's normal to where the sampler had it.
 
-The median motion (``lifting.tracks.persons``) is then the coordinate-wise median of these rigid
-hypotheses, made rigid the same way with its own shape: a median of rigid motions is not rigid
-itself.
+The median motion (:mod:`lifting.finish.representative`) is the coordinate-wise median of these hypotheses, taken
+before the limits move them (a hypothesis whose knees bend backwards is left out of it, and the limits would
+hide that), made a body the same way with its own shape, its elbows then bent as the hypotheses' median flexion
+(:func:`answer_arms`): a median of bodies is not a body itself.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ from platypose.lifting.anatomy.limits import within_limits
 from platypose.lifting.camera import Camera
 from platypose.lifting.checks.plausibility import stance_ankles
 from platypose.lifting.finish.branches import choose_branches
-from platypose.lifting.finish.hinge_speed import steady_hinges, with_flexion
+from platypose.lifting.finish.hinge_speed import steady_hinges
 from platypose.lifting.finish.representative import agreeing, median_flexion, median_motion
 from platypose.lifting.finish.rigid_shape import (
     BODY_JOINTS,
@@ -243,15 +245,13 @@ def _above_floor(placed: np.ndarray, before: np.ndarray, floor: Floor | None) ->
     return placed + np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
 
 
-def answer_arms(answer: np.ndarray, flexion: np.ndarray) -> np.ndarray:
+def answer_arms(answer: np.ndarray, flexion: np.ndarray, fps: float) -> np.ndarray:
     """The rigid answer ``(T, 17, 3)`` with its elbows bent as the hypotheses' median ``flexion`` ``(T, 4)``
-    (:func:`lifting.finish.representative.median_flexion`) where it is known, then held within the limits. Its knees
-    keep the bend its planted feet give them."""
+    (:func:`lifting.finish.representative.median_flexion`), steadied over time as every hinge is, where it is known;
+    then held within the limits. Its knees keep the bend its planted feet give them."""
     frames = np.isfinite(answer).all(axis=(1, 2)) & np.isfinite(flexion[:, list(ELBOWS)]).all(axis=1)
-    out = np.array(answer, np.float64, copy=True)
-    if frames.any():
-        out[frames] = within_limits(with_flexion(out[None, frames], flexion[None, frames], ELBOWS)[0])
-    return out
+    steady = steady_hinges(answer[None], frames, fps, np.nan_to_num(flexion)[None], ELBOWS)[0]
+    return np.where(frames[:, None, None], within_limits(np.where(frames[:, None, None], steady, 0.0)), answer)
 
 
 def person_shape(motions: np.ndarray, views: int) -> RigidShape:
@@ -310,7 +310,7 @@ def rigid_person(
     )
     middle = np.asarray(median[person], np.float64)[None]
     middle = rigid_paths(middle, person_shape(middle, len(cameras)), centres, seen, fps, floor)[0]
-    median[person] = answer_arms(middle, flexion)
+    median[person] = answer_arms(middle, flexion, fps)
     moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
     moved = moved[np.isfinite(moved)]
     return {

@@ -1,7 +1,8 @@
 """Everything that happens to a take after sampling, in order, behind :func:`finish_take`.
 
 1. one grounded view: each solved root's depth steadied along its ray (:mod:`platypose.lifting.finish.steady_depth`);
-2. rigid people: one shape per hypothesis over the clip (:func:`platypose.lifting.finish.rigid.rigid_person`);
+2. bodies: one shape per hypothesis over the clip, one depth branch per limb, knees, elbows and head within
+   the limits a body holds (:func:`platypose.lifting.finish.rigid.rigid_person`);
 3. the median motion's reprojection against the keypoints, per view (:func:`report_reprojection`);
 4. plausibility of each person (:mod:`platypose.lifting.checks.plausibility`), said in one line each;
 5. on an estimated floor, every output moved into the estimated world (:mod:`platypose.lifting.finish.world`).
@@ -68,7 +69,7 @@ def finish_take(
         began = time.perf_counter()
         rigid[f"p{track}"] = stats = rigid_person(hypotheses, median, keypoints, cameras, p, fps, floor)
         log(
-            f"person {track}: made rigid in {time.perf_counter() - began:.1f} s (the sampler's median motion "
+            f"person {track}: made a body in {time.perf_counter() - began:.1f} s (the sampler's median motion "
             f"stretched its bones by up to {1000 * stats['stretch_m']:.0f} mm); its joints moved "
             f"{1000 * stats['moved_m']:.0f} mm (median), {1000 * stats['moved_max_m']:.0f} mm at most"
         )
