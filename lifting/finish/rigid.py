@@ -30,7 +30,8 @@ depth: frame-to-frame jitter. So each bone's direction and each body's rotation 
 slower ones pass), the motion rebuilt from the pelvis with the clip's shape, each hinge's flexion steadied the
 same way (:mod:`lifting.finish.hinge_speed`), and each ankle that stood in the sampler's motion put back where the
 sampler planted it (:mod:`lifting.finish.stance_legs`). Several views need no smoothing of the bones (it cost them
-accuracy), but their hinges follow the keypoints' noise: those are steadied (:mod:`lifting.finish.hinge_speed`).
+accuracy); two views' hinges follow the keypoints' noise (a far person's elbow opening and closing by 50 degrees
+between frames): those are steadied (:mod:`lifting.finish.hinge_speed`); three or more measure them.
 Last, every knee, elbow and head is moved inside the limits a body holds (:mod:`lifting.anatomy.limits`), and a
 frame whose lowest joint the above took under the floor (and under where the sampler had it) is raised along
 the floor's normal to where the sampler had it.
@@ -209,12 +210,13 @@ def rigid_paths(
     views = np.broadcast_to(seen, (K, *seen.shape)).reshape(K * T, *seen.shape[1:])
     placed = rigid_motion(joints.reshape(K * T, 17, 3), every, centres, views).reshape(joints.shape)
     present = np.isfinite(placed).all(axis=(0, 2, 3))
-    if present.any() and np.median(seen[present].sum(axis=-1)) < 2:  # one view: branches, then its jitter out
+    view_count = np.median(seen[present].sum(axis=-1)) if present.any() else 0
+    if present.any() and view_count < 2:  # one view: branches, then its jitter out
         view = np.argmax(seen.sum(axis=(0, 1)))
         placed = choose_branches(placed, joints, centres[view], seen[..., view], shape.lengths)
         placed = steady_hinges(_smooth_one_view(placed, present, shape, fps), present, fps)
         placed = hold_stance_legs(placed, joints, stance_ankles(joints, floor, fps, min_stance=0.0), shape.lengths)
-    else:  # several views: each frame alone, its hinges then steadied (they follow the keypoints' noise)
+    elif view_count < 3:  # two views: each frame alone, its hinges then steadied (they follow the keypoints' noise)
         placed = steady_hinges(within_limits(placed), present, fps)
     return _above_floor(within_limits(placed) if limits else placed, joints, floor)
 
