@@ -77,6 +77,7 @@ SMOOTHNESS = 1.0  # at 30 fps: halves a bone's or body's turn at 5 Hz (scaled wi
 MEDIAN_CHUNK = 256  # frames whose hypotheses are in memory at once for the median
 HYPOTHESES_AT_ONCE = 10  # hypotheses made rigid together (their whole clip in memory)
 ELBOWS = (2, 3)  # of HINGE_NAMES
+MEASURING_VIEWS = 3  # views that measure every hinge: the sampler's joints need no steadying, the answer's none
 ROW_CHUNK = 4096  # hypothesis-frames placed at once (each view adds 17 3x3 matrices per row)
 
 
@@ -210,13 +211,13 @@ def rigid_paths(
     views = np.broadcast_to(seen, (K, *seen.shape)).reshape(K * T, *seen.shape[1:])
     placed = rigid_motion(joints.reshape(K * T, 17, 3), every, centres, views).reshape(joints.shape)
     present = np.isfinite(placed).all(axis=(0, 2, 3))
-    view_count = np.median(seen[present].sum(axis=-1)) if present.any() else 0
+    view_count = typical_views(seen, present)
     if present.any() and view_count < 2:  # one view: branches, then its jitter out
         view = np.argmax(seen.sum(axis=(0, 1)))
         placed = choose_branches(placed, joints, centres[view], seen[..., view], shape.lengths)
         placed = steady_hinges(_smooth_one_view(placed, present, shape, fps), present, fps)
         placed = hold_stance_legs(placed, joints, stance_ankles(joints, floor, fps, min_stance=0.0), shape.lengths)
-    elif view_count < 3:  # two views: each frame alone, its hinges then steadied (they follow the keypoints' noise)
+    elif view_count < MEASURING_VIEWS:  # two views: each frame alone, its hinges then steadied (they follow the noise)
         placed = steady_hinges(within_limits(placed), present, fps)
     return _above_floor(within_limits(placed) if limits else placed, joints, floor)
 
@@ -247,10 +248,20 @@ def _above_floor(placed: np.ndarray, before: np.ndarray, floor: Floor | None) ->
     return placed + np.where(lowest < allowed, allowed - lowest, 0.0)[..., None, None] * normal
 
 
-def answer_arms(answer: np.ndarray, flexion: np.ndarray, fps: float) -> np.ndarray:
-    """The rigid answer ``(T, 17, 3)`` with its elbows bent as the hypotheses' median ``flexion`` ``(T, 4)``
-    (:func:`lifting.finish.representative.median_flexion`), steadied over time as every hinge is, where it is known;
-    then held within the limits. Its knees keep the bend its planted feet give them."""
+def typical_views(seen: np.ndarray, present: np.ndarray) -> float:
+    """How many views see a person's joint in a typical frame: the median over the ``present`` ``(T,)`` frames and
+    joints of ``seen`` ``(T, 17, C)`` summed over views (0 if none is present)."""
+    return float(np.median(seen[present].sum(axis=-1))) if present.any() else 0.0
+
+
+def answer_arms(answer: np.ndarray, flexion: np.ndarray, fps: float, views: float) -> np.ndarray:
+    """The rigid answer ``(T, 17, 3)`` of a person seen by ``views`` views (:func:`typical_views`) with its elbows bent
+    as the hypotheses' median ``flexion`` ``(T, 4)`` (:func:`lifting.finish.representative.median_flexion`),
+    steadied over time as every hinge is, where it is known; then held within the limits. Its knees keep the bend
+    its planted feet give them. ``MEASURING_VIEWS`` or more views measure the answer's wrists: it is returned as
+    it is."""
+    if views >= MEASURING_VIEWS:
+        return answer
     frames = np.isfinite(answer).all(axis=(1, 2)) & np.isfinite(flexion[:, list(ELBOWS)]).all(axis=1)
     steady = steady_hinges(answer[None], frames, fps, np.nan_to_num(flexion)[None], ELBOWS)[0]
     return np.where(frames[:, None, None], within_limits(np.where(frames[:, None, None], steady, 0.0)), answer)
@@ -312,7 +323,7 @@ def rigid_person(
     )
     middle = np.asarray(median[person], np.float64)[None]
     middle = rigid_paths(middle, person_shape(middle, len(cameras)), centres, seen, fps, floor)[0]
-    median[person] = answer_arms(middle, flexion, fps)
+    median[person] = answer_arms(middle, flexion, fps, typical_views(seen, np.isfinite(middle).all(axis=(1, 2))))
     moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
     moved = moved[np.isfinite(moved)]
     return {

@@ -220,7 +220,7 @@ def finished_windows(
     answers = rigid_windows(answers[:, None], cameras, fps, floor, hidden)[:, 0]
     hypotheses = within_limits(np.asarray(hypotheses, np.float64))
     flexion = [median_flexion(h, m) for h, m in zip(hypotheses, members)]
-    return hypotheses, np.stack([answer_arms(a, f, fps) for a, f in zip(answers, flexion)])
+    return hypotheses, np.stack([answer_arms(a, f, fps, len(cameras)) for a, f in zip(answers, flexion)])
 
 
 def evaluate(
