@@ -27,9 +27,8 @@ seen by one view (in most frames), each limb's branch is chosen over the whole m
 between frames). Where a bone lies nearly across the ray, a small change of length needs a large change of
 depth: frame-to-frame jitter. So each bone's direction and each body's rotation is then smoothed over time
 (:func:`lifting.finish.smoothing.smooth_over_time`, ``SMOOTHNESS`` at 30 fps: a change at 5 Hz is halved,
-slower ones pass), the motion rebuilt from the pelvis with the clip's shape, each hinge's flexion steadied the
-same way (:mod:`lifting.finish.hinge_speed`), and each ankle that stood in the sampler's motion put back where the
-sampler planted it (:mod:`lifting.finish.stance_legs`). Several views need no smoothing of the bones (it cost them
+slower ones pass), the motion rebuilt from the pelvis with the clip's shape, and each ankle that stood in the
+sampler's motion put back where the sampler planted it (:mod:`lifting.finish.stance_legs`). Several views need no smoothing of the bones (it cost them
 accuracy); two views' hinges follow the keypoints' noise (a far person's elbow opening and closing by 50 degrees
 between frames): those are steadied (:mod:`lifting.finish.hinge_speed`); three or more measure them.
 Last, every knee, elbow and head is moved inside the limits a body holds (:mod:`lifting.anatomy.limits`), and a
@@ -215,7 +214,7 @@ def rigid_paths(
     if present.any() and view_count < 2:  # one view: branches, then its jitter out
         view = np.argmax(seen.sum(axis=(0, 1)))
         placed = choose_branches(placed, joints, centres[view], seen[..., view], shape.lengths)
-        placed = steady_hinges(_smooth_one_view(placed, present, shape, fps), present, fps)
+        placed = _smooth_one_view(placed, present, shape, fps)
         placed = hold_stance_legs(placed, joints, stance_ankles(joints, floor, fps, min_stance=0.0), shape.lengths)
     elif view_count < MEASURING_VIEWS:  # two views: each frame alone, its hinges then steadied (they follow the noise)
         placed = steady_hinges(within_limits(placed), present, fps)

@@ -3,9 +3,8 @@
 Rebuilt from the pelvis with smoothed bones, a foot that stood still in the sampler's motion would slide. So each
 ankle that stands there goes back to where the sampler planted it (:func:`stance_targets`), as near as the leg
 reaches bent by at least ``MIN_BEND_DEG``, the knee onto the circle that thigh and shin allow (:func:`two_bone_limb`).
-Where the hip has moved on further from the planted place, the ankle goes as near as the leg reaches, held ever
-less as the hip moves on, and from ``RELEASE_M`` out of reach the foot has lifted: the ankle stays where it was
-placed (a leg held straight out to the planted place would snap its knee open and shut as it let go).
+Where the hip has moved on further from the planted place, the ankle goes as near as that leg reaches: a leg pulled
+straight out to the planted place would snap its knee open for the frame and shut again as the foot lifts.
 """
 
 from __future__ import annotations
@@ -15,7 +14,6 @@ import numpy as np
 HOLD_SPREAD = 0.1  # metres: a standing ankle run of the sampler's that stays this near its mean is held at it
 LEGS = ((1, 2, 3), (4, 5, 6))  # (hip, knee, ankle) of the right and left leg: the order of floor.ANKLES
 MIN_BEND_DEG = 10.0  # a standing knee is bent at least this much (a heel strike's is 5-10 degrees)
-RELEASE_M = 0.1  # a planted ankle out of the leg's reach by this much is let go (by less, held ever less)
 
 
 def two_bone_limb(
@@ -59,7 +57,7 @@ def hold_stance_legs(placed: np.ndarray, sampled: np.ndarray, stance: np.ndarray
     motions ``sampled``) go to where the sampler had them planted (:func:`stance_targets`), as near as the leg
     (``lengths`` ``(K, 16)``) reaches from the placed hip; the knee goes onto its circle on the side where it was
     placed. Feet that stood in the sampler's motion stand still; the bones keep their lengths. A
-    planted place out of the reach of the leg bent by ``MIN_BEND_DEG`` holds the ankle ever less (module)."""
+    planted place out of reach (module) is come as near as the leg bent by ``MIN_BEND_DEG`` reaches."""
     out = placed.copy()
     for side, (hip, knee, ankle) in enumerate(LEGS):
         standing = stance[..., side] & np.isfinite(sampled[:, :, ankle]).all(axis=-1)
@@ -70,9 +68,7 @@ def hold_stance_legs(placed: np.ndarray, sampled: np.ndarray, stance: np.ndarray
             reach = np.sqrt(thigh**2 + shin**2 + 2 * thigh * shin * np.cos(np.radians(MIN_BEND_DEG)))
             offset = target - placed[k, t, hip]
             distance = np.linalg.norm(offset, axis=-1, keepdims=True)
-            reachable = placed[k, t, hip] + offset * np.minimum(1.0, reach[:, None] / np.maximum(distance, 1e-12))
-            held = np.clip((reach[:, None] + RELEASE_M - distance) / RELEASE_M, 0.0, 1.0)  # 0: the foot has lifted
-            target = placed[k, t, ankle] + held * (reachable - placed[k, t, ankle])
+            target = placed[k, t, hip] + offset * np.minimum(1.0, reach[:, None] / np.maximum(distance, 1e-12))
             middle, end = two_bone_limb(placed[k, t, hip], target, placed[k, t, knee], thigh, shin)
             out[k, t, knee], out[k, t, ankle] = middle, end
     return out
