@@ -40,8 +40,8 @@ HEAD_LIMIT_DEG = 100.0  # the head's line (neck to head) from the trunk's (spine
 BENT_DEG = 10.0  # a limb bent less than this shows no axis worth limiting: its twist is free
 INSIDE_DEG = 1.0  # a limb moved back inside its limits goes this far inside, not onto their edge
 ON_EDGE_DEG = 0.01  # a limb this near a limit counts as past it (float32 files would round it either way)
-SWIVEL_STEPS = 72  # turns of the middle joint tried about the root-to-end line, a full turn
-SWIVEL_BISECTIONS = 12  # halvings between the last turn outside the limits and the first inside (5 deg / 4096)
+SWIVEL_STEPS = 24  # turns of the middle joint tried about the root-to-end line, a full turn (15 degrees apart)
+SWIVEL_BISECTIONS = 14  # halvings between the last turn outside the limits and the first inside (15 deg / 16384)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -112,6 +112,7 @@ def _swivel_excess(
     """Degrees past hinge ``hinge``'s limits, narrowed by ``INSIDE_DEG``, of limbs ``(M, 3)`` each with its middle joint
     swivelled by ``turn`` (folding too far is not a swivel's to mend)."""
     moved = _swivelled(root, middle, end, turn)
+    neutral, down = np.broadcast_to(neutral, moved.shape).copy(), np.broadcast_to(down, moved.shape).copy()
     flexion, twist = limb_reading(_unit(moved - root), _unit(end - moved), neutral, down)
     return _past(flexion, twist, TWIST_LIMITS_DEG[hinge], INSIDE_DEG, folding=False)
 
@@ -123,7 +124,8 @@ def _smallest_swivel(
     (the one leaving the least excess where none does)."""
     grid = np.linspace(-math.pi, math.pi, SWIVEL_STEPS + 1)
     grid = grid[np.argsort(np.abs(grid), kind="stable")]  # 0 first, then ever larger turns either way
-    excess = np.stack([_swivel_excess(root, middle, end, neutral, down, hinge, np.full(len(root), g)) for g in grid])
+    turns = np.broadcast_to(grid[:, None], (len(grid), len(root)))
+    excess = _swivel_excess(root, middle, end, neutral, down, hinge, turns)  # (grid, M): every turn at once
     inside = excess <= 0.0
     best = np.where(inside.any(axis=0), np.argmax(inside, axis=0), np.argmin(excess, axis=0))
     outer, inner = np.zeros(len(root)), grid[best]  # the boundary lies between no turn (outside) and the best

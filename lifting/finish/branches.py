@@ -72,11 +72,12 @@ def viterbi(unary: np.ndarray, branches: np.ndarray) -> np.ndarray:
     squared move of the branches' points ``(R, T, S, 2, 3)`` between consecutive frames (NaN costs nothing)."""
     R, T, S = unary.shape
     unary = np.nan_to_num(unary)
+    step = branches[:, 1:, None] - branches[:, :-1, :, None]  # (R, T - 1, S_before, S_now, 2, 3)
+    moves = STEP_WEIGHT * np.nan_to_num(np.sum(step**2, axis=(-1, -2)))  # (R, T - 1, S_before, S_now)
     total = unary[:, 0].copy()
     came_from = np.zeros((R, T, S), dtype=np.int64)
     for t in range(1, T):
-        step = branches[:, t, None] - branches[:, t - 1, :, None]  # (R, S_before, S_now, 2, 3)
-        cost = total[:, :, None] + STEP_WEIGHT * np.nan_to_num(np.sum(step**2, axis=(-1, -2)))
+        cost = total[:, :, None] + moves[:, t - 1]
         came_from[:, t] = np.argmin(cost, axis=1)
         total = np.min(cost, axis=1) + unary[:, t]
     chosen = np.zeros((R, T), dtype=np.int64)
@@ -95,24 +96,25 @@ def choose_branches(
     ``lengths`` ``(K, 16)`` the bone lengths (bone ``b`` has child ``b + 1``). Absent frames (NaN) stay absent."""
     out = np.array(placed, np.float64, copy=True)
     K, T = out.shape[:2]
-    neutral, down = (v.numpy() for v in hinge_rests(torch.as_tensor(np.nan_to_num(out))))  # (K, T, 4, 3)
-    for hinge, (top, mid, low) in enumerate(HINGE_JOINTS):
-        upper = np.broadcast_to(lengths[:, mid - 1, None], (K, T))
-        lower = np.broadcast_to(lengths[:, low - 1, None], (K, T))
-        sight = np.broadcast_to(seen[None, :, [mid, low]], (K, T, 2))
-        branches = limb_branches(out[:, :, [top, mid, low]], centre, upper, lower, sight)  # (K, T, 4, 2, 3)
-        root = out[:, :, top, None]
-        flexion, twist = limb_reading(
-            _unit(branches[..., 0, :] - root),
-            _unit(branches[..., 1, :] - branches[..., 0, :]),
-            neutral[:, :, None, hinge],
-            down[:, :, None, hinge],
-        )
-        hinge_excess = np.radians(limit_excess(flexion[..., None], twist[..., None])[..., hinge])  # (K, T, 4)
-        wanted = sampled[:, :, [mid, low]][:, :, None]  # (K, T, 1, 2, 3)
-        unary = LIMIT_WEIGHT * hinge_excess**2 + SAMPLED_WEIGHT * np.sum((branches - wanted) ** 2, axis=(-1, -2))
-        chosen = viterbi(unary, branches)
-        picked = np.take_along_axis(branches, chosen[..., None, None, None], axis=2)[:, :, 0]  # (K, T, 2, 3)
-        present = np.isfinite(out[:, :, [top, mid, low]]).all(axis=(-1, -2))
-        out[:, :, [mid, low]] = np.where(present[..., None, None], picked, out[:, :, [mid, low]])
+    limbs = np.array(HINGE_JOINTS)  # (4, 3): root, middle, end per hinge
+    joints = np.moveaxis(out[:, :, limbs], 2, 0)  # (4, K, T, 3, 3): every limb at once
+    upper = np.broadcast_to(lengths.T[limbs[:, 1] - 1, :, None], (4, K, T))
+    lower = np.broadcast_to(lengths.T[limbs[:, 2] - 1, :, None], (4, K, T))
+    sight = np.broadcast_to(seen[:, limbs[:, 1:]].transpose(1, 0, 2)[:, None], (4, K, T, 2))
+    branches = limb_branches(joints, centre, upper, lower, sight)  # (4, K, T, 4, 2, 3)
+    neutral, down = (np.moveaxis(v.numpy(), 2, 0) for v in hinge_rests(torch.as_tensor(np.nan_to_num(out))))
+    flexion, twist = limb_reading(
+        _unit(branches[..., 0, :] - joints[:, :, :, None, 0]),
+        _unit(branches[..., 1, :] - branches[..., 0, :]),
+        np.broadcast_to(neutral[:, :, :, None], branches.shape[:-2] + (3,)).copy(),
+        np.broadcast_to(down[:, :, :, None], branches.shape[:-2] + (3,)).copy(),
+    )  # (4, K, T, 4 branches)
+    excess = np.stack([limit_excess(flexion[h, ..., None], twist[h, ..., None])[..., h] for h in range(4)])
+    wanted = np.moveaxis(sampled[:, :, limbs[:, 1:]], 2, 0)[:, :, :, None]  # (4, K, T, 1, 2, 3)
+    unary = LIMIT_WEIGHT * np.radians(excess) ** 2 + SAMPLED_WEIGHT * np.sum((branches - wanted) ** 2, axis=(-1, -2))
+    chosen = viterbi(unary.reshape(4 * K, T, 4), branches.reshape(4 * K, T, 4, 2, 3)).reshape(4, K, T)
+    picked = np.take_along_axis(branches, chosen[..., None, None, None], axis=3)[:, :, :, 0]  # (4, K, T, 2, 3)
+    present = np.isfinite(joints).all(axis=(-1, -2))  # (4, K, T)
+    for hinge, (_, mid, low) in enumerate(HINGE_JOINTS):
+        out[:, :, [mid, low]] = np.where(present[hinge, ..., None, None], picked[hinge], out[:, :, [mid, low]])
     return out

@@ -68,7 +68,7 @@ from platypose.lifting.rotations import kabsch, rotvec_matrices, skew
 from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
 
 ALONG_RAY = 1e-3  # weight of moving along a view's ray against moving across it (one view: depth nearly free)
-BISECTIONS = 60  # halvings of the multiplier's log-range: far below a micrometre before the exact rescale
+BISECTIONS = 40  # halvings of the multiplier's log-range: far below a micrometre before the exact rescale
 LOWEST_SHIFT = -30.0  # log10 of the smallest multiplier shift tried
 BODY_STEPS = 6  # Gauss-Newton steps of a body's rotation
 BODY_DAMPING = 1e-3  # of the Gauss-Newton system's mean diagonal
