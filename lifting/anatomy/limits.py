@@ -41,7 +41,7 @@ BENT_DEG = 10.0  # a limb bent less than this shows no axis worth limiting: its 
 INSIDE_DEG = 1.0  # a limb moved back inside its limits goes this far inside, not onto their edge
 ON_EDGE_DEG = 0.01  # a limb this near a limit counts as past it (float32 files would round it either way)
 SWIVEL_STEPS = 24  # turns of the middle joint tried about the root-to-end line, a full turn (15 degrees apart)
-SWIVEL_BISECTIONS = 14  # halvings between the last turn outside the limits and the first inside (15 deg / 16384)
+SWIVEL_BISECTIONS = 8  # halvings between the last turn outside the limits and the first inside (15 deg / 256)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
