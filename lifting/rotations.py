@@ -32,6 +32,11 @@ def kabsch(rest: np.ndarray, seen: np.ndarray, weights: np.ndarray) -> np.ndarra
     return np.swapaxes(vt, -1, -2) @ fix @ np.swapaxes(u, -1, -2)
 
 
+def unit(v: np.ndarray) -> np.ndarray:
+    """Vectors ``(..., 3)`` scaled to length 1 (a zero vector stays zero)."""
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
+
+
 def two_vector_frame(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
     """Orthonormal frames (..., 3, 3), columns: ``primary`` direction, ``secondary`` made orthogonal, their cross."""
     e1 = primary / np.maximum(np.linalg.norm(primary, axis=-1, keepdims=True), 1e-12)

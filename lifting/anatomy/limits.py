@@ -32,6 +32,7 @@ import numpy as np
 import torch
 
 from platypose.lifting.anatomy.hinges import HINGE_JOINTS, carried_axis, hinge_bones, hinge_rests, overhead
+from platypose.lifting.rotations import unit
 from platypose.lifting.skeleton import JOINT_INDEX as J
 
 FLEXION_RANGE_DEG = (-10.0, 150.0)
@@ -42,10 +43,6 @@ INSIDE_DEG = 1.0  # a limb moved back inside its limits goes this far inside, no
 ON_EDGE_DEG = 0.01  # a limb this near a limit counts as past it (float32 files would round it either way)
 SWIVEL_STEPS = 24  # turns of the middle joint tried about the root-to-end line, a full turn (15 degrees apart)
 SWIVEL_BISECTIONS = 8  # halvings between the last turn outside the limits and the first inside (15 deg / 256)
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
 
 
 def _bend_and_turn(
@@ -59,7 +56,7 @@ def _bend_and_turn(
     upper = upper.numpy()
     normal = np.cross(upper, lower)
     angle = np.degrees(np.arctan2(np.linalg.norm(normal, axis=-1), np.sum(upper * lower, axis=-1)))
-    axis = _unit(normal)
+    axis = unit(normal)
     turn = np.degrees(np.arctan2(np.sum(np.cross(carried, axis) * upper, axis=-1), np.sum(carried * axis, axis=-1)))
     return angle, np.where(up, 0.0, turn)
 
@@ -69,9 +66,14 @@ def limb_reading(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Flexion and twist in degrees ``(...)`` of limbs with unit ``upper`` and ``lower`` bones ``(..., 3)``, carried by
     a body whose ``neutral`` hinge axis and hanging direction ``down`` are ``(..., 3)`` (see the module)."""
-    angle, twist = _bend_and_turn(upper, lower, neutral, down)
-    back = np.abs(twist) > 90.0
-    return np.where(back, -angle, angle), np.where(back, twist - np.copysign(180.0, twist), twist)
+    return _signed(*_bend_and_turn(upper, lower, neutral, down))
+
+
+def _signed(angle: np.ndarray, turn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Flexion and twist of a bend by ``angle`` about the axis ``turn`` from the carried one (:func:`_bend_and_turn`):
+    the reading whose twist lies within a quarter turn (see the module)."""
+    back = np.abs(turn) > 90.0
+    return np.where(back, -angle, angle), np.where(back, turn - np.copysign(180.0, turn), turn)
 
 
 def hinge_coordinates(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -99,7 +101,7 @@ def _past(flexion, twist, twist_limit, inside: float = 0.0, folding: bool = True
 
 def _swivelled(root: np.ndarray, middle: np.ndarray, end: np.ndarray, turn: np.ndarray) -> np.ndarray:
     """Middle joints ``(..., 3)`` turned by ``turn`` radians ``(...)`` about the line from ``root`` to ``end``."""
-    axis = _unit(end - root)
+    axis = unit(end - root)
     arm = middle - root
     cos, sin = np.cos(turn)[..., None], np.sin(turn)[..., None]
     along = np.sum(axis * arm, axis=-1, keepdims=True) * axis
@@ -113,7 +115,7 @@ def _swivel_excess(
     swivelled by ``turn`` (folding too far is not a swivel's to mend)."""
     moved = _swivelled(root, middle, end, turn)
     neutral, down = np.broadcast_to(neutral, moved.shape).copy(), np.broadcast_to(down, moved.shape).copy()
-    flexion, twist = limb_reading(_unit(moved - root), _unit(end - moved), neutral, down)
+    flexion, twist = limb_reading(unit(moved - root), unit(end - moved), neutral, down)
     return _past(flexion, twist, TWIST_LIMITS_DEG[hinge], INSIDE_DEG, folding=False)
 
 
@@ -142,8 +144,10 @@ def within_limits(joints: np.ndarray) -> np.ndarray:
     out = np.array(joints, np.float64, copy=True)
     flat = out.reshape(-1, *out.shape[-2:])
     rows = np.flatnonzero(np.isfinite(flat).all(axis=(1, 2)))
-    neutral, down = (v.numpy() for v in hinge_rests(torch.as_tensor(flat[rows])))
-    flexion, twist = hinge_coordinates(flat[rows])  # a limb's mending leaves the other limbs' readings
+    values = torch.as_tensor(flat[rows])
+    neutral, down = (v.numpy() for v in hinge_rests(values))
+    # read once: mending one limb leaves the others' readings as they are
+    flexion, twist = limb_reading(*(v.numpy() for v in hinge_bones(values)), neutral, down)
     excess = _past(flexion, twist, np.asarray(TWIST_LIMITS_DEG), ON_EDGE_DEG)
     for hinge, (top, mid, low) in enumerate(HINGE_JOINTS):
         broken = excess[:, hinge] > 0.0
@@ -160,11 +164,11 @@ def within_limits(joints: np.ndarray) -> np.ndarray:
 def _head_within_limit(joints: np.ndarray) -> np.ndarray:
     """Heads ``(M, 3)`` of joints ``(M, 17, 3)`` whose line from the neck turns more than ``HEAD_LIMIT_DEG`` from the
     trunk's turned back to that limit in the plane of the two lines (the head is a leaf: nothing else moves)."""
-    trunk = _unit(joints[:, J["thorax"]] - joints[:, J["spine"]])
+    trunk = unit(joints[:, J["thorax"]] - joints[:, J["spine"]])
     line = joints[:, J["head"]] - joints[:, J["neck"]]
     length = np.linalg.norm(line, axis=-1, keepdims=True)
-    angle = np.arccos(np.clip(np.sum(trunk * _unit(line), axis=-1), -1.0, 1.0))
-    side = _unit(line - np.sum(line * trunk, axis=-1, keepdims=True) * trunk)
+    angle = np.arccos(np.clip(np.sum(trunk * unit(line), axis=-1), -1.0, 1.0))
+    side = unit(line - np.sum(line * trunk, axis=-1, keepdims=True) * trunk)
     limit = math.radians(HEAD_LIMIT_DEG)
     held = joints[:, J["neck"]] + length * (math.cos(limit) * trunk + math.sin(limit) * side)
     return np.where((angle > limit)[:, None], held, joints[:, J["head"]])
@@ -177,17 +181,17 @@ def _mended_end(
     bone to the nearest allowed axis (a bent limb: the twist's limit, bending forwards; a nearly straight one
     bent backwards: half a turn, the same bend forwards), then, folded past the range's end, opened in its
     plane to that end; the others as they are."""
-    upper, lower = _unit(middle - root), end - middle
-    angle, turn = _bend_and_turn(upper, _unit(lower), neutral, down)
+    upper, lower = unit(middle - root), end - middle
+    angle, turn = _bend_and_turn(upper, unit(lower), neutral, down)
     limit = TWIST_LIMITS_DEG[hinge] - INSIDE_DEG
     wanted = np.where(angle > BENT_DEG, np.clip(turn, -limit, limit), np.where(np.abs(turn) > 90.0, turn + 180.0, turn))
-    excess = _past(*limb_reading(upper, _unit(lower), neutral, down), TWIST_LIMITS_DEG[hinge])
+    excess = _past(*_signed(angle, turn), TWIST_LIMITS_DEG[hinge])
     by = np.radians(np.where(excess > 0.0, wanted - turn, 0.0))[:, None]  # (only rows past a limit move)
     along = np.sum(lower * upper, axis=-1, keepdims=True) * upper
     across = lower - along
     lower = along + np.cos(by) * across + np.sin(by) * np.cross(upper, across)
     high = math.radians(FLEXION_RANGE_DEG[1])
     folded = np.linalg.norm(lower, axis=-1, keepdims=True) * (
-        math.cos(high) * upper + math.sin(high) * _unit(lower - along)
+        math.cos(high) * upper + math.sin(high) * unit(lower - along)
     )
     return middle + np.where((angle > FLEXION_RANGE_DEG[1])[:, None], folded, lower)

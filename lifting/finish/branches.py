@@ -26,26 +26,23 @@ import torch
 
 from platypose.lifting.anatomy.hinges import HINGE_JOINTS, hinge_rests
 from platypose.lifting.anatomy.limits import limb_reading, limit_excess
+from platypose.lifting.rotations import unit
 
 LIMIT_WEIGHT = 10.0  # per squared radian past a limit: 20 degrees past costs as much as a 0.35 m jump
 SAMPLED_WEIGHT = 1.0  # per square metre from the sampler's joints
 STEP_WEIGHT = 1.0  # per square metre moved between frames
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
-
-
 def ray_sphere_points(centre: np.ndarray, point: np.ndarray, middle: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """The two points ``(..., 2, 3)`` where the ray from camera ``centre`` ``(3,)`` through ``point`` ``(..., 3)`` meets
     the sphere of ``radius`` ``(...)`` about ``middle`` ``(..., 3)``, nearer first; where it misses, the sphere's point
     nearest the ray, twice."""
-    ray = _unit(point - centre)
+    ray = unit(point - centre)
     closest = np.sum(ray * (middle - centre), axis=-1)  # along the ray to the point nearest the sphere's centre
     gap = centre + closest[..., None] * ray - middle
     half = np.sqrt(np.maximum(radius**2 - np.sum(gap**2, axis=-1), 0.0))
     hits = centre + (closest[..., None] + np.stack([-half, half], axis=-1))[..., None] * ray[..., None, :]
-    nearest = middle + radius[..., None] * _unit(gap)
+    nearest = middle + radius[..., None] * unit(gap)
     missed = (np.sum(gap**2, axis=-1) > radius**2)[..., None, None]
     return np.where(missed, nearest[..., None, :], hits)
 
@@ -104,8 +101,8 @@ def choose_branches(
     branches = limb_branches(joints, centre, upper, lower, sight)  # (4, K, T, 4, 2, 3)
     neutral, down = (np.moveaxis(v.numpy(), 2, 0) for v in hinge_rests(torch.as_tensor(np.nan_to_num(out))))
     flexion, twist = limb_reading(
-        _unit(branches[..., 0, :] - joints[:, :, :, None, 0]),
-        _unit(branches[..., 1, :] - branches[..., 0, :]),
+        unit(branches[..., 0, :] - joints[:, :, :, None, 0]),
+        unit(branches[..., 1, :] - branches[..., 0, :]),
         np.broadcast_to(neutral[:, :, :, None], branches.shape[:-2] + (3,)).copy(),
         np.broadcast_to(down[:, :, :, None], branches.shape[:-2] + (3,)).copy(),
     )  # (4, K, T, 4 branches)

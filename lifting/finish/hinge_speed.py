@@ -16,15 +16,12 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from platypose.lifting.anatomy.hinges import HINGE_JOINTS, carried_axis, hinge_rests
+from platypose.lifting.anatomy.hinges import HINGE_JOINTS, carried_axis, hinge_bones, hinge_rests
 from platypose.lifting.anatomy.limits import BENT_DEG, hinge_coordinates
 from platypose.lifting.finish.smoothing import smooth_frames
+from platypose.lifting.rotations import unit
 
 SMOOTHNESS = 1.0  # at 30 fps, scaled with the frame rate to the same cut-off in Hz
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
 
 
 def _filled(values: np.ndarray, known: np.ndarray) -> np.ndarray:
@@ -40,15 +37,14 @@ def hinge_axes(joints: np.ndarray, twist: np.ndarray, bent: np.ndarray) -> np.nd
     ``twist`` degrees ``(K, T, 4)``: where a limb is not ``bent`` ``(K, T, 4)``, the twist of the frames around."""
     values = torch.as_tensor(joints)
     neutral, down = hinge_rests(values)
-    upper = torch.stack([values[..., mid, :] - values[..., top, :] for top, mid, _ in HINGE_JOINTS], -2)
-    upper = upper / torch.linalg.vector_norm(upper, dim=-1, keepdim=True).clamp(min=1e-12)
+    upper = hinge_bones(values)[0]
     carried = carried_axis(neutral, down, upper).numpy()
     twist = np.stack(
         [[_filled(twist[k, :, h], bent[k, :, h]) for h in range(twist.shape[2])] for k in range(len(twist))]
     ).transpose(0, 2, 1)
     turn, upper = np.radians(twist)[..., None], upper.numpy()
     axes = np.cos(turn) * carried + np.sin(turn) * np.cross(upper, carried)
-    return _unit(axes - np.sum(axes * upper, axis=-1, keepdims=True) * upper)  # overhead, the carried axis is not
+    return unit(axes - np.sum(axes * upper, axis=-1, keepdims=True) * upper)  # overhead, the carried axis is not
 
 
 def with_flexion(joints: np.ndarray, flexion: np.ndarray, hinges: tuple[int, ...] = (0, 1, 2, 3)) -> np.ndarray:
@@ -60,7 +56,7 @@ def with_flexion(joints: np.ndarray, flexion: np.ndarray, hinges: tuple[int, ...
     axes = hinge_axes(out, twist, np.abs(now) > BENT_DEG)
     for h in hinges:
         top, mid, low = HINGE_JOINTS[h]
-        upper = _unit(out[:, :, mid] - out[:, :, top])
+        upper = unit(out[:, :, mid] - out[:, :, top])
         length = np.linalg.norm(out[:, :, low] - out[:, :, mid], axis=-1, keepdims=True)
         angle = np.radians(flexion[:, :, h])[..., None]
         out[:, :, low] = out[:, :, mid] + length * (
