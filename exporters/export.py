@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from platypose.exporters.angles import angle_series, write_angles_csv
 from platypose.exporters.bvh import write_bvh
 from platypose.exporters.csv_export import write_long_csv, write_people_csv
 from platypose.exporters.frames import Lead
@@ -135,9 +136,10 @@ def export(
         written += paths
         reports = flag_ik(result.meta.get("plausibility") or [], fits, result.track_ids)
         result = result.with_meta(opensim_ik=fits, **({"plausibility": reports} if reports else {}))
+    series = angle_series(result) if {"npz", "angles", "report"} & set(formats) else {}
     if "npz" in formats:
         say(f"{name}: npz")
-        written.append(write_npz(result, out_dir / f"{name}.npz"))
+        written.append(write_npz(result, out_dir / f"{name}.npz", series))
     if "csv" in formats:
         say(f"{name}: CSV")
         written.append(write_people_csv(result, out_dir / f"{name}.csv"))
@@ -159,9 +161,6 @@ def export(
                 f"{name}: no person thumbnails from camera(s) {', '.join(unseen)}: no video of them (--video CAMERA=PATH)"
             )
     if "angles" in formats or "report" in formats:
-        from platypose.exporters.angles import angle_series, write_angles_csv
-
-        series = angle_series(result)
         if "angles" in formats:
             say(f"{name}: joint angles")
             written.append(write_angles_csv(result, series, out_dir / f"{name}_angles.csv"))
