@@ -11,7 +11,6 @@ then are the pieces read, each bounded by its size, and checked against its sha2
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import re
 import stat
@@ -19,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.files.reads import file_kind, read_regular
+from platypose.lifting.files.reads import file_kind, json_value, read_regular
 
 PIECES_FORMAT = "platypose-prior-pieces"
 MAX_CHECKPOINT_BYTES = 4 * 2**30  # 2**28 float32 weights (checks.MAX_PARAMETERS) with an optimiser's state
@@ -62,11 +61,9 @@ def read_index(path: Path, text: bytes) -> tuple[list[Piece], int, str]:
     if len(text) > MAX_INDEX_BYTES:
         raise InputError(f"{path}: index of prior pieces over {MAX_INDEX_BYTES // 2**20} MiB")
     try:
-        index = json.loads(text)
-    except RecursionError:
-        raise InputError(f"{path}: damaged index of prior pieces (nested too deep)") from None
-    except ValueError:  # JSONDecodeError, UnicodeDecodeError
-        raise InputError(f"{path}: damaged index of prior pieces (not JSON)") from None
+        index = json_value(text)
+    except ValueError as err:
+        raise InputError(f"{path}: damaged index of prior pieces ({err})") from None
     entries = index.get("pieces") if isinstance(index, dict) else None
     pieces = [_piece(entry) for entry in entries] if isinstance(entries, list) else [None]
     total, checksum = (index.get("bytes"), index.get("sha256")) if isinstance(index, dict) else (None, None)

@@ -81,7 +81,7 @@ def test_reordered_pieces_are_named(pieces):
 def test_a_damaged_index_is_one_line(pieces):
     path, _, _ = pieces
     path.write_text(path.read_text()[:60])
-    with pytest.raises(InputError, match=r"prior.pt: damaged index of prior pieces \(not JSON\)$"):
+    with pytest.raises(InputError, match=r"prior.pt: damaged index of prior pieces \(not JSON: "):
         load_prior(path)
 
 
