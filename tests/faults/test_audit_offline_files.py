@@ -116,6 +116,23 @@ def _(w: Path) -> Run:
     return Run(["train", WALK, "--distil-from", pieces_prior(w), "--out", w / "d.pt", *T], "ok", check)
 
 
+@case("calibrate-prior-out-keeps-a-users-file-beside-it")
+def _(w: Path) -> Run:
+    args = [
+        "calibrate-prior",
+        DATA / "motion",
+        "--out",
+        w / "c.pt",
+        "--frames",
+        "1",
+        "--windows",
+        "1",
+        "--samples",
+        "2",
+    ]
+    return Run([*args, "--grid", "1"], "ok", users_file_kept(w / "c.pt.notes.001"))
+
+
 def pack_arrays() -> dict[str, np.ndarray]:
     with np.load(PACK, allow_pickle=False) as data:
         return {name: data[name] for name in data.files}
