@@ -45,12 +45,16 @@ def _whole(value: object) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
 
+def _is_sha256(value: object) -> bool:
+    return isinstance(value, str) and _SHA256.fullmatch(value) is not None
+
+
 def _piece(entry: object) -> Piece | None:
     """The piece an index entry describes, or None when a field is missing or not of its type."""
     if not isinstance(entry, dict):
         return None
     file, size, digest = entry.get("file"), entry.get("bytes"), entry.get("sha256")
-    if not (isinstance(file, str) and _whole(size) and isinstance(digest, str) and _SHA256.fullmatch(digest)):
+    if not (isinstance(file, str) and _whole(size) and _is_sha256(digest)):
         return None
     return Piece(file, size, digest)
 
@@ -64,17 +68,14 @@ def read_index(path: Path, text: bytes) -> tuple[list[Piece], int, str]:
         index = json_value(text)
     except ValueError as err:
         raise InputError(f"{path}: damaged index of prior pieces ({err})") from None
-    entries = index.get("pieces") if isinstance(index, dict) else None
-    pieces = [_piece(entry) for entry in entries] if isinstance(entries, list) else [None]
-    total, checksum = (index.get("bytes"), index.get("sha256")) if isinstance(index, dict) else (None, None)
-    if (
-        None in pieces
-        or not pieces
-        or not _whole(total)
-        or not (isinstance(checksum, str) and _SHA256.fullmatch(checksum))
-    ):
+    fields = index if isinstance(index, dict) else {}
+    entries = fields.get("pieces")
+    pieces = [_piece(entry) for entry in entries] if isinstance(entries, list) else []
+    total, checksum = fields.get("bytes"), fields.get("sha256")
+    if not pieces or None in pieces or not _whole(total) or not _is_sha256(checksum):
         raise InputError(
-            f"{path}: damaged index of prior pieces (each piece's file, bytes and sha256, and the total's)"
+            f"{path}: damaged index of prior pieces (it must give its bytes and sha256, and each piece's file, "
+            "bytes and sha256)"
         )
     return pieces, total, checksum
 

@@ -163,9 +163,13 @@ def test_a_piece_that_is_a_folder_is_refused(pieces):
 @pytest.mark.parametrize(
     "text, problem",
     [
-        ('{"format": "platypose-prior-pieces", "bytes": 1e400, "sha256": "%s", "pieces": []}' % ("0" * 64), "each"),
+        (
+            '{"format": "platypose-prior-pieces", "bytes": 1e400, "sha256": "%s", "pieces": [%s]}'
+            % ("0" * 64, '{"file": "prior.pt.0123456789ab.001", "bytes": 1, "sha256": "%s"}' % ("0" * 64)),
+            "it must give",
+        ),
         ('{"format": "platypose-prior-pieces", "x": ' + "[" * 100_000 + "]" * 100_000 + "}", "nested too deep"),
-        ('{"format": "platypose-prior-pieces", "bytes": 10, "sha256": "x", "pieces": [{"file": 1}]}', "each"),
+        ('{"format": "platypose-prior-pieces", "bytes": 10, "sha256": "x", "pieces": [{"file": 1}]}', "it must give"),
     ],
     ids=["bytes-1e400", "nested-100000", "wrong-types"],
 )
