@@ -1,0 +1,58 @@
+"""Audit, what a new analyst hit: whose picture each person gets, what a run says about its files and its
+cameras, and the small things that read wrong; each ending in a clean error or handled well
+(:mod:`audit_support`). Run with ``pytest -m audit``."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from audit_support import TAKE, Case, Run, check_case, lift_args, openpose_copy, platypose, registry
+from export_helpers import read_entities
+
+from platypose.exporters.npz import read_npz
+
+pytestmark = pytest.mark.audit
+
+CASES: list[Case] = []
+case = registry(CASES)
+WHO = re.compile(r"p(\d+): best seen by (\S+) in frame (\d+), image box (\d+),(\d+)-(\d+),(\d+) px")
+
+
+def _own_pictures(npz: Path, recording: Path) -> str | None:
+    """None when every person's picture in ``recording`` (its who/ texts) boxes their own joints in ``npz``, and no
+    two people share a box; else what is wrong."""
+    result = read_npz(npz)
+    texts = [
+        v["static:TextDocument:text"][0][0]
+        for k, v in read_entities(recording).items()
+        if re.fullmatch(r"/who/p\d+", k)
+    ]
+    boxes = {}
+    for text in texts:
+        track, camera, frame, *box = WHO.fullmatch(text).groups()
+        c = [cam.name for cam in result.cameras].index(camera)
+        joints = result.keypoints2d[c, list(result.track_ids).index(int(track)), int(frame)]
+        joints = joints[joints[:, 2] > 0, :2]
+        x1, y1, x2, y2 = map(float, box)
+        if not ((joints >= [x1 - 1, y1 - 1]) & (joints <= [x2 + 1, y2 + 1])).all():
+            return f"p{track}'s picture does not show p{track}: {text}"
+        boxes[track] = tuple(box)
+    if len(boxes) < 2 or len(set(boxes.values())) < len(boxes):
+        return f"the people do not have pictures of their own: {texts}"
+    return None
+
+
+@case("every-person-gets-their-own-picture")
+def _(w: Path) -> Run:
+    done = platypose(lift_args(openpose_copy(w / "kp"), w / "res", "--formats", "npz"), 240)
+    assert done is not None and done.returncode == 0, done and done.stderr
+    npz = w / "res/cam01/cam01.npz"
+    args = ["export", npz, "--formats", "rrd", "--out", w / "out", "--video", f"cam_01={TAKE / 'cam01.mp4'}"]
+    return Run(args, "ok", lambda proc: _own_pictures(npz, w / "out/cam01.rrd"), timeout=240)
+
+
+@pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
+def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
+    check_case(audit_case, tmp_path)
