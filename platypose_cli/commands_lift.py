@@ -60,7 +60,7 @@ def lift_settings(
     )
     resolve_device(prior.device)
     check_writable(out, folder=True)
-    chosen = parse_formats(formats)
+    chosen = parse_formats((*parse_formats(formats), "npz"))  # the npz, the source of truth, always
     if "mot" in chosen:
         from platypose.exporters.mot import load_opensim
 
@@ -160,7 +160,7 @@ def lift(
         "npz,csv,bvh,rrd",
         "--formats",
         help="Comma-separated: npz, csv, csv-long (every hypothesis), bvh, trc, c3d, angles, mot (OpenSim IK), "
-        "report, rrd (docs/outputs.md).",
+        "report, rrd (docs/outputs.md). The npz is always written: export makes the others from it.",
         rich_help_panel="Output",
     ),
     persons: str = field_option(TakeSettings, "persons", "People"),

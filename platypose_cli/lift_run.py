@@ -185,7 +185,7 @@ def export_atomically(result, videos, staging: Path, folder: Path, name: str, fo
     """Export into ``staging``, then move every file written into ``folder``; returns the final paths."""
     from platypose.exporters import export
 
-    written = export(result, staging, name, formats, videos, say=log)
+    written = export(result, staging, name, formats, videos, say=log, warn=log.warning)
     (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here: see output_set
     final = []
     for path in written:

@@ -115,3 +115,26 @@ def test_lift_help_fits_one_screen_with_the_common_options_and_help_all_shows_ev
     assert len(LIFT_SHOWN) == 11 and len(full.splitlines()) > 150
     listed = set(re.findall(r"(--[a-z][a-z0-9-]*)", full))
     assert {"--temperature", "--executor", "--ray-address", "--floor", "--sync", "--seed", "--prior"} <= listed
+
+
+def test_lift_always_writes_the_npz(tmp_path):
+    """The npz is the source of truth (export and info read it): lift writes it whatever --formats names."""
+    from platypose.cli.commands_lift import lift_settings
+    from platypose.cli.detection import DetectOptions
+    from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
+
+    settings = lift_settings(
+        tmp_path,
+        None,
+        PriorSettings(),
+        DetectOptions(),
+        SamplerConfig(),
+        WindowSettings(),
+        "trc,angles,report",
+        "all",
+        "auto",
+        None,
+        True,
+        {},
+    )
+    assert settings.formats == ("npz", "trc", "angles", "report")
