@@ -226,7 +226,13 @@ def lift(
     arguments = {k: as_json(v) for k, v in locals().items() if k != "help_all"}
     from platypose.cli.console import say_over_bar
     from platypose.cli.lift_batch import run_batch
-    from platypose.cli.lift_jobs import check_views_match, discover_jobs, expand_inputs, keypoints_job
+    from platypose.cli.lift_jobs import (
+        check_camera_count,
+        check_views_match,
+        discover_jobs,
+        expand_inputs,
+        keypoints_job,
+    )
     from platypose.cli.safe_names import printable
     from platypose.lifting.errors import InputError
     from platypose.lifting.files.reads import check_readable_inputs
@@ -247,6 +253,8 @@ def lift(
         job_list = discover_jobs(paths, camera_names)
     if cams is not None:
         check_views_match(job_list, camera_names, cams)
+        if keypoints is None:
+            check_camera_count(job_list, camera_names, cams)
     given = [v.source for job in job_list for v in job.views] + [
         p for p in (root_trajectory, prior.path if prior else None) if p
     ]

@@ -8,7 +8,18 @@ import re
 from pathlib import Path
 
 import pytest
-from audit_support import TAKE, Case, Run, check_case, lift_args, openpose_copy, platypose, registry
+from audit_support import (
+    TAKE,
+    Case,
+    Run,
+    check_case,
+    lift_args,
+    one_camera_calibration,
+    openpose_copy,
+    platypose,
+    registry,
+    summary,
+)
 from export_helpers import read_entities
 
 from platypose.exporters.npz import read_npz
@@ -51,6 +62,43 @@ def _(w: Path) -> Run:
     npz = w / "res/cam01/cam01.npz"
     args = ["export", npz, "--formats", "rrd", "--out", w / "out", "--video", f"cam_01={TAKE / 'cam01.mp4'}"]
     return Run(args, "ok", lambda proc: _own_pictures(npz, w / "out/cam01.rrd"), timeout=240)
+
+
+@case("one-camera-calibration-for-four-videos")
+def _(w: Path) -> Run:
+    calib = one_camera_calibration(w, "cam_01")
+    take = w / "take"
+    take.mkdir()
+    for view in ("cam01", "cam02", "cam03", "cam04"):
+        (take / f"{view}.mp4").symlink_to(TAKE / f"{view}.mp4")
+    says = ("only_cam_01.json: the calibration has 1 camera (cam_01), you gave 4 videos", "cam04.mp4")
+    return Run(["lift", take, "--cams", calib, "--out", w / "out", "-q"], says=says)
+
+
+def _ik_warned(out: Path, stderr: str) -> str | None:
+    """None when the lift's OpenSim IK warnings are in summary.json and on the console; else what is missing."""
+    warnings = [w for entry in summary(out)["inputs"] for w in entry["warnings"] if "OpenSim IK" in w]
+    if not warnings:
+        return "summary.json lists no OpenSim IK warning"
+    if f"warning: cam01: {warnings[0]}" not in stderr:
+        return "the console does not say the OpenSim IK warning"
+    return None
+
+
+@case("lift-says-opensim-ik-warnings")
+def _(w: Path) -> Run:
+    keypoints = openpose_copy(w / "kp", frames=100)
+    out = w / "out"
+    timing = ["--fps", "20", "--image-size", "1920x1080", "--samples", "2", "--threads", "1"]
+    args = ["lift", "--keypoints", keypoints, *timing, "-q", "--formats", "npz,mot", "--out", out]
+    return Run(args, "ok", lambda proc: _ik_warned(out, proc.stderr), timeout=300)
+
+
+@case("lift-writes-the-npz-whatever-the-formats")
+def _(w: Path) -> Run:
+    out = w / "out"
+    args = [*lift_args(openpose_copy(w / "kp"), out, "--formats", "trc,angles")]
+    return Run(args, "ok", lambda proc: None if (out / "cam01/cam01.npz").is_file() else "no npz written")
 
 
 @pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
