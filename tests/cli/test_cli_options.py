@@ -164,3 +164,14 @@ def test_lift_always_writes_the_npz(tmp_path):
         {},
     )
     assert settings.formats == ("npz", "trc", "angles", "report")
+
+
+def test_lift_md_says_how_many_cameras_the_demo_runs():
+    from pathlib import Path
+
+    from platypose.cli.commands_demo import demo_job, demo_take
+
+    views = len(demo_job(demo_take(), "videos").views)
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "lift.md").read_text(encoding="utf-8")
+    line = next(line for line in doc.splitlines() if line.startswith("platypose demo  "))  # the quick start
+    assert f"({views} of its 4 cameras)" in line

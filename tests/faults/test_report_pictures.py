@@ -3,6 +3,7 @@ a report without a video says why its thumbnails are missing, and two overlappin
 
 from __future__ import annotations
 
+import re
 from types import SimpleNamespace
 
 import numpy as np
@@ -62,8 +63,10 @@ def test_a_report_without_videos_says_why_it_has_no_thumbnails(data_dir, tmp_pat
     export(result, tmp_path, "r", "report", say=said.append)
     cameras = ", ".join(sorted({result.cameras[f.camera].name for f in good_frames(result).values()}))
     assert f"r: no person thumbnails from camera(s) {cameras}: no video of them (--video CAMERA=PATH)" in said
-    captions = [text for text, _ in _titles(drawn[0]) if text.startswith("person 7\n")]
-    assert captions and captions[0].endswith("given)") and "(no thumbnail: no video of cam" in captions[0]
+    captions = [(text, box) for text, box in _titles(drawn[0]) if text.startswith("person 7\n")]
+    (text, box), width = captions[0], drawn[0].bbox.width
+    assert re.search(r"\(no thumbnail: no video of cam0\d given\)$", " ".join(text.split()))
+    assert box.x0 >= 0 and box.x1 <= width  # the whole caption is in the picture, none cut at its edge
 
 
 def _person(x: float, height: float) -> np.ndarray:
