@@ -86,6 +86,35 @@ def test_a_second_writer_of_one_folder_refuses_and_writes_nothing(tmp_path) -> N
     entry = run_job(job, RunSettings(out=out))  # free again: the run goes on (and fails on the missing video)
     assert entry["status"] == "failed" and "another platypose run" not in entry["error"]
     assert (folder / "failed.json").is_file()
+    assert not (folder / ".lift.lock").exists()  # no empty lock file left in the output folder
+
+
+def test_a_lock_file_goes_when_released_and_a_waiter_on_it_locks_anew(tmp_path) -> None:
+    import threading
+
+    from platypose.cli.locks import Busy, exclusive_lock
+
+    path = tmp_path / ".lift.lock"
+    held, waiting, done = threading.Event(), threading.Event(), threading.Event()
+
+    def wait_for_it() -> None:
+        waiting.set()
+        with exclusive_lock(path):  # blocks on the first holder's file, which is gone when it gets it
+            held.set()
+            done.wait(10)
+
+    with exclusive_lock(path):
+        waiter = threading.Thread(target=wait_for_it)
+        waiter.start()
+        waiting.wait(10)
+        time.sleep(0.2)  # the waiter has opened the file and waits on its lock
+    assert held.wait(10) and path.is_file()  # the waiter holds a new lock file
+    with pytest.raises(Busy):
+        with exclusive_lock(path, wait=False):
+            pass
+    done.set()
+    waiter.join(10)
+    assert not path.exists()
 
 
 # ---------------------------------------------------------------------------- the real CLI, with a FIFO in the way
