@@ -16,6 +16,11 @@ from pathlib import Path
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.reads import file_kind
 
+try:
+    import fcntl
+except ImportError:  # not POSIX: no lock
+    fcntl = None
+
 
 class Busy(InputError):
     """The lock is held by another process (and the caller chose not to wait)."""
@@ -52,8 +57,6 @@ def _still_there(handle: int, path: Path) -> bool:
 def _locked_handle(path: Path, wait: bool, busy: str) -> int:
     """A handle of ``path`` holding its exclusive lock: locked, then checked to be still the file named ``path``
     (else the previous holder removed it meanwhile: open the new one and lock again)."""
-    import fcntl
-
     while True:
         handle = _open_lock_file(path)
         try:
@@ -73,9 +76,7 @@ def exclusive_lock(path: Path, wait: bool = True, busy: str = "held by another p
 
     ``wait``: block until the lock is free; else raise :class:`Busy` (``path``: ``busy``) when another process
     holds it. InputError when ``path`` is a symbolic link, a FIFO, a device or a folder."""
-    try:
-        import fcntl  # noqa: F401  (POSIX only)
-    except ImportError:
+    if fcntl is None:
         yield
         return
     path = Path(path)
