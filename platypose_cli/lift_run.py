@@ -219,6 +219,19 @@ def finished_outputs(folder: Path, formats, digest: str | None = None) -> tuple[
     return outputs, "finished earlier with the same inputs and settings"
 
 
+def flag_lines(reports: list[dict]) -> list[str]:
+    """The console's lines about a lift's flagged persons, from its plausibility ``reports`` (:func:`person_lines`)."""
+    from platypose.lifting.checks.flags import person_lines
+
+    return person_lines(reports, [report["track_id"] for report in reports])
+
+
+def earlier_flags(folder: Path) -> list[str]:
+    """The flag lines the finished earlier run in ``folder`` kept in its lift.json (none from older versions)."""
+    flags = (read_record(folder / MANIFEST, valid_manifest) or {}).get("flags")
+    return flags if isinstance(flags, list) and all(isinstance(line, str) for line in flags) else []
+
+
 def fingerprint(job: Job, settings: RunSettings) -> str:
     """A digest of the job's input files and the settings that decide whether it can succeed."""
     take = settings.take
@@ -332,6 +345,7 @@ def _run_locked(job: Job, settings: RunSettings, pieces=None) -> dict:
             "outputs": [p.name for p in written],  # relative to this folder
             "files": digests(written),
             "fingerprint": digest,
+            "flags": flag_lines(result.meta["plausibility"]),  # said again when --resume skips this input
         }
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
         (folder / FAILURE).unlink(missing_ok=True)

@@ -101,6 +101,31 @@ def _(w: Path) -> Run:
     return Run(args, "ok", lambda proc: None if (out / "cam01/cam01.npz").is_file() else "no npz written")
 
 
+def _flag_lines(stderr: str) -> list[str]:
+    return [line for line in stderr.splitlines() if line.startswith("  ") and ": flagged: " in line]
+
+
+@case("resume-repeats-the-flags-it-found")
+def _(w: Path) -> Run:
+    keypoints = w / "kp"
+    keypoints.mkdir()
+    for view, source in (("cam01", "cam02"), ("cam02", "cam01"), ("cam03", "cam03"), ("cam04", "cam04")):
+        openpose_copy(w / view, source).rename(keypoints / f"{view}_json")
+    args = [*lift_args(keypoints, w / "out", "--formats", "npz"), "--resume"]  # cam01 and cam02 swapped: flags
+
+    def action() -> tuple[str, str]:
+        first = platypose(args, 240)
+        assert first is not None and first.returncode == 0 and _flag_lines(first.stderr), first and first.stderr
+        again = platypose(args, 240)
+        if again is None or again.returncode != 0 or "1 skipped" not in again.stdout:
+            return "silent wrong", f"the resumed run did not skip the input: {again and again.stdout}"
+        if _flag_lines(again.stderr) != _flag_lines(first.stderr):
+            return "silent wrong", f"the resumed run says {_flag_lines(again.stderr)}, not {_flag_lines(first.stderr)}"
+        return "handled well", "ok"
+
+    return Run(action=action)
+
+
 @pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
 def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
     check_case(audit_case, tmp_path)

@@ -164,3 +164,15 @@ def test_a_fifo_as_lift_json_is_set_aside_by_resume(tmp_path) -> None:
     warning = f"warning: {out / 'cam01/lift.json'}: damaged (is a FIFO (named pipe), a regular bookkeeping file"
     assert sum(line.startswith(warning) for line in done.stderr.splitlines()) == 1, done.stderr
     assert json.loads((out / "cam01/lift.json").read_text())["outputs"] == ["cam01.npz"]
+
+
+@pytest.mark.parametrize(
+    ("flags", "said"),
+    [(["person 0: flagged: spread"], ["person 0: flagged: spread"]), ([5], []), ("person 0", []), (None, [])],
+)
+def test_a_resumed_input_says_the_flags_its_lift_json_kept(tmp_path, flags, said) -> None:
+    from platypose.cli.lift_run import earlier_flags
+
+    manifest = {"outputs": ["a.npz"], "formats": ["npz"], **({"flags": flags} if flags is not None else {})}
+    (tmp_path / "lift.json").write_text(json.dumps(manifest))
+    assert earlier_flags(tmp_path) == said
