@@ -310,6 +310,12 @@ def lift(
     try:
         entries = run_batch(job_list, settings, jobs, resume, say, retry_failed, batch_executor)
     except KeyboardInterrupt:
-        typer.echo(f"interrupted; {out / 'summary.json'} lists the inputs that finished", err=True)
+        done = (out / "summary.json").is_file()
+        typer.echo(
+            f"interrupted; {out / 'summary.json'} lists the inputs that finished"
+            if done
+            else "interrupted; no input finished",
+            err=True,
+        )
         raise typer.Exit(130) from None
     finish(entries, out)

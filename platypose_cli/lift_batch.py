@@ -144,7 +144,9 @@ def run_batch(
             say_over_bar(f"  {jobs[index].name}: {flagged}")
 
     settings.out.mkdir(parents=True, exist_ok=True)
-    write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
+    if entries:  # inputs --resume settled; else the first input to finish writes it (a batch that fails to start,
+        # such as --cpus-per-input beyond every Ray node, leaves no empty summary)
+        write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
     hidden = settings.quiet or not todo
     bar_options = {"length": len(todo), "label": "inputs", "file": sys.stderr, "hidden": hidden, "show_eta": True}
     with terminate_as_interrupt(), typer.progressbar(**bar_options) as bar:

@@ -176,3 +176,17 @@ def test_a_resumed_input_says_the_flags_its_lift_json_kept(tmp_path, flags, said
     manifest = {"outputs": ["a.npz"], "formats": ["npz"], **({"flags": flags} if flags is not None else {})}
     (tmp_path / "lift.json").write_text(json.dumps(manifest))
     assert earlier_flags(tmp_path) == said
+
+
+def test_a_batch_whose_executor_refuses_to_start_leaves_no_summary(tmp_path) -> None:
+    from platypose.cli.lift_batch import run_batch
+    from platypose.lifting.errors import InputError
+
+    def refuses(*_) -> None:
+        raise InputError("--cpus-per-input 64: the largest Ray node has 2 CPU(s)")
+
+    missing = tmp_path / "a.mp4"
+    job = Job("a", str(missing), (View("a", missing, missing),))
+    with pytest.raises(InputError):
+        run_batch([job], RunSettings(out=tmp_path / "out"), executor=refuses)
+    assert not (tmp_path / "out" / "summary.json").exists()
