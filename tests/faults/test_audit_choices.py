@@ -5,6 +5,7 @@ must end in a clean error (checked for its words) or be handled well (:mod:`audi
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -59,6 +60,13 @@ def _(w: Path) -> Run:
 def _(w: Path) -> Run:
     args = lift_args(openpose_copy(w), w / "out", "--max-gap", "1e308", "--split-seconds", "2", "--jobs", "2")
     return Run(args, says=("--max-gap", "from 0 to 86400 (a day), got 1e+308"))
+
+
+@case("bench-video-fifo")
+def _(w: Path) -> Run:
+    fifo = w / "clip.mp4"
+    os.mkfifo(fifo)
+    return Run(["bench", "--video", fifo, "-q"], says=("clip.mp4: is a FIFO (named pipe), not a video file to loop",))
 
 
 @case("energy-scale-1e308")
