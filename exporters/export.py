@@ -96,8 +96,12 @@ def export(
     bvh: str = "median",
     rrd_video: str = "asset",
     say: Callable[[str], None] = lambda _: None,
+    warn: Callable[[str], None] | None = None,
 ) -> list[Path]:
     """Write ``formats`` of ``result`` as ``out_dir/name*``; return the paths written. Each file is atomic.
+
+    Progress goes to ``say``; a warning about a person's export (OpenSim IK that fits badly) to ``warn``, by default
+    said as ``warning: <name>: ...`` (``lift`` keeps them in its log, summary and console).
 
     The BVH fit error goes into ``meta["bvh_fit_error"]`` and OpenSim's IK fit into ``meta["opensim_ik"]`` of the
     npz written in the same call.
@@ -132,7 +136,7 @@ def export(
         from platypose.exporters.mot import flag_ik, write_mots
 
         say(f"{name}: OpenSim scaling and inverse kinematics")
-        paths, fits = write_mots(result, out_dir, name, say)
+        paths, fits = write_mots(result, out_dir, name, say, warn or (lambda text: say(f"warning: {name}: {text}")))
         written += paths
         reports = flag_ik(result.meta.get("plausibility") or [], fits, result.track_ids)
         result = result.with_meta(opensim_ik=fits, **({"plausibility": reports} if reports else {}))

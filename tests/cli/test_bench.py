@@ -219,3 +219,22 @@ def test_bench_cli_bad_input_exits_2(run_cli, tiny_prior_path, args, message) ->
     code, _, stderr = run_cli("bench", "--prior", tiny_prior_path, *QUICK, "-q", *args)
     assert code == 2
     assert message in stderr and len(stderr.strip().splitlines()) == 1
+
+
+def test_a_video_to_loop_that_is_no_file_is_named_for_what_it_is(tmp_path):
+    import os
+
+    from platypose.cli.commands_bench import check_video_to_loop
+    from platypose.lifting.errors import InputError
+
+    fifo = tmp_path / "clip.mp4"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match=r"clip.mp4: is a FIFO \(named pipe\), not a video file to loop"):
+        check_video_to_loop(fifo)  # was "not found"
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(InputError, match=r"folder: is a folder, not a video file to loop"):
+        check_video_to_loop(tmp_path / "folder")
+    with pytest.raises(InputError, match=r"gone.mp4: video to loop not found \(give --video\)"):
+        check_video_to_loop(tmp_path / "gone.mp4")
+    (tmp_path / "real.mp4").write_bytes(b"x")
+    check_video_to_loop(tmp_path / "real.mp4")
