@@ -24,6 +24,7 @@ DEMO_VIDEO = VIDEO_DIR / "sports2d-demo" / "demo.mp4"
 SKIPPED_STEPS = 2  # as ``platypose lift``: --steps 10 --skip 2 runs 8 network calls
 CLIP_FPS = 30.0
 CLIP_HYPOTHESES = 50
+MAX_CLIP_S = 600.0  # --clip-seconds: 18,000 frames looped into TMPDIR at most
 
 
 def sampler_settings(prior, sampler, frames: int, steps: int, repeats: int, matmul_size: int):
@@ -133,6 +134,19 @@ def clip_section(prior, video: Path, seconds: float, threads: int | None, say, p
     }
 
 
+def end_to_end_section(prior, video: Path, seconds: float, threads: int | None, say, persons: str) -> dict:
+    """:func:`clip_section` (run first: its peak memory is its own) with SIGTERM handled as Ctrl-C, so either removes
+    the temporary clip on the way out (exit 130)."""
+    from platypose.cli.interrupts import terminate_as_interrupt
+
+    try:
+        with terminate_as_interrupt():
+            return clip_section(prior, video, seconds, threads, say, persons)
+    except KeyboardInterrupt:
+        typer.echo("interrupted; the temporary clip was removed", err=True)
+        raise typer.Exit(130) from None
+
+
 def _row(label: str, value: str) -> str:
     """One indented table row: the label padded to a fixed column, then the value."""
     return f"  {label:<34s}{value:>10s}"
@@ -206,7 +220,9 @@ def bench(
         None, "--threads", min=1, help="torch and onnxruntime threads (default: 1, as lift)."
     ),
     end_to_end: bool = typer.Option(True, "--end-to-end/--no-end-to-end", help="Also detect and lift a looped clip."),
-    clip_seconds: float = typer.Option(60.0, "--clip-seconds", help="Length of the end-to-end clip (30 fps)."),
+    clip_seconds: float = typer.Option(
+        60.0, "--clip-seconds", help=f"Length of the end-to-end clip (30 fps; above 0, at most {MAX_CLIP_S:g})."
+    ),
     video: Path = typer.Option(DEMO_VIDEO, "--video", help="Video looped into the end-to-end clip."),
     persons: str = typer.Option(
         "largest", "--persons", help="Tracks of the clip lifted: largest, all, or largest:N (the N largest; as lift)."
@@ -231,8 +247,8 @@ def bench(
         if not quiet:
             typer.echo(message, err=True)
 
-    if end_to_end and clip_seconds <= 0:
-        raise InputError(f"--clip-seconds must be positive, got {clip_seconds}")
+    if end_to_end and not 0 < clip_seconds <= MAX_CLIP_S:  # NaN fails too
+        raise InputError(f"--clip-seconds {clip_seconds:g}: give a length in seconds above 0, at most {MAX_CLIP_S:g}")
     if end_to_end:
         check_video_to_loop(video)
     persons_count(persons)  # InputError for a value --persons does not take
@@ -244,7 +260,7 @@ def bench(
             f"--device {prior_settings.device}: the end-to-end clip is lifted on the CPU only (add --no-end-to-end)"
         )
     sampler = sampler_settings(prior, sampler, frames, steps, repeats, matmul_size)
-    clip = clip_section(prior, video, clip_seconds, threads, say, persons) if end_to_end else None  # own peak memory
+    clip = end_to_end_section(prior, video, clip_seconds, threads, say, persons) if end_to_end else None
     say(f"timing the sampler: {sampler.samples} x {frames} frames, 1 warm-up and {repeats} runs")
     runtime = resolve_runtime(prior_settings.runtime, prior.device)  # what auto picked
     timed = sampler_section(prior, sampler, frames, repeats, matmul_size, runtime)

@@ -18,6 +18,8 @@ from platypose.lifting.files.atomic import write_text_atomic
 if TYPE_CHECKING:
     from platypose.lifting.settings import PriorSettings, SamplerConfig
 
+MAX_GAP_S = 24 * 3600.0  # --gap above a day is no gap in a window (as offsets are bounded)
+
 
 def floor_plane(text: str) -> tuple[float, float, float, float] | None:
     """The level floor ``--floor`` gives evaluation: auto is the motion's z = 0; InputError for a tilted plane."""
@@ -60,7 +62,8 @@ def evaluate_command(
     gap: float = typer.Option(
         0.0,
         help="Also lift every window with a centred gap of this many seconds no camera sees, and score the frames "
-        "inside and outside the gap apart (0: no gap rows).",
+        "inside and outside the gap apart (0: no gap rows; at most a day). A gap longer than a window hides all but its "
+        "first and last frame; the rows are labelled with the seconds hidden.",
     ),
     json_out: Path = typer.Option(None, "--json", help="Also write the table as JSON here."),
     floor: str = typer.Option(
@@ -87,8 +90,8 @@ def evaluate_command(
         raise InputError(f"--windows {windows}: cut at least 1 window from each clip")
     if not (math.isfinite(noise_px) and noise_px >= 0):
         raise InputError(f"--noise-px {noise_px}: must be a finite number of pixels, 0 or more")
-    if not (math.isfinite(gap) and gap >= 0):
-        raise InputError(f"--gap {gap}: must be a finite number of seconds, 0 or more")
+    if not 0 <= gap <= MAX_GAP_S:  # NaN fails too
+        raise InputError(f"--gap {gap:g}: give a number of seconds from 0 to {MAX_GAP_S:g} (a day)")
     if json_out is not None:
         check_writable(json_out)  # before the evaluation, not after it
     frames_list = int_list(frames, "--frames")

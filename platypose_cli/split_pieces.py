@@ -25,6 +25,7 @@ import numpy as np
 
 from platypose.lifting.errors import InputError
 
+MAX_SPLIT_S = 24 * 3600.0  # --split-seconds above a day is no piece of one take (as offsets are bounded)
 DEATHS = 2  # on this machine, a piece is run again after its worker died this many times (as Ray's max_retries)
 PIECES = ".pieces"  # in OUT/<name>/: piece results of a split lift, until its files are written
 Task = tuple[Callable, tuple]  # a module-level function and its (picklable) arguments
@@ -268,6 +269,8 @@ def split_executor(split_s: float, max_gap: float, jobs: int, ray_options, colle
     shared = 2 * margin_seconds(max_gap)
     if not math.isfinite(split_s) or split_s <= 0:
         raise InputError(f"--split-seconds {split_s:g}: give a length in seconds above 0")
+    if split_s > MAX_SPLIT_S:
+        raise InputError(f"--split-seconds {split_s:g}: give at most {MAX_SPLIT_S:g} seconds (a day)")
     if split_s < shared:
         raise InputError(
             f"--split-seconds {split_s:g}: shorter than the {shared:g} s two neighbouring pieces share "

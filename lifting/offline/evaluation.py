@@ -313,17 +313,18 @@ def gap_rows(
     gap_s: float,
 ) -> list[EvalRow]:
     """Windows ``truth`` ``(B, F, 17, 3)`` lifted with a centred gap (:func:`centred_gap`) no camera sees; two rows,
-    the metrics on the frames inside the gap ("gap inside") and on those outside it ("gap outside")."""
+    the metrics on the frames inside the gap ("gap inside") and on those outside it ("gap outside"), each labelled
+    with the seconds the gap hid (at most the window less its first and last frame)."""
     began = time.time()
     F = truth.shape[1]
     hidden = centred_gap(F, gap_s, prior.fps)
     hyps = lift_windows(prior, cameras, truth, config, noise_px, False, rigid=rigid, hidden=hidden)
     hyps, answers = finished_windows(hyps, cameras, prior.fps, config.floor, rigid, hidden)
     seconds = time.time() - began
-    rows = []
+    rows, used = [], hidden.sum() / prior.fps  # the seconds hidden: less than asked where the window is shorter
     for name, frames in (("gap inside", hidden), ("gap outside", ~hidden)):
         values = score_windows(hyps[:, :, frames], truth[:, frames], clip_of_window, answers[:, frames])
-        rows.append(EvalRow(f"{name} {gap_s:g}s", len(cameras), F, config.samples, len(truth), values, seconds))
+        rows.append(EvalRow(f"{name} {used:g}s", len(cameras), F, config.samples, len(truth), values, seconds))
     return rows
 
 

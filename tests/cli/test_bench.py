@@ -211,6 +211,10 @@ def test_bench_cli_end_to_end_on_a_real_clip(run_cli, tiny_prior_path, data_dir,
         (["--frames", "17"], "--frames 17"),
         (["--steps", "49"], "--steps must be in 1..48"),
         (["--video", "missing.mp4"], "missing.mp4: video to loop not found"),
+        (["--clip-seconds", "nan"], "--clip-seconds nan: give a length in seconds above 0, at most 600"),
+        (["--clip-seconds", "1e308"], "--clip-seconds 1e+308: give a length in seconds above 0, at most 600"),
+        (["--clip-seconds", "1e6"], "--clip-seconds 1e+06: give a length in seconds above 0, at most 600"),
+        (["--clip-seconds", "0"], "--clip-seconds 0: give a length in seconds above 0, at most 600"),
         (["--persons", "tallest"], "--persons must be 'all', 'largest', 'largest:N' (the N largest)"),
     ],
 )
@@ -238,3 +242,31 @@ def test_a_video_to_loop_that_is_no_file_is_named_for_what_it_is(tmp_path):
         check_video_to_loop(tmp_path / "gone.mp4")
     (tmp_path / "real.mp4").write_bytes(b"x")
     check_video_to_loop(tmp_path / "real.mp4")
+
+
+def test_sigterm_while_the_clip_is_written_removes_it(tiny_prior_path, data_dir, tmp_path) -> None:
+    """SIGTERM while the looped clip is being written ends bench with exit 130 and leaves nothing in TMPDIR."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    video = data_dir / "video" / "pose2sim-balancing" / "cam01.mp4"
+    args = ["bench", "--prior", tiny_prior_path, *QUICK, "--threads", "1", "--clip-seconds", "600", "--video", video]
+    env = {**os.environ, "TMPDIR": str(scratch), "OMP_NUM_THREADS": "1"}
+    process = subprocess.Popen([sys.executable, "-m", "platypose", *map(str, args)], env=env, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while not list(scratch.glob("platypose-bench-*/clip.mp4")) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert list(scratch.glob("platypose-bench-*/clip.mp4")), "no clip was started"
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 130, err
+    assert "interrupted; the temporary clip was removed" in err.decode() and "Traceback" not in err.decode()
+    assert list(scratch.iterdir()) == []

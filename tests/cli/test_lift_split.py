@@ -240,6 +240,7 @@ def test_on_ray_a_piece_whose_worker_dies_is_run_again(tmp_path):
         (["--split-seconds", "0", "--jobs", "2"], "--split-seconds 0: give a length in seconds above 0"),
         (["--split-seconds=-3", "--jobs", "2"], "--split-seconds -3: give a length in seconds above 0"),
         (["--split-seconds", "nan", "--jobs", "2"], "--split-seconds nan: give a length in seconds above 0"),
+        (["--split-seconds", "1e308", "--jobs", "2"], "--split-seconds 1e+308: give at most 86400 seconds (a day)"),
         (["--split-seconds", "1.5", "--jobs", "2"], "--split-seconds 1.5: shorter than the 2 s two neighbouring"),
         (["--split-seconds", "3", "--max-gap", "2", "--jobs", "2"], "shorter than the 4 s two neighbouring"),
         (["--split-seconds", "3"], "--split-seconds: the pieces run in parallel; add --jobs N (N >= 2) or --executor"),

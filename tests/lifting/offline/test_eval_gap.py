@@ -54,3 +54,20 @@ def test_eval_gap_adds_rows_inside_and_outside_the_gap(run_cli, prior_file, data
     assert 0 <= inside["ECE"] <= 1
     code, _, err = run_cli("eval", data_dir / WALK, "--prior", prior_file, "--gap", "-1")
     assert code == 2 and "--gap -1" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_gap_longer_than_the_window_is_labelled_with_what_it_hid(run_cli, prior_file, tiny_prior, data_dir):
+    """``--gap 10`` on 16-frame windows hides all but their first and last frame: the rows say those seconds."""
+    used = centred_gap(16, 10.0, tiny_prior.fps).sum() / tiny_prior.fps
+    args = ["--frames", "16", "--samples", "2", "--windows", "1", "--views", "1", "--no-baseline", "--gap", "10"]
+    code, out, err = run_cli("eval", data_dir / WALK, "--prior", prior_file, *args)
+    assert code == 0, err
+    assert f"gap inside {used:g}s" in out and f"gap outside {used:g}s" in out and "10s" not in out, out
+
+
+def test_a_gap_beyond_a_day_is_one_line(run_cli, prior_file, data_dir):
+    """Finite but huge (1e308 overflowed the frame count) or not a number: one line naming --gap, exit 2."""
+    for value, shown in (("1e308", "1e+308"), ("nan", "nan"), ("86401", "86401")):
+        code, _, err = run_cli("eval", data_dir / WALK, "--prior", prior_file, "--gap", value)
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
+        assert f"--gap {shown}: give a number of seconds from 0 to 86400 (a day)" in err
