@@ -41,13 +41,19 @@ def posed_camera(
     return Camera(name=name, size=size, K=intrinsics(focal_px, size), R=R, t=-R @ np.array([0.0, 0.0, height_m]))
 
 
+def pitch_roll(up: np.ndarray) -> tuple[float, float]:
+    """Pitch and roll (degrees) of a camera that sees the world's up as the unit vector ``up`` (3,) in its own
+    coordinates (image up is -y)."""
+    return float(np.degrees(np.arcsin(np.clip(-up[2], -1.0, 1.0)))), float(np.degrees(np.arctan2(up[0], -up[1])))
+
+
 def pose_of(camera: Camera, floor_z: float = 0.0) -> dict[str, float]:
     """Pitch and roll (degrees), height above the level floor at ``floor_z`` (m) and focal length (px, the mean
     of fx and fy) of ``camera`` in a z-up world."""
-    up = camera.R @ np.array([0.0, 0.0, 1.0])  # world up in camera coordinates (image up is -y)
+    pitch, roll = pitch_roll(camera.R @ np.array([0.0, 0.0, 1.0]))
     return {
-        "pitch_deg": float(np.degrees(np.arcsin(np.clip(-camera.R[2, 2], -1.0, 1.0)))),
-        "roll_deg": float(np.degrees(np.arctan2(up[0], -up[1]))),
+        "pitch_deg": pitch,
+        "roll_deg": roll,
         "height_m": float(camera.center[2] - floor_z),
         "focal_px": float((camera.K[0, 0] + camera.K[1, 1]) / 2.0),
     }

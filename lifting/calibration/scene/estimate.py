@@ -1,0 +1,161 @@
+"""Roll, pitch and focal length of a static camera from the straight lines of its scene, with their uncertainties
+and sources, or why not.
+
+Steps (:func:`scene_camera`): the frames' median image (people walking through vanish from it; boxes of people
+who stay are masked, as are the frame's black border rows and columns), its line segments
+(:mod:`platypose.lifting.calibration.scene.segments`), the vertical vanishing point (:mod:`platypose.lifting.calibration.scene.vertical`), two orthogonal horizontal vanishing points
+searched along the horizon with the focal length (:mod:`platypose.lifting.calibration.scene.manhattan`), all three fitted together. Then twice
+again, each time without the segments the horizontal points explain among the vertical's candidates (long floor
+edges running away from the camera look upright in the image). The vertical point gives the roll whatever the
+focal length, and the pitch with it; the two horizontal points give the focal length where both are finite and
+well supported. Where they are not, the pitch is the vertical point's at the given focal length (a lens prior or
+the video's metadata, its spread ``FOCAL_PRIOR_SD`` widening the pitch's) and the focal length is "not measured".
+Frames whose lines are not the median's mean a moving camera (:mod:`platypose.lifting.calibration.scene.motion`): no estimate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from platypose.lifting.calibration.lens import PRIOR, prior_focal
+from platypose.lifting.calibration.scene import manhattan, motion, vertical
+from platypose.lifting.calibration.scene.lines import image_scale, to_lines
+from platypose.lifting.calibration.scene.segments import (
+    content_mask,
+    keep_unmasked,
+    lengths,
+    line_detector,
+    people_mask,
+)
+
+MIN_LENGTH = 0.015  # segments shorter than this share of the image diagonal are left out
+ROUNDS = 3
+FOCAL_RANGE = (1 / 3, 3.0)  # the focal length searched, times the given one
+FOCAL_MEASURED_SD = 0.05  # the lines measure the focal length when its relative sd is under this
+FOCAL_PRIOR_SD = 0.3  # relative spread of a focal length the lines did not measure
+MIN_SD_DEG, MIN_FOCAL_SD = 0.3, 0.02  # floors: the principal point, lens distortion, not quite square scenes
+MOTION_FRAMES = 6
+VERTICAL_SOURCE = "scene lines (vertical vanishing point)"
+FOCAL_SOURCE = "scene lines (two orthogonal horizontal vanishing points)"
+NO_DETECTOR = "no line detector (this OpenCV has no createLineSegmentDetector)"
+NO_LINES = "no lines: too few upright edges meet at one vertical vanishing point"
+NOT_MEASURED = "focal length not measured"
+
+
+@dataclass(frozen=True)
+class SceneCamera:
+    """What the scene's lines say of the camera. ``problem`` set: nothing (why: no line detector, no lines,
+    camera moves). Else roll and pitch (degrees), and the focal length (px) or None with ``focal_note`` saying
+    why it was not measured; ``sd`` holds each quantity's standard deviation and ``source`` where it came from."""
+
+    roll_deg: float | None = None
+    pitch_deg: float | None = None
+    focal_px: float | None = None
+    sd: dict[str, float] = field(default_factory=dict)
+    source: dict[str, str] = field(default_factory=dict)
+    segments: int = 0
+    problem: str | None = None
+    focal_note: str | None = None
+
+
+def scene_camera(
+    frames: list[np.ndarray],
+    boxes: list[np.ndarray] | None = None,
+    focal_px: float | None = None,
+    focal_source: str = PRIOR,
+) -> SceneCamera:
+    """The camera of grey ``frames`` (each (H, W) uint8, spread over one take) whose people stand in ``boxes``
+    (per frame (K, 4) px ``x0, y0, x1, y1``; optional). ``focal_px`` (from ``focal_source``; default the lens
+    prior) is the pitch's focal length where the lines do not measure one, and the centre of the search."""
+    detect = line_detector()
+    if detect is None:
+        return SceneCamera(problem=NO_DETECTOR)
+    size = frames[0].shape[:2]
+    diagonal = float(np.hypot(*size))
+    focal_px = prior_focal(size) if focal_px is None else focal_px
+    median = np.median(np.stack(frames), axis=0).astype(np.uint8) if len(frames) > 1 else frames[0]
+    allowed = content_mask(median)
+    if boxes is not None:
+        allowed &= ~people_mask(size, boxes)
+    segments = keep_unmasked(detect(median), allowed)
+    if len(frames) >= 3:
+        chosen = np.linspace(0, len(frames) - 1, min(MOTION_FRAMES, len(frames))).round().astype(int)
+        moving, shares = motion.moved([keep_unmasked(detect(frames[i]), allowed) for i in chosen], segments, diagonal)
+        if moving:
+            found = ", ".join(f"{100 * s:.0f}" for s in shares)
+            return SceneCamera(problem=f"camera moves: frames keep {found} % of their long lines in the median")
+    segments = segments[lengths(segments) >= MIN_LENGTH * diagonal]
+    return _solve(segments, size, focal_px, focal_source)
+
+
+def _solve(segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_source: str) -> SceneCamera:
+    """:func:`scene_camera` from the scene's segments (N, 4)."""
+    scale = image_scale(size)
+    lines = to_lines(segments, size)
+    prior = focal_px / scale
+    dropped = np.zeros(len(lines), bool)
+    fitted = None
+    for _ in range(ROUNDS):
+        kept = np.nonzero(~dropped)[0]
+        found = vertical.find_vertical(lines.take(kept), prior, MIN_LENGTH * np.hypot(*size))
+        if found is None:
+            break
+        inliers = np.zeros(len(lines), bool)
+        inliers[kept[found.inliers]] = True
+        start = manhattan.search(lines.take(~inliers), found.point, (prior * FOCAL_RANGE[0], prior * FOCAL_RANGE[1]))
+        fitted = manhattan.fit(lines, manhattan.label(lines, start), start)
+        now = np.isin(fitted.labels, (0, 1))
+        if np.array_equal(now, dropped):
+            break
+        dropped = now
+    if fitted is None:
+        return SceneCamera(problem=NO_LINES, segments=len(segments))
+    counts = [int((fitted.labels == k).sum()) for k in range(3)]
+    relative_sd = fitted.sd[3]
+    inside = FOCAL_RANGE[0] * 1.05 < fitted.focal / prior < FOCAL_RANGE[1] / 1.05
+    measured = min(counts[:2]) >= manhattan.MIN_SEGMENTS and relative_sd < FOCAL_MEASURED_SD and inside
+    sources = {"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE}
+    note = None
+    if measured:
+        pitch_sd = np.degrees(fitted.sd[0])
+        sources["focal_px"] = FOCAL_SOURCE
+    else:
+        held = manhattan.fit(lines, fitted.labels, fitted.params, held_focal=prior)
+        wide = [
+            manhattan.fit(lines, fitted.labels, held.params, held_focal=prior * np.exp(s * FOCAL_PRIOR_SD))
+            for s in (-1, 1)
+        ]
+        spread = abs(wide[1].params[0] - wide[0].params[0]) / 2.0
+        pitch_sd = float(np.degrees(np.hypot(held.sd[0], spread)))
+        sources["pitch_deg"] = f"{VERTICAL_SOURCE} at the focal length of the {focal_source}"
+        note = f"{NOT_MEASURED}: {_why_not(counts, relative_sd)}"
+        fitted = held
+    pitch, roll = np.degrees(fitted.params[:2])
+    sd = {
+        "pitch_deg": max(float(pitch_sd), MIN_SD_DEG),
+        "roll_deg": max(float(np.degrees(fitted.sd[1])), MIN_SD_DEG),
+    }
+    focal = None
+    if measured:
+        focal = fitted.focal * scale
+        sd["focal_px"] = focal * max(float(relative_sd), MIN_FOCAL_SD)
+    return SceneCamera(
+        roll_deg=float(roll),
+        pitch_deg=float(pitch),
+        focal_px=focal,
+        sd=sd,
+        source=sources,
+        segments=int(sum(counts)),
+        focal_note=note,
+    )
+
+
+def _why_not(counts: list[int], relative_sd: float) -> str:
+    """Why the horizontal lines did not measure the focal length."""
+    if min(counts[:2]) < manhattan.MIN_SEGMENTS:
+        return f"fewer than {manhattan.MIN_SEGMENTS} lines run along one of two level directions at right angles"
+    if relative_sd >= FOCAL_MEASURED_SD:
+        return f"the horizontal vanishing points fix it only within {100 * min(relative_sd, 9.99):.0f} %"
+    return "it came out at the end of the range searched"

@@ -1,0 +1,127 @@
+"""The camera from the scene's lines: synthetic rooms and pitches of known camera, the bundled lab cameras against
+their calibration, and the fallbacks (no lines, a wall seen square on, a moving camera, no line detector)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from platypose.detectors import scene_frames
+from platypose.detectors.scene_frames import sample_frames, video_scene_camera
+from platypose.lifting.calibration import load_calibration
+from platypose.lifting.calibration.pose_above_floor import pose_of
+from platypose.lifting.calibration.scene import estimate
+from platypose.lifting.calibration.scene.estimate import NO_DETECTOR, NOT_MEASURED, scene_camera
+from platypose.lifting.calibration.scene.segments import content_mask, people_mask, person_boxes
+from tests.line_scenes import pitch_markings, render, room
+
+BALANCING = "data/video/pose2sim-balancing"
+
+
+@pytest.mark.parametrize(
+    ("scene", "roll", "pitch", "focal", "yaw", "height"),
+    [
+        ("room", 0.0, 15.0, 1500.0, 25.0, 1.8),
+        ("room", 12.0, 30.0, 900.0, -20.0, 1.8),
+        ("room", -25.0, 8.0, 2100.0, 35.0, 1.8),
+        ("pitch", 3.0, 20.0, 1800.0, 20.0, 15.0),
+        ("pitch", -8.0, 12.0, 3000.0, -25.0, 15.0),
+    ],
+)
+def test_a_drawn_scene_gives_its_camera(scene, roll, pitch, focal, yaw, height):
+    image = render(room() if scene == "room" else pitch_markings(), pitch, roll, focal, yaw, height)
+    found = scene_camera([image])
+    assert found.problem is None and found.focal_note is None
+    assert abs(found.roll_deg - roll) < 1.0
+    assert abs(found.pitch_deg - pitch) < 1.0
+    assert abs(found.focal_px / focal - 1) < 0.05
+    assert found.source["focal_px"] == estimate.FOCAL_SOURCE
+
+
+def test_a_black_border_is_not_a_vertical():
+    """Pillarbox columns: their edges are long upright lines that would pull the vertical point to infinity
+    (unmasked here: pitch 1 degree off, focal length +25 %)."""
+    image = render(pitch_markings(), 3.0, 20.0, 1800.0, 20.0, 15.0)
+    image[:, :200] = 0
+    image[:, -200:] = 0
+    inside = content_mask(image)
+    assert not inside[:, :204].any() and inside[:, 204:-204].all()
+    found = scene_camera([image])
+    assert abs(found.pitch_deg - 3.0) < 0.5 and abs(found.roll_deg - 20.0) < 0.5
+    assert abs(found.focal_px / 1800.0 - 1) < 0.05
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    return load_calibration(f"{BALANCING}/calib_pose2sim.toml")
+
+
+@pytest.mark.parametrize("view", ["cam01", "cam02", "cam03", "cam04"])
+def test_the_lab_cameras_within_the_targets(calibration, view):
+    """Pitch and roll within 2 degrees, focal length within 10 %, from 8 frames of each bundled lab camera
+    (cam01 and cam04 rolled 13 and 26 degrees)."""
+    truth = pose_of(calibration.camera(view.replace("cam", "cam_")))
+    found = video_scene_camera(f"{BALANCING}/{view}.mp4", count=8)
+    assert found.problem is None, found.problem
+    assert abs(found.pitch_deg - truth["pitch_deg"]) < 2.0
+    assert abs(found.roll_deg - truth["roll_deg"]) < 2.0
+    assert abs(found.focal_px / truth["focal_px"] - 1) < 0.10
+
+
+def test_a_scene_without_lines_falls_back():
+    rng = np.random.default_rng(0)
+    wall = np.clip(120 + np.linspace(0, 30, 1920)[None] + rng.normal(0, 4, (1080, 1920)), 0, 255).astype(np.uint8)
+    found = scene_camera([wall] * 3)
+    assert found.problem == estimate.NO_LINES and found.pitch_deg is None
+
+
+def test_a_level_camera_at_a_wall_does_not_measure_the_focal_length():
+    """Tiles on a wall seen square on: every line is upright or level in the image, the vanishing points at
+    infinity; roll and pitch are seen (zero), the focal length is not, and that is said."""
+    tiles = [((x, 6.0, 0.0), (x, 6.0, 3.0)) for x in np.arange(-4.0, 4.1, 0.5)]
+    tiles += [((-4.0, 6.0, z), (4.0, 6.0, z)) for z in np.arange(0.0, 3.1, 0.5)]
+    found = scene_camera([render(tiles, 0.0, 0.0, 1400.0)])
+    assert found.problem is None
+    assert found.focal_px is None and found.focal_note.startswith(NOT_MEASURED)
+    assert abs(found.pitch_deg) < 0.5 and abs(found.roll_deg) < 0.5
+    assert "lens prior" in found.source["pitch_deg"]
+
+
+@pytest.fixture(scope="module")
+def lab_frames():
+    return sample_frames(f"{BALANCING}/cam02.mp4", 12)[1]
+
+
+def test_a_moving_camera_is_detected(lab_frames):
+    """The same frames, panned a little more each frame (up to 60 px) and turned (up to 3 degrees)."""
+    h, w = lab_frames[0].shape
+    moved = []
+    for k, frame in enumerate(lab_frames):
+        turn = cv2.getRotationMatrix2D((w / 2, h / 2), 3.0 * k / len(lab_frames), 1.0)
+        turn[0, 2] += 60.0 * k / len(lab_frames)
+        moved.append(cv2.warpAffine(frame, turn, (w, h)))
+    found = scene_camera(moved)
+    assert found.problem is not None and found.problem.startswith("camera moves")
+    assert scene_camera(lab_frames).problem is None  # the same frames unmoved
+
+
+def test_without_a_line_detector_it_says_so(monkeypatch, lab_frames):
+    monkeypatch.delattr(cv2, "createLineSegmentDetector")
+    found = scene_camera(lab_frames[:2])
+    assert found.problem == NO_DETECTOR and found.roll_deg is None
+
+
+def test_people_who_stay_are_masked_and_passers_by_not():
+    still = np.array([[100.0, 100.0, 0.9], [140.0, 300.0, 0.9]])
+    boxes = [person_boxes(np.stack([still, still + [60.0 * k, 0.0, 0.0]])) for k in range(10)]
+    mask = people_mask((400, 800), boxes)
+    assert mask[200, 120] and not mask[200, 500]
+
+
+def test_a_long_video_is_sampled_at_key_frames(monkeypatch):
+    """Past SEQUENTIAL_FRAMES, frames come from seeks (the demo's 230 frames, the limit set to 50)."""
+    monkeypatch.setattr(scene_frames, "SEQUENTIAL_FRAMES", 50)
+    indices, frames = sample_frames("data/video/sports2d-demo/demo.mp4", 10)
+    assert 1 <= len(frames) <= 10 and frames[0].shape == (994, 1768) and frames[0].dtype == np.uint8
+    assert np.all(np.diff(indices) > 0)

@@ -1,0 +1,70 @@
+"""Pitch, roll and focal length of each video's camera from its scene's lines, against a calibration (issue 48).
+
+Each video's camera is estimated from its own frames alone (no detections, no metadata:
+:func:`platypose.detectors.scene_frames.video_scene_camera`) and compared with the calibration's camera of the
+same name (pitch and roll as :func:`platypose.lifting.calibration.pose_above_floor.pose_of` defines them). Where
+the calibration is a guess (``--guess``: the sports2d demo's), only the values are shown.
+
+    python tools/scene_camera_figures.py                        # the bundled balancing cameras and the demo
+    python tools/scene_camera_figures.py CALIB.toml VIDEO...    # other videos
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from platypose.detectors.scene_frames import video_scene_camera
+from platypose.lifting.calibration import load_calibration
+from platypose.lifting.calibration.matching import match_views
+from platypose.lifting.calibration.pose_above_floor import pose_of
+
+BALANCING = Path("data/video/pose2sim-balancing")
+DEMO = Path("data/video/sports2d-demo")
+
+
+def rows(calibration: Path, videos: list[Path], guess: bool) -> None:
+    """Print one row per video."""
+    cameras = load_calibration(calibration)
+    for video in videos:
+        name = next(iter(match_views(cameras.names, [video.stem], allow_missing=True)))
+        truth = pose_of(cameras.camera(name))
+        start = time.perf_counter()
+        got = video_scene_camera(video)
+        took = time.perf_counter() - start
+        if got.problem is not None:
+            print(f"{video.stem:<8}{'':>10}{'':>10}{'':>10}{took:>7.1f}s  {got.problem}")
+            continue
+        focal = "not measured" if got.focal_px is None else f"{got.focal_px:.0f} px"
+        if guess:
+            off = f"{'':>10}{'':>10}{'':>10}"
+        else:
+            focal_off = "" if got.focal_px is None else f"{100 * (got.focal_px / truth['focal_px'] - 1):+.1f}%"
+            off = (
+                f"{got.pitch_deg - truth['pitch_deg']:>+10.1f}{got.roll_deg - truth['roll_deg']:>+10.1f}{focal_off:>10}"
+            )
+        print(
+            f"{video.stem:<8}{off}{took:>7.1f}s  pitch {got.pitch_deg:.1f} +- {got.sd['pitch_deg']:.1f} "
+            f"(calibration {truth['pitch_deg']:.1f}), roll {got.roll_deg:.1f} +- {got.sd['roll_deg']:.1f} "
+            f"({truth['roll_deg']:.1f}), focal {focal} ({truth['focal_px']:.0f} px); {got.segments} segments"
+            + (f"; {got.focal_note}" if got.focal_note else "")
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("calibration", nargs="?", type=Path)
+    parser.add_argument("videos", nargs="*", type=Path)
+    parser.add_argument("--guess", action="store_true", help="the calibration is a guess: show values only")
+    args = parser.parse_args()
+    print(f"{'view':<8}{'pitch off':>10}{'roll off':>10}{'focal off':>10}{'time':>8}  estimate")
+    if args.calibration is None:
+        rows(BALANCING / "calib_pose2sim.toml", sorted(BALANCING.glob("cam0?.mp4")), False)
+        rows(DEMO / "Calib_demo.toml", [DEMO / "demo.mp4"], True)
+    else:
+        rows(args.calibration, args.videos, args.guess)
+
+
+if __name__ == "__main__":
+    main()
