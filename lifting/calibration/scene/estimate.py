@@ -24,10 +24,10 @@ from platypose.lifting.calibration.scene import manhattan, motion, vertical
 from platypose.lifting.calibration.scene.lines import image_scale, to_lines
 from platypose.lifting.calibration.scene.segments import (
     content_mask,
-    keep_unmasked,
     lengths,
     line_detector,
     people_mask,
+    unmasked_pieces,
 )
 
 MIN_LENGTH = 0.015  # segments shorter than this share of the image diagonal are left out
@@ -79,10 +79,10 @@ def scene_camera(
     allowed = content_mask(median)
     if boxes is not None:
         allowed &= ~people_mask(size, boxes)
-    segments = keep_unmasked(detect(median), allowed)
+    segments = unmasked_pieces(detect(median), allowed)
     if len(frames) >= 3:
         chosen = np.linspace(0, len(frames) - 1, min(MOTION_FRAMES, len(frames))).round().astype(int)
-        moving, shares = motion.moved([keep_unmasked(detect(frames[i]), allowed) for i in chosen], segments, diagonal)
+        moving, shares = motion.moved([unmasked_pieces(detect(frames[i]), allowed) for i in chosen], segments, diagonal)
         if moving:
             found = ", ".join(f"{100 * s:.0f}" for s in shares)
             return SceneCamera(problem=f"camera moves: frames keep {found} % of their long lines in the median")
@@ -106,6 +106,9 @@ def _solve(segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_s
         inliers[kept[found.inliers]] = True
         start = manhattan.search(lines.take(~inliers), found.point, (prior * FOCAL_RANGE[0], prior * FOCAL_RANGE[1]))
         fitted = manhattan.fit(lines, manhattan.label(lines, start), start)
+        turned = manhattan.upright(fitted.params)
+        if turned is not fitted.params:
+            fitted = manhattan.fit(lines, manhattan.label(lines, turned), turned)
         now = np.isin(fitted.labels, (0, 1))
         if np.array_equal(now, dropped):
             break

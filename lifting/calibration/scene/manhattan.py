@@ -25,8 +25,10 @@ from platypose.lifting.calibration.scene.lines import (
     misalignment_each,
     vanishing_point,
 )
+from platypose.lifting.calibration.scene.vertical import unlikeliness
 
-TOLERANCE_DEG = 1.5
+TOLERANCE_DEG = 1.5  # the fit's unit
+SEARCH_TOLERANCE_DEG = 3.0  # the grid's: wide enough for a vertical point a little off
 FOCAL_STEPS, YAW_STEP_DEG = 60, 1.0
 LABEL_TOLERANCE_DEG = 2.0  # a segment belongs to the direction whose point it misses by less than this
 MIN_SEGMENTS = 4  # a horizontal direction needs this many segments to count
@@ -74,7 +76,7 @@ def search(lines: Lines, vertical: np.ndarray, focal_range: tuple[float, float])
     """The best (pitch, roll, yaw, log focal) on the grid for ``lines`` not explained by the ``vertical`` point."""
     focals = np.geomspace(*focal_range, FOCAL_STEPS)
     yaws = np.radians(np.arange(0.0, 90.0, YAW_STEP_DEG))
-    tol = np.sin(np.radians(TOLERANCE_DEG))
+    tol = np.sin(np.radians(SEARCH_TOLERANCE_DEG))
     best, where = -1.0, (focals[0], 0.0)
     for focal in focals:
         pairs = _horizontal_pairs(vertical, focal, yaws)
@@ -87,13 +89,30 @@ def search(lines: Lines, vertical: np.ndarray, focal_range: tuple[float, float])
 
 def params_of(vertical: np.ndarray, focal: float, yaw_on_horizon: float) -> np.ndarray:
     """(pitch, roll, yaw, log focal) of the camera whose first horizontal direction is at ``yaw_on_horizon``."""
-    up = direction_of(vertical, focal)
     first = _horizontal_pairs(vertical, focal, np.array([yaw_on_horizon]))[0, 0]
-    x = np.array([first[0] / focal, first[1] / focal, first[2]])
-    x /= np.linalg.norm(x)
+    return _params(direction_of(vertical, focal), np.array([first[0] / focal, first[1] / focal, first[2]]), focal)
+
+
+def _params(up: np.ndarray, x: np.ndarray, focal: float) -> np.ndarray:
+    """(pitch, roll, yaw, log focal) of the camera seeing the world's up and x as ``up`` and ``x`` (3,)."""
+    x = x / np.linalg.norm(x)
     pitch, roll = np.radians(pitch_roll(up))
     turn = rotation(np.degrees(pitch), np.degrees(roll)).T @ np.column_stack([x, np.cross(up, x), up])
     return np.array([pitch, roll, np.arctan2(turn[1, 0], turn[0, 0]), np.log(focal)])
+
+
+def upright(params: np.ndarray) -> np.ndarray:
+    """The same three directions with the world's up the one of them that makes the likeliest camera
+    (:func:`platypose.lifting.calibration.scene.vertical.unlikeliness`): a floor's edges running away from a
+    camera can look as upright in the image as the walls' and meet above it, and the three directions of a
+    square scene explain the lines equally in any order."""
+    axes = camera_rotation(params).T  # the world's x, y, z in camera coordinates (rows)
+    axes = np.where(axes[:, 1:2] > 0, -axes, axes)  # each pointing up the image
+    costs = [unlikeliness(*pitch_roll(axis)) for axis in axes]
+    best = int(np.argmin(costs))
+    if best == 2:
+        return params
+    return _params(axes[best], axes[2], float(np.exp(params[3])))
 
 
 def label(lines: Lines, params: np.ndarray) -> np.ndarray:

@@ -15,8 +15,6 @@ import numpy as np
 
 BLACK_LEVEL = 12  # a border row or column is darker than this everywhere (letterboxing, a lens's black corners)
 BORDER_MARGIN_PX = 4  # segments this near a black border are the border's edge, not the scene's
-MASK_SAMPLES = 9  # points along a segment tested against the masks
-MAX_MASKED_SHARE = 0.2  # a segment with more of its points masked is dropped
 PERSON_PRESENCE = 0.3  # a pixel is masked where people's boxes cover it in this share of the frames or more
 
 Detector = Callable[[np.ndarray], np.ndarray]
@@ -74,19 +72,24 @@ def people_mask(shape: tuple[int, int], boxes: list[np.ndarray]) -> np.ndarray:
     return cover >= PERSON_PRESENCE * max(len(boxes), 1)
 
 
-def keep_unmasked(segments: np.ndarray, allowed: np.ndarray) -> np.ndarray:
-    """The segments (N, 4) of which at most ``MAX_MASKED_SHARE`` of ``MASK_SAMPLES`` points along them fall where
-    ``allowed`` (H, W) is False (or outside the image)."""
-    if len(segments) == 0:
-        return segments
-    s = np.linspace(0.0, 1.0, MASK_SAMPLES)[None, :]
-    x = np.rint(segments[:, [0]] * (1 - s) + segments[:, [2]] * s).astype(int)
-    y = np.rint(segments[:, [1]] * (1 - s) + segments[:, [3]] * s).astype(int)
+def unmasked_pieces(segments: np.ndarray, allowed: np.ndarray, step_px: float = 4.0) -> np.ndarray:
+    """The parts (M, 4) of the segments (N, 4) that lie where ``allowed`` (H, W) is True, tested every ``step_px``
+    along them: a floor edge passing behind a person keeps its two ends (pieces shorter than two steps are
+    left out)."""
     height, width = allowed.shape
-    inside = (x >= 0) & (x < width) & (y >= 0) & (y < height)
-    ok = np.zeros_like(inside)
-    ok[inside] = allowed[y[inside], x[inside]]
-    return segments[(~ok).mean(axis=1) <= MAX_MASKED_SHARE]
+    pieces = []
+    for x1, y1, x2, y2 in segments:
+        count = max(int(np.hypot(x2 - x1, y2 - y1) / step_px), 1) + 1
+        s = np.linspace(0.0, 1.0, count)
+        x, y = x1 + s * (x2 - x1), y1 + s * (y2 - y1)
+        xi, yi = np.rint(x).astype(int), np.rint(y).astype(int)
+        ok = (xi >= 0) & (xi < width) & (yi >= 0) & (yi < height)
+        ok[ok] = allowed[yi[ok], xi[ok]]
+        edges = np.diff(np.concatenate([[0], ok.astype(np.int8), [0]]))
+        for first, last in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0] - 1):
+            if last - first >= 2:
+                pieces.append([x[first], y[first], x[last], y[last]])
+    return np.array(pieces, np.float64).reshape(-1, 4)
 
 
 def lengths(segments: np.ndarray) -> np.ndarray:

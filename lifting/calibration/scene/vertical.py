@@ -6,7 +6,9 @@ they cross (an exhaustive, deterministic RANSAC); a point is scored by the lengt
 within ``TOLERANCE_DEG`` (a truncated quadratic, so near misses count less). A point that makes the camera look
 up more than ``MIN_PITCH_DEG`` (at the lens prior's focal length) or roll past ``MAX_ROLL_DEG`` is not the
 world's vertical: the floor's edges running away from a camera that looks down meet above the image, and those
-are left to the horizon. The best point is refined by weighted least squares over its inliers.
+are left to the horizon (they may still win here: :func:`platypose.lifting.calibration.scene.manhattan.upright`
+picks the world's up among the three directions found). The best point is refined by weighted least squares
+over its inliers.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ MAX_TILT_DEG = 45.0
 PAIRS_FROM = 80
 TOLERANCE_DEG = 1.5
 MIN_PITCH_DEG, MAX_PITCH_DEG, MAX_ROLL_DEG = -25.0, 89.0, 40.0
+ROLL_SCALE_DEG, UP_SCALE_DEG = 20.0, 10.0
 MIN_SEGMENTS = 4  # inliers the vertical needs
 REFINE_ROUNDS = 3
 
@@ -40,6 +43,14 @@ def score(lines: Lines, points: np.ndarray, tolerance_deg: float) -> np.ndarray:
     """Each point's (M,) support among ``lines``: their length times ``1 - (err / tol)^2`` where positive."""
     err = misalignment(lines, points) / np.sin(np.radians(tolerance_deg))
     return (np.clip(1.0 - err**2, 0.0, None) * lines.length).sum(axis=-1)
+
+
+def unlikeliness(pitch_deg: float, roll_deg: float) -> float:
+    """How unlikely a camera pitched and rolled so is: roll in units of ``ROLL_SCALE_DEG``, looking up in units of
+    ``UP_SCALE_DEG`` (squared, summed); infinite past the bounds."""
+    if not (MIN_PITCH_DEG <= pitch_deg <= MAX_PITCH_DEG and abs(roll_deg) <= MAX_ROLL_DEG):
+        return float("inf")
+    return (roll_deg / ROLL_SCALE_DEG) ** 2 + (min(pitch_deg, 0.0) / UP_SCALE_DEG) ** 2
 
 
 def plausible(points: np.ndarray, focal: float) -> np.ndarray:
@@ -79,7 +90,7 @@ def find_vertical(lines: Lines, focal: float, min_length_px: float) -> Vertical 
         refined = weighted_point(pool.take(inliers), weights[inliers])
         best = refined if refined @ best >= 0 else -refined
     inliers = misalignment(pool, best) < np.sin(np.radians(TOLERANCE_DEG))
-    if inliers.sum() < MIN_SEGMENTS or not plausible(best[None], focal)[0]:
+    if inliers.sum() < MIN_SEGMENTS:
         return None
     mask = np.zeros(len(lines), bool)
     mask[candidates[inliers]] = True

@@ -13,7 +13,7 @@ from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.pose_above_floor import pose_of
 from platypose.lifting.calibration.scene import estimate
 from platypose.lifting.calibration.scene.estimate import NO_DETECTOR, NOT_MEASURED, scene_camera
-from platypose.lifting.calibration.scene.segments import content_mask, people_mask, person_boxes
+from platypose.lifting.calibration.scene.segments import content_mask, people_mask, person_boxes, unmasked_pieces
 from tests.line_scenes import pitch_markings, render, room
 
 BALANCING = "data/video/pose2sim-balancing"
@@ -125,3 +125,24 @@ def test_a_long_video_is_sampled_at_key_frames(monkeypatch):
     indices, frames = sample_frames("data/video/sports2d-demo/demo.mp4", 10)
     assert 1 <= len(frames) <= 10 and frames[0].shape == (994, 1768) and frames[0].dtype == np.uint8
     assert np.all(np.diff(indices) > 0)
+
+
+def test_with_its_people_masked_the_rolled_lab_camera_keeps_its_vertical(calibration):
+    """cam01 with the bundled OpenPose people masked: the platform's edges then outnumber the walls' among the
+    upright-looking lines and meet above the image; the likeliest of the three directions found is the up."""
+    from platypose.detectors.sources import read_keypoints
+
+    truth = pose_of(calibration.camera("cam_01"))
+    people = read_keypoints(f"{BALANCING}/openpose-body25b/cam01_json").keypoints
+    found = video_scene_camera(f"{BALANCING}/cam01.mp4", people, count=8)
+    assert found.problem is None, found.problem
+    assert abs(found.pitch_deg - truth["pitch_deg"]) < 2.0 and abs(found.roll_deg - truth["roll_deg"]) < 2.0
+    assert abs(found.focal_px / truth["focal_px"] - 1) < 0.10
+
+
+def test_a_segment_behind_a_box_keeps_its_ends():
+    allowed = np.ones((100, 400), bool)
+    allowed[:, 150:250] = False
+    pieces = unmasked_pieces(np.array([[10.0, 50.0, 390.0, 50.0]]), allowed)
+    assert len(pieces) == 2
+    assert pieces[0, 0] == 10.0 and 140.0 < pieces[0, 2] < 150.0 and 250.0 <= pieces[1, 0] < 260.0
