@@ -8,6 +8,7 @@ take costs no more than a short one).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import av
@@ -59,13 +60,13 @@ def _key_frames(path: str | Path, stamps: np.ndarray, count: int) -> tuple[np.nd
 
 def video_scene_camera(
     path: str | Path,
-    keypoints: np.ndarray | None = None,
+    keypoints: Sequence[np.ndarray] | None = None,
     focal_px: float | None = None,
     focal_source: str = PRIOR,
     count: int = SAMPLES,
 ) -> SceneCamera:
-    """The camera of the video at ``path`` from its scene's lines, with the people its ``keypoints`` (T, P, 17, 3),
-    frame-indexed like the video, show masked out (optional); ``focal_px`` from ``focal_source`` as in
+    """The camera of the video at ``path`` from its scene's lines, with the people its ``keypoints`` show masked
+    out (optional: per frame of the video, each (P, J, 3) x, y, confidence; an array (T, P, J, 3) will do); ``focal_px`` from ``focal_source`` as in
     :func:`scene_camera`."""
     indices, frames = sample_frames(path, count)
     boxes = None

@@ -6,7 +6,11 @@ same name (pitch and roll as :func:`platypose.lifting.calibration.pose_above_flo
 the calibration is a guess (``--guess``: the sports2d demo's), only the values are shown.
 
     python tools/scene_camera_figures.py                        # the bundled balancing cameras and the demo
+    python tools/scene_camera_figures.py --people               # the same, their bundled people masked
     python tools/scene_camera_figures.py CALIB.toml VIDEO...    # other videos
+
+With ``--people`` the bundled detections mask the people (the balancing cameras' OpenPose folders, the demo's
+MoveNet detections); the uncertainties are shown as one standard deviation.
 """
 
 from __future__ import annotations
@@ -15,7 +19,11 @@ import argparse
 import time
 from pathlib import Path
 
+import numpy as np
+
+from platypose.detectors.cache import read_detections
 from platypose.detectors.scene_frames import video_scene_camera
+from platypose.detectors.sources import read_keypoints
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.matching import match_views
 from platypose.lifting.calibration.pose_above_floor import pose_of
@@ -24,19 +32,35 @@ BALANCING = Path("data/video/pose2sim-balancing")
 DEMO = Path("data/video/sports2d-demo")
 
 
-def rows(calibration: Path, videos: list[Path], guess: bool) -> None:
-    """Print one row per video."""
+def bundled_people(video: Path) -> list[np.ndarray] | np.ndarray | None:
+    """The bundled people of ``video``, per frame (P, J, 3), or None where none are bundled."""
+    folder = video.parent / "openpose-body25b" / f"{video.stem}_json"
+    if folder.is_dir():
+        return read_keypoints(folder).keypoints
+    detections = video.parent / "movenet-detections.npz"
+    if detections.is_file():
+        _, per_frame, indices = read_detections(detections)
+        people = [np.zeros((0, 17, 3))] * (int(indices.max()) + 1 if len(indices) else 0)
+        for index, found in zip(indices, per_frame):
+            people[int(index)] = found
+        return people
+    return None
+
+
+def rows(calibration: Path, videos: list[Path], guess: bool, people: bool = False) -> None:
+    """Print one row per video (``people``: its bundled people masked)."""
     cameras = load_calibration(calibration)
     for video in videos:
         name = next(iter(match_views(cameras.names, [video.stem], allow_missing=True)))
         truth = pose_of(cameras.camera(name))
         start = time.perf_counter()
-        got = video_scene_camera(video)
+        got = video_scene_camera(video, bundled_people(video) if people else None)
         took = time.perf_counter() - start
         if got.problem is not None:
             print(f"{video.stem:<8}{'':>10}{'':>10}{'':>10}{took:>7.1f}s  {got.problem}")
             continue
         focal = "not measured" if got.focal_px is None else f"{got.focal_px:.0f} px"
+        focal_sd = "" if got.focal_px is None else f" +- {100 * got.sd['focal_px'] / got.focal_px:.0f} %"
         if guess:
             off = f"{'':>10}{'':>10}{'':>10}"
         else:
@@ -47,7 +71,7 @@ def rows(calibration: Path, videos: list[Path], guess: bool) -> None:
         print(
             f"{video.stem:<8}{off}{took:>7.1f}s  pitch {got.pitch_deg:.1f} +- {got.sd['pitch_deg']:.1f} "
             f"(calibration {truth['pitch_deg']:.1f}), roll {got.roll_deg:.1f} +- {got.sd['roll_deg']:.1f} "
-            f"({truth['roll_deg']:.1f}), focal {focal} ({truth['focal_px']:.0f} px); {got.segments} segments"
+            f"({truth['roll_deg']:.1f}), focal {focal}{focal_sd} ({truth['focal_px']:.0f} px); {got.segments} segments"
             + (f"; {got.focal_note}" if got.focal_note else "")
         )
 
@@ -57,13 +81,14 @@ def main() -> None:
     parser.add_argument("calibration", nargs="?", type=Path)
     parser.add_argument("videos", nargs="*", type=Path)
     parser.add_argument("--guess", action="store_true", help="the calibration is a guess: show values only")
+    parser.add_argument("--people", action="store_true", help="mask the bundled people")
     args = parser.parse_args()
     print(f"{'view':<8}{'pitch off':>10}{'roll off':>10}{'focal off':>10}{'time':>8}  estimate")
     if args.calibration is None:
-        rows(BALANCING / "calib_pose2sim.toml", sorted(BALANCING.glob("cam0?.mp4")), False)
-        rows(DEMO / "Calib_demo.toml", [DEMO / "demo.mp4"], True)
+        rows(BALANCING / "calib_pose2sim.toml", sorted(BALANCING.glob("cam0?.mp4")), False, args.people)
+        rows(DEMO / "Calib_demo.toml", [DEMO / "demo.mp4"], True, args.people)
     else:
-        rows(args.calibration, args.videos, args.guess)
+        rows(args.calibration, args.videos, args.guess, args.people)
 
 
 if __name__ == "__main__":

@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from platypose.lifting.calibration.lens import PRIOR, prior_focal
-from platypose.lifting.calibration.scene import manhattan, motion, vertical
-from platypose.lifting.calibration.scene.lines import image_scale, to_lines
+from platypose.lifting.calibration.scene import manhattan, motion, spread, vertical
+from platypose.lifting.calibration.scene.lines import Lines, image_scale, to_lines
 from platypose.lifting.calibration.scene.segments import (
     content_mask,
     lengths,
@@ -37,6 +37,8 @@ FOCAL_MEASURED_SD = 0.05  # the lines measure the focal length when its relative
 FOCAL_PRIOR_SD = 0.3  # relative spread of a focal length the lines did not measure
 MIN_SD_DEG, MIN_FOCAL_SD = 0.3, 0.02  # floors: the principal point, lens distortion, not quite square scenes
 MOTION_FRAMES = 6
+RIVALS = 4  # the best solutions the bootstrap chooses among
+SAME_SOLUTION = (np.radians(0.5), np.radians(0.5), 0.03)  # solutions closer in pitch, roll, log focal are one
 VERTICAL_SOURCE = "scene lines (vertical vanishing point)"
 FOCAL_SOURCE = "scene lines (two orthogonal horizontal vanishing points)"
 NO_DETECTOR = "no line detector (this OpenCV has no createLineSegmentDetector)"
@@ -95,34 +97,20 @@ def _solve(segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_s
     scale = image_scale(size)
     lines = to_lines(segments, size)
     prior = focal_px / scale
-    dropped = np.zeros(len(lines), bool)
-    fitted = None
-    for _ in range(ROUNDS):
-        kept = np.nonzero(~dropped)[0]
-        found = vertical.find_vertical(lines.take(kept), prior, MIN_LENGTH * np.hypot(*size))
-        if found is None:
-            break
-        inliers = np.zeros(len(lines), bool)
-        inliers[kept[found.inliers]] = True
-        start = manhattan.search(lines.take(~inliers), found.point, (prior * FOCAL_RANGE[0], prior * FOCAL_RANGE[1]))
-        fitted = manhattan.fit(lines, manhattan.label(lines, start), start)
-        turned = manhattan.upright(fitted.params)
-        if turned is not fitted.params:
-            fitted = manhattan.fit(lines, manhattan.label(lines, turned), turned)
-        now = np.isin(fitted.labels, (0, 1))
-        if np.array_equal(now, dropped):
-            break
-        dropped = now
-    if fitted is None:
+    solutions = _solutions(lines, prior, MIN_LENGTH * np.hypot(*size))
+    if not solutions:
         return SceneCamera(problem=NO_LINES, segments=len(segments))
+    fitted = solutions[0]
+    samples = spread.bootstrap(lines, [f.params for f in solutions[:RIVALS]])
+    fit_sd = np.maximum(spread.spread_of(samples), fitted.sd)
     counts = [int((fitted.labels == k).sum()) for k in range(3)]
-    relative_sd = fitted.sd[3]
+    relative_sd = float(fit_sd[3])
     inside = FOCAL_RANGE[0] * 1.05 < fitted.focal / prior < FOCAL_RANGE[1] / 1.05
     measured = min(counts[:2]) >= manhattan.MIN_SEGMENTS and relative_sd < FOCAL_MEASURED_SD and inside
     sources = {"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE}
     note = None
     if measured:
-        pitch_sd = np.degrees(fitted.sd[0])
+        pitch_sd = np.degrees(fit_sd[0])
         sources["focal_px"] = FOCAL_SOURCE
     else:
         held = manhattan.fit(lines, fitted.labels, fitted.params, held_focal=prior)
@@ -130,15 +118,15 @@ def _solve(segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_s
             manhattan.fit(lines, fitted.labels, held.params, held_focal=prior * np.exp(s * FOCAL_PRIOR_SD))
             for s in (-1, 1)
         ]
-        spread = abs(wide[1].params[0] - wide[0].params[0]) / 2.0
-        pitch_sd = float(np.degrees(np.hypot(held.sd[0], spread)))
+        widened = abs(wide[1].params[0] - wide[0].params[0]) / 2.0
+        pitch_sd = float(np.degrees(np.hypot(held.sd[0], widened)))
         sources["pitch_deg"] = f"{VERTICAL_SOURCE} at the focal length of the {focal_source}"
         note = f"{NOT_MEASURED}: {_why_not(counts, relative_sd)}"
         fitted = held
     pitch, roll = np.degrees(fitted.params[:2])
     sd = {
         "pitch_deg": max(float(pitch_sd), MIN_SD_DEG),
-        "roll_deg": max(float(np.degrees(fitted.sd[1])), MIN_SD_DEG),
+        "roll_deg": max(float(np.degrees(max(fitted.sd[1], fit_sd[1]))), MIN_SD_DEG),
     }
     focal = None
     if measured:
@@ -153,6 +141,32 @@ def _solve(segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_s
         segments=int(sum(counts)),
         focal_note=note,
     )
+
+
+def _solutions(lines: Lines, prior: float, min_length_px: float) -> list[manhattan.Fit]:
+    """The distinct cameras fitted from every candidate vertical point, the one explaining the most line length
+    first. ``ROUNDS`` rounds, each finding the candidates again without the lines the best so far puts on the
+    horizontal directions (long floor edges running away from the camera look upright in the image)."""
+    dropped = np.zeros(len(lines), bool)
+    found: list[tuple[float, manhattan.Fit]] = []
+    for _ in range(ROUNDS):
+        kept = np.nonzero(~dropped)[0]
+        for candidate in vertical.find_verticals(lines.take(kept), prior, min_length_px):
+            inliers = np.zeros(len(lines), bool)
+            inliers[kept[candidate.inliers]] = True
+            fitted = manhattan.solve(lines, candidate.point, inliers, (prior * FOCAL_RANGE[0], prior * FOCAL_RANGE[1]))
+            found.append((manhattan.explained(lines, fitted.params), fitted))
+        if not found:
+            break
+        now = np.isin(max(found, key=lambda f: f[0])[1].labels, (0, 1))
+        if np.array_equal(now, dropped):
+            break
+        dropped = now
+    distinct: list[manhattan.Fit] = []
+    for _, fitted in sorted(found, key=lambda f: -f[0]):
+        if all((np.abs(fitted.params - other.params)[[0, 1, 3]] > SAME_SOLUTION).any() for other in distinct):
+            distinct.append(fitted)
+    return distinct
 
 
 def _why_not(counts: list[int], relative_sd: float) -> str:

@@ -115,6 +115,29 @@ def upright(params: np.ndarray) -> np.ndarray:
     return _params(axes[best], axes[2], float(np.exp(params[3])))
 
 
+def solve(lines: Lines, vertical: np.ndarray, inliers: np.ndarray, focal_range: tuple[float, float]) -> Fit:
+    """The camera fitted to ``lines`` from the grid's best start for the ``vertical`` point (the lines not among
+    its ``inliers`` (N,) searched for the horizontal directions), the world's up then the likeliest direction."""
+    fitted = refit(lines, search(lines.take(~inliers), vertical, focal_range))
+    turned = upright(fitted.params)
+    return fitted if turned is fitted.params else refit(lines, turned)
+
+
+def refit(lines: Lines, start: np.ndarray, counts: np.ndarray | None = None) -> Fit:
+    """The camera fitted to ``lines`` (each weighted by ``counts`` (N,), default 1) labelled at ``start``, then
+    fitted again to the lines its result labels."""
+    fitted = fit(lines, label(lines, start), start, counts=counts)
+    return fit(lines, fitted.labels, fitted.params, counts=counts)
+
+
+def explained(lines: Lines, params: np.ndarray, counts: np.ndarray | None = None) -> float:
+    """The length of ``lines`` (each times ``counts``, default 1) the camera ``params`` explains: each line's
+    length times ``1 - (err / tol)^2`` for the nearest of its three vanishing points, ``LABEL_TOLERANCE_DEG``."""
+    err = misalignment(lines, points_of(params)).min(axis=0) / np.sin(np.radians(LABEL_TOLERANCE_DEG))
+    weight = np.clip(1.0 - err**2, 0.0, None) * lines.length
+    return float(weight.sum() if counts is None else weight @ counts)
+
+
 def label(lines: Lines, params: np.ndarray) -> np.ndarray:
     """Each line's direction (N,): the index (0, 1, 2) of the point it misses least, -1 past the tolerance."""
     err = misalignment(lines, points_of(params))
@@ -127,12 +150,22 @@ def _residuals(free, lines, labels, weights, held_focal):
     return weights * misalignment_each(lines, points_of(params)[labels])
 
 
-def fit(lines: Lines, labels: np.ndarray, start: np.ndarray, held_focal: float | None = None) -> Fit:
+def fit(
+    lines: Lines,
+    labels: np.ndarray,
+    start: np.ndarray,
+    held_focal: float | None = None,
+    counts: np.ndarray | None = None,
+) -> Fit:
     """The camera fitted to the labelled ``lines`` from ``start``; with ``held_focal`` (normalised) the focal
-    length is held there and only the vertical's lines are used (wrong focal length, wrong horizon)."""
+    length is held there and only the vertical's lines are used (wrong focal length, wrong horizon). ``counts``
+    (N,) weighs each line as that many copies (a bootstrap's draw; default 1)."""
     use = labels == 2 if held_focal is not None else labels >= 0
+    if counts is not None:
+        use &= counts > 0
     chosen, chosen_labels = lines.take(use), labels[use]
-    weights = np.sqrt(chosen.length / chosen.length.mean()) / np.sin(np.radians(TOLERANCE_DEG))
+    copies = np.ones(len(chosen)) if counts is None else counts[use]
+    weights = np.sqrt(copies * chosen.length / chosen.length.mean()) / np.sin(np.radians(TOLERANCE_DEG))
     free = start[:3] if held_focal is not None else start
     result = least_squares(
         _residuals, free, args=(chosen, chosen_labels, weights, held_focal), loss="soft_l1", x_scale=1.0

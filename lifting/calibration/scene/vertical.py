@@ -8,7 +8,8 @@ up more than ``MIN_PITCH_DEG`` (at the lens prior's focal length) or roll past `
 world's vertical: the floor's edges running away from a camera that looks down meet above the image, and those
 are left to the horizon (they may still win here: :func:`platypose.lifting.calibration.scene.manhattan.upright`
 picks the world's up among the three directions found). The best point is refined by weighted least squares
-over its inliers.
+over its inliers. The best supported point need not be the world's vertical, so the few best distinct ones are
+candidates (:func:`find_verticals`), each tried with the horizon's search; the scene they explain best decides.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ MIN_PITCH_DEG, MAX_PITCH_DEG, MAX_ROLL_DEG = -25.0, 89.0, 40.0
 ROLL_SCALE_DEG, UP_SCALE_DEG = 20.0, 10.0
 MIN_SEGMENTS = 4  # inliers the vertical needs
 REFINE_ROUNDS = 3
+CANDIDATES = 6  # distinct vertical points tried
+SEPARATION_DEG = 0.7  # two candidates closer than this (the world's up they give) are one
 
 
 @dataclass(frozen=True)
@@ -64,13 +67,16 @@ def plausible(points: np.ndarray, focal: float) -> np.ndarray:
     return keep
 
 
-def find_vertical(lines: Lines, focal: float, min_length_px: float) -> Vertical | None:
-    """The vertical vanishing point of ``lines`` (``focal``: the lens prior's, normalised, only to bound the
-    camera's pitch), or None when fewer than ``MIN_SEGMENTS`` segments of at least ``min_length_px`` agree."""
+def find_verticals(lines: Lines, focal: float, min_length_px: float, count: int = CANDIDATES) -> list[Vertical]:
+    """Up to ``count`` distinct candidates for the vertical vanishing point of ``lines``, best supported first
+    (``focal``: the lens prior's, normalised, to bound the camera's pitch and to tell points apart: two are one
+    where the world's up they give differs by under ``SEPARATION_DEG``). Each has ``MIN_SEGMENTS`` segments of at
+    least ``min_length_px`` or more; none: an empty list. The best supported need not be the world's vertical: a
+    long floor edge running away from the camera, near upright in the image, pulls it a little off."""
     upright = np.abs(lines.direction[:, 1]) >= np.cos(np.radians(MAX_TILT_DEG))
     candidates = np.nonzero(upright & (lines.length >= min_length_px))[0]
     if len(candidates) < 2:
-        return None
+        return []
     pool = lines.take(candidates)
     longest = np.argsort(-pool.length)[:PAIRS_FROM]
     i, j = np.triu_indices(len(longest), 1)
@@ -78,23 +84,53 @@ def find_vertical(lines: Lines, focal: float, min_length_px: float) -> Vertical 
     norm = np.linalg.norm(points, axis=1)
     points = points[norm > 1e-12] / norm[norm > 1e-12, None]
     points = points[plausible(points, focal)]
-    if len(points) == 0:
-        return None
-    best = points[np.argmax(np.concatenate([score(pool, chunk, TOLERANCE_DEG) for chunk in _chunks(points)]))]
+    scores = np.concatenate([score(pool, chunk, TOLERANCE_DEG) for chunk in _chunks(points)] or [np.zeros(0)])
+    ups = _ups(points, focal)
+    open_ = np.ones(len(points), bool)
+    found: list[Vertical] = []
+    near = np.cos(np.radians(SEPARATION_DEG))
+    for seed in np.argsort(-scores):
+        if len(found) == count:
+            break
+        if not open_[seed]:
+            continue
+        open_ &= np.abs(ups @ ups[seed]) < near
+        refined = _refine(pool, points[seed])
+        if refined is None:
+            continue
+        up = _ups(refined[None], focal)[0]
+        if any(abs(_ups(v.point[None], focal)[0] @ up) >= near for v in found):
+            continue
+        inliers = np.zeros(len(lines), bool)
+        inliers[candidates[_inliers(pool, refined)]] = True
+        found.append(Vertical(refined, inliers, float(lines.length[inliers].sum())))
+    return found
+
+
+def _inliers(lines: Lines, point: np.ndarray) -> np.ndarray:
+    """Which ``lines`` (N,) point at ``point`` within ``TOLERANCE_DEG``."""
+    return misalignment(lines, point) < np.sin(np.radians(TOLERANCE_DEG))
+
+
+def _refine(pool: Lines, best: np.ndarray) -> np.ndarray | None:
+    """``best`` refined by weighted least squares over its inliers among ``pool``, or None where fewer than
+    ``MIN_SEGMENTS`` agree."""
+    tol = np.sin(np.radians(TOLERANCE_DEG))
     for _ in range(REFINE_ROUNDS):
         err = misalignment(pool, best)
-        inliers = err < np.sin(np.radians(TOLERANCE_DEG))
+        inliers = err < tol
         if inliers.sum() < MIN_SEGMENTS:
             return None
-        weights = pool.length * (1.0 - (err / np.sin(np.radians(TOLERANCE_DEG))) ** 2).clip(0.0)
+        weights = pool.length * (1.0 - (err / tol) ** 2).clip(0.0)
         refined = weighted_point(pool.take(inliers), weights[inliers])
         best = refined if refined @ best >= 0 else -refined
-    inliers = misalignment(pool, best) < np.sin(np.radians(TOLERANCE_DEG))
-    if inliers.sum() < MIN_SEGMENTS:
-        return None
-    mask = np.zeros(len(lines), bool)
-    mask[candidates[inliers]] = True
-    return Vertical(best, mask, float(pool.length[inliers].sum()))
+    return best if _inliers(pool, best).sum() >= MIN_SEGMENTS else None
+
+
+def _ups(points: np.ndarray, focal: float) -> np.ndarray:
+    """The unit camera-frame directions (M, 3) whose vanishing points are ``points`` (M, 3) (sign free)."""
+    d = np.column_stack([points[:, :2] / focal, points[:, 2]])
+    return d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
 
 
 def _chunks(points: np.ndarray, size: int = 256) -> list[np.ndarray]:
