@@ -14,11 +14,13 @@ from pathlib import Path
 import av
 import numpy as np
 
-from platypose.lifting.calibration.lens import PRIOR
+from platypose.detectors.types import PoseTrack2D
+from platypose.lifting.calibration.lens import METADATA, PRIOR, metadata_focal
 from platypose.lifting.calibration.scene.estimate import SceneCamera, scene_camera
 from platypose.lifting.calibration.scene.segments import person_boxes
+from platypose.lifting.calibration.scene.view_camera import AssumedCamera, assumed_camera
 from platypose.lifting.errors import InputError
-from platypose.media import frame_stamps, iter_timed_frames, open_video, upright
+from platypose.media import frame_stamps, iter_timed_frames, open_video, upright, video_tags
 
 SAMPLES = 30
 SEQUENTIAL_FRAMES = 600
@@ -64,12 +66,44 @@ def video_scene_camera(
     focal_px: float | None = None,
     focal_source: str = PRIOR,
     count: int = SAMPLES,
+    times: np.ndarray | None = None,
+    hold_focal: bool = False,
 ) -> SceneCamera:
     """The camera of the video at ``path`` from its scene's lines, with the people its ``keypoints`` show masked
     out (optional: per frame of the video, each (P, J, 3) x, y, confidence; an array (T, P, J, 3) will do); ``focal_px`` from ``focal_source`` as in
-    :func:`scene_camera`."""
+    :func:`scene_camera` (``hold_focal``: trusted, the lines' own not reported). ``times`` (T,): the keypoints'
+    seconds from the video's start where they are not one per frame (each sampled frame takes the nearest)."""
     indices, frames = sample_frames(path, count)
     boxes = None
     if keypoints is not None:
-        boxes = [person_boxes(keypoints[i]) if i < len(keypoints) else np.zeros((0, 4)) for i in indices]
-    return scene_camera(frames, boxes, focal_px, focal_source)
+        rows = indices if times is None else _nearest(times, _seconds(path, indices))
+        boxes = [person_boxes(keypoints[i]) if 0 <= i < len(keypoints) else np.zeros((0, 4)) for i in rows]
+    return scene_camera(frames, boxes, focal_px, focal_source, hold_focal)
+
+
+def view_camera(path: str | Path, name: str, track: PoseTrack2D) -> AssumedCamera:
+    """The camera a lift without ``--cams`` assumes for the one video at ``path`` (view ``name``) whose people
+    ``track`` holds: the scene's roll and pitch (its people masked), the focal length of the video's metadata,
+    else of the lines, else the lens prior (:func:`platypose.lifting.calibration.scene.view_camera.assumed_camera`)."""
+    size = track.image_size
+    focal = metadata_focal(video_tags(path), size)
+    held = focal is not None
+    scene = video_scene_camera(
+        path, track.keypoints, focal, METADATA if held else PRIOR, times=track.frame_times, hold_focal=held
+    )
+    return assumed_camera(name, size, scene, focal)
+
+
+def _seconds(path: str | Path, indices: np.ndarray) -> np.ndarray:
+    """Seconds (K,) from the video's first frame of its frames at ``indices`` (K,)."""
+    stamps, time_base = frame_stamps(path)
+    return (stamps[indices] - stamps[0]) * time_base
+
+
+def _nearest(times: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """The index (K,) into sorted ``times`` (T,) nearest each of ``wanted`` (K,); -1 where ``times`` is empty."""
+    if len(times) == 0:
+        return np.full(len(wanted), -1)
+    right = np.clip(np.searchsorted(times, wanted), 0, len(times) - 1)
+    left = np.clip(right - 1, 0, len(times) - 1)
+    return np.where(np.abs(times[left] - wanted) <= np.abs(times[right] - wanted), left, right)

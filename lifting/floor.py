@@ -95,6 +95,8 @@ def parse_floor(text: str) -> Floor | str | None:
 
 CALIBRATED_FLOOR = Floor((0.0, 0.0, 1.0), 0.0, "calibration")
 ESTIMATE = "estimate"
+ESTIMATE_HEIGHT = "estimate height"  # the camera's roll and pitch are known (the scene's lines): only the height
+ESTIMATES = (ESTIMATE, ESTIMATE_HEIGHT)
 
 
 def floor_for_lift(choice: Floor | str | None, calibration_meta: dict | None) -> Floor | str | None:
@@ -183,13 +185,17 @@ def _lowest_shared_height(heights: np.ndarray, share: float, band: float = 0.05)
 
 
 def floor_under(
-    median: np.ndarray, camera: Camera, fps: float, keypoints: np.ndarray
+    median: np.ndarray, camera: Camera, fps: float, keypoints: np.ndarray, level_known: bool = False
 ) -> tuple[Floor | None, dict | None]:
     """The floor estimated under the median motions ``(P, T, 17, 3)`` lifted with one default ``camera``, where
     it saw both ankles (``keypoints`` ``(T, P, 17, 3)``), and its ``meta`` entry (the floor with the camera's
-    height and pitch above it); None, None when too few stance ankles are found."""
+    height and pitch above it); None, None when too few stance ankles are found. ``level_known``: the camera's
+    roll and pitch in its z-up world are known (the scene's lines), so the floor is level there and only its
+    height is estimated."""
     seen = (np.nan_to_num(keypoints[..., list(ANKLES), 2]) > 0).all(axis=-1).T  # (P, T)
-    found = estimate_floor(np.asarray(median, dtype=np.float64), camera, fps, seen)
+    found = estimate_floor(
+        np.asarray(median, dtype=np.float64), camera, fps, seen, pitch_range_deg=0.0 if level_known else 30.0
+    )
     if found is None:
         return None, None
     floor, info = found

@@ -105,6 +105,13 @@ def frame_stamps(path: str | Path) -> tuple[np.ndarray, float]:
         return np.sort(np.asarray(stamps, dtype=np.int64)), float(stream.time_base)
 
 
+def video_tags(path: str | Path) -> dict[str, str]:
+    """The video's metadata tags, its container's and then its video stream's (lens tags such as Apple's
+    ``com.apple.quicktime.camera.focal_length.35mm_equivalent`` sit in either)."""
+    with open_video(path) as container:
+        return {**dict(container.metadata), **dict(container.streams.video[0].metadata)}
+
+
 def frame_times(path: str | Path) -> np.ndarray:
     """Every frame's presentation time (N,) in seconds from the first frame, read from the packets (no decoding)."""
     stamps, time_base = frame_stamps(path)

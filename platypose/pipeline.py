@@ -22,6 +22,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,13 +33,16 @@ from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import CODEC_BLOCK, SIZE_TOLERANCE, Camera, codec_padded
 from platypose.lifting.errors import InputError
 from platypose.lifting.finish.steps import finish_take
-from platypose.lifting.floor import ESTIMATE, Floor
+from platypose.lifting.floor import ESTIMATE, ESTIMATE_HEIGHT, ESTIMATES, Floor
 from platypose.lifting.job_log import JobLog
 from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.settings import SamplerConfig, TakeSettings, WindowSettings
 from platypose.lifting.tracks.persons import lift_persons
 from platypose.lifting.tracks.quick_floor import quick_floor
 from platypose.lifting.tracks.roots import presence
+
+if TYPE_CHECKING:
+    from platypose.lifting.calibration.scene.view_camera import AssumedCamera
 
 Reader = Callable[[Path], ViewRead]  # a view's source -> its tracks and how they were obtained
 
@@ -92,13 +96,20 @@ def run_take(
     tracks = [_read_view(read, name, source, log) for name, source in views]
     timings = {"keypoints_s": time.perf_counter() - started}
     sizes = [t.image_size for t in tracks]
-    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, cams_option)
+    assumed = None
+    if cameras is None and len(views) == 1:
+        started = time.perf_counter()
+        assumed = _assumed_camera(names[0], sources[0], tracks[0])
+        timings["scene_camera_s"] = time.perf_counter() - started
+        if assumed is not None and assumed.level_known and floor == ESTIMATE:
+            floor = ESTIMATE_HEIGHT
+    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, cams_option, assumed)
     synced = synchronise(
         take.sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
     )
     keypoints, times, track_ids = take_keypoints(tracks, synced.cameras, take.persons, what)
     everyone = None  # an estimated floor comes from everyone in the take, not only from the persons chosen
-    if floor == ESTIMATE and len(synced.cameras) == 1 and take.persons != "all":
+    if floor in ESTIMATES and len(synced.cameras) == 1 and take.persons != "all":
         everyone = take_keypoints(tracks, synced.cameras, "all", what)[0]
     swapped = disagreeing_views(keypoints, [c.name for c in synced.cameras])
     if swapped:
@@ -132,6 +143,7 @@ def run_take(
         **result.meta,
         "persons": chosen,
         "sync": synced.record(),
+        **({} if assumed is None else {"camera": assumed.record}),
         "root": root_kinds(roots, take.root_trajectory is not None),
         "timings": timings,
         "warnings": log.warnings,
@@ -171,13 +183,16 @@ def view_cameras(
     what: str,
     log: JobLog,
     calibration_word: str = "cams",
+    assumed: AssumedCamera | None = None,
 ) -> list[Camera]:
     """The matched ``cameras`` checked against the views' image sizes (height, width), each image at least
     ``MIN_IMAGE_SIDE`` a side and each focal length warned about when no lens has it, or without a calibration
     the default camera of a single view (a note: one uncalibrated phone is the common case, not a fault); InputError
     for several views without one.
 
-    ``calibration_word`` is how the messages name the missing calibration (the CLI says ``--cams``).
+    ``calibration_word`` is how the messages name the missing calibration (the CLI says ``--cams``). ``assumed``:
+    the single view's camera from its scene (:func:`_assumed_camera`), used instead of the default and its lines
+    logged as notes.
     """
     from platypose.lifting.calibration.plausible import camera_doubts, check_image_side
 
@@ -191,10 +206,25 @@ def view_cameras(
         return list(cameras)
     if len(names) > 1:
         raise InputError(f"{what}: {len(names)} views need {calibration_word} to place the cameras")
+    if assumed is not None:
+        for line in assumed.lines:
+            log.note(f"no {calibration_word}: {line}")
+        return [assumed.camera]
     from platypose.lifting.calibration.defaults import default_camera
 
     log.note(f"no {calibration_word}: a level camera at the origin with a 53 degree diagonal field of view is assumed")
     return [default_camera(names[0], *image_sizes[0])]
+
+
+def _assumed_camera(name: str, source: Path, track: PoseTrack2D) -> AssumedCamera | None:
+    """The camera of the one uncalibrated view ``name`` from its video's scene
+    (:func:`platypose.detectors.scene_frames.view_camera`), or None where its keypoints came without a video."""
+    from platypose.detectors.scene_frames import view_camera
+    from platypose.detectors.video import VIDEO_SUFFIXES
+
+    if not (Path(source).is_file() and Path(source).suffix.lower() in VIDEO_SUFFIXES):
+        return None
+    return view_camera(source, name, track)
 
 
 def check_image_size(camera: Camera, image_size: tuple[int, int], source: str, log: JobLog) -> None:
@@ -241,7 +271,8 @@ def lift_take(
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
     sampler (its plane replaces ``sampler.floor``) and is the floor finishing keeps them on; ``ESTIMATE`` (one
     camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`) and grounds on it, or lifts
-    without a floor where too few standing ankles are found; None: no floor.
+    without a floor where too few standing ankles are found (``ESTIMATE_HEIGHT``: the same, the floor level in
+    the camera's world, whose roll and pitch are the scene's: only its height estimated); None: no floor.
     ``everyone`` (1, T, P', 17, 3): the keypoints of everyone in the take when ``keypoints`` hold only the persons
     chosen, so the estimated floor does not depend on whom the user chose. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
     person, :mod:`platypose.lifting.checks.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
@@ -255,16 +286,17 @@ def lift_take(
     fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
     absent = ~presence(keypoints, times, windows.max_gap)  # (P, T): unseen up to windows.max_gap is lifted through
     floor_meta = None
-    if floor == ESTIMATE:
+    if floor in ESTIMATES:
+        level = floor == ESTIMATE_HEIGHT
         if everyone is None:
             floor, floor_meta = quick_floor(
-                prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress, lifter
+                prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress, lifter, level
             )
         else:
             missing = ~presence(everyone, times)
             others = [None] * everyone.shape[2]  # solved: a known root path belongs to a chosen person only
             floor, floor_meta = quick_floor(
-                prior, everyone, times, missing, cameras, others, sampler, windows, fps, log, progress, lifter
+                prior, everyone, times, missing, cameras, others, sampler, windows, fps, log, progress, lifter, level
             )
     if isinstance(floor, Floor):
         sampler = replace(sampler, floor=floor.plane)

@@ -131,3 +131,46 @@ def check(
         _check_videos(calibration, videos)
     if keypoints is not None:
         _check_keypoints(calibration, keypoints, fps, sync)
+
+
+@calib_app.command("estimate")
+def estimate(
+    videos: list[Path] = typer.Argument(..., help="Videos, one camera each (each in its own estimated world)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Calibration to write: .toml (Pose2Sim layout) or .json."),
+    persons: str = field_option(TakeSettings, "persons"),
+) -> None:
+    """Estimate each video's camera as ``lift`` does without ``--cams`` and write it for ``--cams``.
+
+    Roll and pitch from the scene's lines, the focal length from the video's metadata, the lines or the lens prior,
+    the height above the floor from the people (docs/calibration.md). Each camera stands in its own estimated world
+    (z = 0 its floor, the camera on the z axis looking along +y): one file for several videos names their cameras,
+    it does not place them in one rig.
+    """
+    from platypose.api import lift
+    from platypose.lifting.calibration import save_calibration
+    from platypose.lifting.calibration.model import Calibration, new_meta
+    from platypose.lifting.calibration.toml_format import write_toml
+    from platypose.lifting.errors import InputError
+    from platypose.lifting.files.atomic import check_writable
+    from platypose.lifting.tracks.quick_floor import FLOOR_PASS_SAMPLES
+
+    if out.suffix.lower() not in (".toml", ".json"):
+        raise InputError(f"{out}: --out must end in .toml (Pose2Sim layout) or .json (native)", option="out")
+    check_writable(out)
+    cameras, comments = [], [f"platypose calib estimate: {len(videos)} camera(s), each in its own estimated world"]
+    for video in videos:
+        result = lift(video, persons=persons, samples=FLOOR_PASS_SAMPLES)
+        if "camera" not in result.meta or result.meta["floor"] is None:
+            raise InputError(f"{video}: camera not estimated ({'; '.join(result.meta['notes'])})")
+        cameras.append(result.cameras[0])
+        said = [n for n in result.meta["notes"] if n.startswith("no cams:")] + [result.meta["floor"].get("frame", "")]
+        comments += [f"{result.cameras[0].name}: {line}" for line in said if line]
+    if out.suffix.lower() == ".toml":
+        write_toml(out, cameras, comments)
+    else:
+        meta = new_meta("estimated", ", ".join(map(str, videos)), "z", "m")
+        meta["assumptions"] = comments[1:]
+        save_calibration(out, Calibration(cameras=tuple(cameras), meta=meta))
+    typer.echo(f"wrote {out}: {len(cameras)} camera(s) {', '.join(c.name for c in cameras)}")
+    for line in comments[1:]:
+        typer.echo(f"  {line}")

@@ -1,4 +1,5 @@
-"""Calibration ``.toml`` of Pose2Sim, anipose, FreeMoCap and Caliscope: one table per camera.
+"""Calibration ``.toml`` of Pose2Sim, anipose, FreeMoCap and Caliscope: one table per camera; :func:`write_toml`
+writes the Pose2Sim layout.
 
 Pose2Sim / anipose / FreeMoCap: ``[cam_N]`` (or any name) tables with ``name``, ``size`` [width,
 height], ``matrix`` 3x3, ``distortions`` [k1 k2 p1 p2 (k3)], ``rotation`` (Rodrigues, world ->
@@ -20,12 +21,16 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
+
 from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.defaults import complete_camera
 from platypose.lifting.calibration.model import Calibration, new_meta
 from platypose.lifting.calibration.plausible import detect_units, detect_up
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import write_text_atomic
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -102,3 +107,34 @@ def read_toml(path: Path) -> Calibration:
             0, "world frame not stated by the file: assumed Z up and metres (they fit the cameras)"
         )
     return Calibration(cameras=cameras, meta=meta)
+
+
+def write_toml(path: Path, cameras: list[Camera], comments: list[str] = ()) -> None:
+    """Write ``cameras`` (z up, metres) as a Pose2Sim ``.toml`` atomically, ``comments`` as ``#`` lines on top."""
+    lines = [f"# {line}" for text in comments for line in text.splitlines()]
+    for camera in cameras:
+        rotation = cv2.Rodrigues(np.asarray(camera.R, np.float64))[0].ravel()
+        lines += [
+            "",
+            f"[{_key(camera.name)}]",
+            f"name = {_string(camera.name)}",
+            f"size = [ {camera.width:.1f}, {camera.height:.1f}]",
+            "matrix = [ " + ", ".join(_numbers(row) for row in np.asarray(camera.K, np.float64)) + "]",
+            f"distortions = {_numbers(np.asarray(camera.dist, np.float64))}",
+            f"rotation = {_numbers(rotation)}",
+            f"translation = {_numbers(np.asarray(camera.t, np.float64))}",
+            "fisheye = false",
+        ]
+    write_text_atomic(path, "\n".join(lines).lstrip("\n") + "\n")
+
+
+def _numbers(values: np.ndarray) -> str:
+    return "[ " + ", ".join(repr(float(v)) for v in values) + "]"
+
+
+def _string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _key(text: str) -> str:
+    return text if text.replace("_", "").replace("-", "").isalnum() and text.isascii() else _string(text)

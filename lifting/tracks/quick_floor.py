@@ -34,12 +34,14 @@ def quick_floor(
     log: JobLog,
     progress: Callable[[list[int] | str, int, int], None] | None = None,
     lifter: Callable = lift_persons,
+    level_known: bool = False,
 ) -> tuple[Floor | None, dict | None]:
     """The floor under a one-camera take (keypoints (1, T, P, 17, 3), persons ``absent`` (P, T)) and its ``meta``
     entry, estimated (:func:`platypose.lifting.floor.floor_under`) under the median motions of a quick lift
     without a floor: ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest;
     None, None (logged) when too few standing ankles are found. ``progress(QUICK_LIFT, done, total)`` counts its
-    windows; ``lifter`` lifts them (as :func:`lift_persons`)."""
+    windows; ``lifter`` lifts them (as :func:`lift_persons`). ``level_known``: the camera's roll and pitch are the
+    scene's, only the floor's height is estimated."""
     if len(cameras) != 1:
         return None, None
     began = time.perf_counter()
@@ -63,7 +65,7 @@ def quick_floor(
         energy,
         None if progress is None else (lambda group, done, total: progress(QUICK_LIFT, done, total)),
     )
-    floor, meta = floor_under(median, cameras[0], fps, kept[0])
+    floor, meta = floor_under(median, cameras[0], fps, kept[0], level_known)
     seconds = time.perf_counter() - began
     if floor is None:
         log(f"floor: too few standing ankles to estimate it under a quick lift ({seconds:.1f} s); lifting without one")
@@ -71,6 +73,7 @@ def quick_floor(
         log(
             f"floor estimated under a quick lift of {quick.samples} hypotheses ({seconds:.1f} s): camera "
             f"{meta['camera_height_m']:.2f} m above it, pitched {meta['camera_pitch_deg']:.1f} degrees down "
+            f"{'(the scene) ' if level_known else ''}"
             f"({meta['stance_points']} standing ankles); --floor z=H or a calibration sets it instead"
         )
     return floor, meta

@@ -90,7 +90,9 @@ def test_a_video_view_is_detected_and_lifted_as_the_command_does(tiny_default_pr
     result = platypose.lift(video, samples=3, stride=2, threads=1)
     assert result.hypotheses.shape == written.hypotheses.shape and result.num_frames == 6
     assert np.array_equal(result.hypotheses, written.hypotheses, equal_nan=True)
-    assert any(n.startswith("no cams: a level camera") for n in result.meta["notes"])  # a note, not a warning
+    assert any(
+        n.startswith("no cams: camera from the scene's lines") for n in result.meta["notes"]
+    )  # a note, not a warning
     assert not any("no cams" in w for w in result.meta["warnings"])
 
 

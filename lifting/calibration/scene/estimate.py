@@ -33,8 +33,9 @@ from platypose.lifting.calibration.scene.segments import (
 MIN_LENGTH = 0.015  # segments shorter than this share of the image diagonal are left out
 ROUNDS = 3
 FOCAL_RANGE = (1 / 3, 3.0)  # the focal length searched, times the given one
-FOCAL_MEASURED_SD = 0.05  # the lines measure the focal length when its relative sd is under this
+FOCAL_MEASURED_SD = 0.10  # the lines measure the focal length when its relative sd is under this
 FOCAL_PRIOR_SD = 0.3  # relative spread of a focal length the lines did not measure
+FOCAL_HELD_SD = 0.05  # relative spread of a trusted one (the video's metadata: zoom, stabilisation's crop)
 MIN_SD_DEG, MIN_FOCAL_SD = 0.3, 0.02  # floors: the principal point, lens distortion, not quite square scenes
 MOTION_FRAMES = 6
 RIVALS = 4  # the best solutions the bootstrap chooses among
@@ -67,10 +68,13 @@ def scene_camera(
     boxes: list[np.ndarray] | None = None,
     focal_px: float | None = None,
     focal_source: str = PRIOR,
+    hold_focal: bool = False,
 ) -> SceneCamera:
     """The camera of grey ``frames`` (each (H, W) uint8, spread over one take) whose people stand in ``boxes``
     (per frame (K, 4) px ``x0, y0, x1, y1``; optional). ``focal_px`` (from ``focal_source``; default the lens
-    prior) is the pitch's focal length where the lines do not measure one, and the centre of the search."""
+    prior) is the pitch's focal length where the lines do not measure one, and the centre of the search;
+    ``hold_focal``: a trusted focal length (the video's metadata): the pitch is taken at it, the lines' own is not
+    reported (nor a note)."""
     detect = line_detector()
     if detect is None:
         return SceneCamera(problem=NO_DETECTOR)
@@ -89,10 +93,12 @@ def scene_camera(
             found = ", ".join(f"{100 * s:.0f}" for s in shares)
             return SceneCamera(problem=f"camera moves: frames keep {found} % of their long lines in the median")
     segments = segments[lengths(segments) >= MIN_LENGTH * diagonal]
-    return _solve(segments, size, focal_px, focal_source)
+    return _solve(segments, size, focal_px, focal_source, hold_focal)
 
 
-def _solve(segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_source: str) -> SceneCamera:
+def _solve(
+    segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_source: str, hold_focal: bool
+) -> SceneCamera:
     """:func:`scene_camera` from the scene's segments (N, 4)."""
     scale = image_scale(size)
     lines = to_lines(segments, size)
@@ -107,6 +113,7 @@ def _solve(segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_s
     relative_sd = float(fit_sd[3])
     inside = FOCAL_RANGE[0] * 1.05 < fitted.focal / prior < FOCAL_RANGE[1] / 1.05
     measured = min(counts[:2]) >= manhattan.MIN_SEGMENTS and relative_sd < FOCAL_MEASURED_SD and inside
+    measured &= not hold_focal
     sources = {"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE}
     note = None
     if measured:
@@ -114,14 +121,14 @@ def _solve(segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_s
         sources["focal_px"] = FOCAL_SOURCE
     else:
         held = manhattan.fit(lines, fitted.labels, fitted.params, held_focal=prior)
+        relative = FOCAL_HELD_SD if hold_focal else FOCAL_PRIOR_SD
         wide = [
-            manhattan.fit(lines, fitted.labels, held.params, held_focal=prior * np.exp(s * FOCAL_PRIOR_SD))
-            for s in (-1, 1)
+            manhattan.fit(lines, fitted.labels, held.params, held_focal=prior * np.exp(s * relative)) for s in (-1, 1)
         ]
         widened = abs(wide[1].params[0] - wide[0].params[0]) / 2.0
         pitch_sd = float(np.degrees(np.hypot(held.sd[0], widened)))
         sources["pitch_deg"] = f"{VERTICAL_SOURCE} at the focal length of the {focal_source}"
-        note = f"{NOT_MEASURED}: {_why_not(counts, relative_sd)}"
+        note = None if hold_focal else f"{NOT_MEASURED}: {_why_not(counts, relative_sd)}"
         fitted = held
     pitch, roll = np.degrees(fitted.params[:2])
     sd = {

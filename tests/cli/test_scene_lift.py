@@ -1,0 +1,101 @@
+"""A lift without ``--cams`` stands on the camera of its scene's lines (roll, pitch, focal length; the height from
+the people), says which source gave each once, and ``calib estimate`` writes that camera for ``--cams``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import platypose
+from platypose.lifting.calibration import load_calibration
+from platypose.lifting.calibration.defaults import LEVEL_R
+from platypose.lifting.calibration.lens import METADATA, PRIOR, prior_focal
+from platypose.lifting.calibration.pose_above_floor import pose_of
+from platypose.lifting.calibration.scene.estimate import FOCAL_SOURCE, NOT_MEASURED, VERTICAL_SOURCE, SceneCamera
+from platypose.lifting.calibration.scene.view_camera import FALLBACK, assumed_camera
+from platypose.lifting.tracks.quick_floor import FLOOR_PASS_SAMPLES
+
+BALANCING = "video/pose2sim-balancing"
+SETTINGS = {"persons": "largest", "samples": FLOOR_PASS_SAMPLES}  # calib estimate's quick lift, as a lift's
+
+
+@pytest.fixture
+def tiny_default_prior(monkeypatch, prior_file):
+    """The tiny prior in place of the shipped one (calib estimate loads the default)."""
+    import platypose.lifting.prior.model as prior_module
+
+    monkeypatch.setattr(prior_module, "DEFAULT_PRIOR", Path(prior_file))
+    return prior_file
+
+
+def test_a_lift_without_cams_uses_the_scene_and_calib_estimate_gives_it_back(
+    tiny_default_prior, data_dir, tmp_path, run_cli
+):
+    """cam02 (on main: pitch 9.7 degrees off, focal length +32 %): the scene's roll, pitch and focal length within
+    the issue's targets; the file calib estimate writes gives the same camera back through --cams."""
+    video = data_dir / BALANCING / "cam02.mp4"
+    truth = pose_of(load_calibration(data_dir / BALANCING / "calib_pose2sim.toml").camera("cam_02"))
+    lifted = platypose.lift(video, **SETTINGS)
+    used = pose_of(lifted.cameras[0])
+    assert abs(used["pitch_deg"] - truth["pitch_deg"]) < 2.0 and abs(used["roll_deg"] - truth["roll_deg"]) < 2.0
+    assert abs(used["focal_px"] / truth["focal_px"] - 1) < 0.10
+    record = lifted.meta["camera"]
+    assert record["pitch_deg"]["source"] == VERTICAL_SOURCE and record["focal_px"]["source"] == FOCAL_SOURCE
+    assert record["pitch_deg"]["value"] == pytest.approx(used["pitch_deg"], abs=1e-6)
+    assert sum("camera from the scene's lines" in note for note in lifted.meta["notes"]) == 1
+    assert "estimated world" in lifted.meta["floor"]["frame"]
+
+    out = tmp_path / "calib.toml"
+    code, stdout, stderr = run_cli("calib", "estimate", video, "--persons", "largest", "--out", out)
+    assert code == 0, stderr
+    assert "wrote" in stdout and "camera from the scene's lines" in out.read_text()
+    back = platypose.lift(video, cams=out, **SETTINGS)
+    assert back.meta["floor"]["source"] == "calibration"
+    assert np.allclose(back.cameras[0].R, lifted.cameras[0].R, atol=1e-9)
+    assert np.allclose(back.cameras[0].center, lifted.cameras[0].center, atol=1e-3)
+    assert np.allclose(back.cameras[0].K, lifted.cameras[0].K, atol=1e-6)
+
+
+def test_without_a_line_detector_the_lift_falls_back_and_says_so(tiny_default_prior, data_dir, monkeypatch):
+    monkeypatch.delattr(cv2, "createLineSegmentDetector")
+    lifted = platypose.lift(data_dir / BALANCING / "cam02.mp4", **SETTINGS)
+    said = [note for note in lifted.meta["notes"] if FALLBACK in note]
+    assert len(said) == 1 and "no line detector" in said[0]
+    assert lifted.meta["camera"]["scene"].startswith("no line detector")
+    assert "(the scene)" not in " ".join(lifted.meta["notes"])
+
+
+SCENE = {"roll_deg": 2.0, "pitch_deg": 15.0, "segments": 80}
+SOURCES = {"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE}
+
+
+def test_a_moving_camera_leaves_the_level_camera_of_before():
+    found = assumed_camera("v", (1080, 1920), SceneCamera(problem="camera moves: frames keep 20, 30 % of ..."))
+    assert not found.level_known and np.allclose(found.camera.R, LEVEL_R)
+    assert len(found.lines) == 1 and found.lines[0].startswith(FALLBACK) and "camera moves" in found.lines[0]
+
+
+def test_a_focal_length_the_lines_did_not_measure_is_the_lens_prior_said_once():
+    scene = SceneCamera(
+        **SCENE, sd={"roll_deg": 0.3, "pitch_deg": 2.0}, source=SOURCES, focal_note=f"{NOT_MEASURED}: too few lines"
+    )
+    found = assumed_camera("v", (1080, 1920), scene)
+    assert found.level_known and found.camera.K[0, 0] == pytest.approx(prior_focal((1080, 1920)))
+    assert found.record["focal_px"]["source"] == PRIOR and found.record["focal_px"]["sd"] is None
+    assert sum(NOT_MEASURED in line for line in found.lines) == 1
+    assert pose_of(found.camera)["pitch_deg"] == pytest.approx(15.0)
+
+
+def test_the_video_metadata_focal_length_comes_first():
+    scene = SceneCamera(
+        **SCENE,
+        focal_px=1500.0,
+        sd={"roll_deg": 0.3, "pitch_deg": 0.3, "focal_px": 30.0},
+        source={**SOURCES, "focal_px": FOCAL_SOURCE},
+    )
+    found = assumed_camera("v", (1080, 1920), scene, metadata_focal=1234.0)
+    assert found.camera.K[0, 0] == 1234.0 and found.record["focal_px"]["source"] == METADATA
+    assert not any(NOT_MEASURED in line for line in found.lines)
