@@ -156,9 +156,13 @@ def _solutions(lines: Lines, prior: float, min_length_px: float) -> list[manhatt
     horizontal directions (long floor edges running away from the camera look upright in the image)."""
     dropped = np.zeros(len(lines), bool)
     found: list[tuple[float, manhattan.Fit]] = []
+    tried: list[np.ndarray] = []  # vertical points searched already: a later round's same point is not again
     for _ in range(ROUNDS):
         kept = np.nonzero(~dropped)[0]
         for candidate in vertical.find_verticals(lines.take(kept), prior, min_length_px):
+            if any(vertical.same_point(candidate.point, point, prior) for point in tried):
+                continue
+            tried.append(candidate.point)
             inliers = np.zeros(len(lines), bool)
             inliers[kept[candidate.inliers]] = True
             fitted = manhattan.solve(lines, candidate.point, inliers, (prior * FOCAL_RANGE[0], prior * FOCAL_RANGE[1]))

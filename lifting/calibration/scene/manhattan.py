@@ -30,6 +30,7 @@ from platypose.lifting.calibration.scene.vertical import unlikeliness
 TOLERANCE_DEG = 1.5  # the fit's unit
 SEARCH_TOLERANCE_DEG = 3.0  # the grid's: wide enough for a vertical point a little off
 FOCAL_STEPS, YAW_STEP_DEG = 60, 1.0
+SEARCH_LINES = 250
 LABEL_TOLERANCE_DEG = 2.0  # a segment belongs to the direction whose point it misses by less than this
 MIN_SEGMENTS = 4  # a horizontal direction needs this many segments to count
 
@@ -73,7 +74,9 @@ def _horizontal_pairs(vertical: np.ndarray, focal: float, yaws: np.ndarray) -> n
 
 
 def search(lines: Lines, vertical: np.ndarray, focal_range: tuple[float, float]) -> np.ndarray:
-    """The best (pitch, roll, yaw, log focal) on the grid for ``lines`` not explained by the ``vertical`` point."""
+    """The best (pitch, roll, yaw, log focal) on the grid for ``lines`` not explained by the ``vertical`` point
+    (the ``SEARCH_LINES`` longest of them: the fit that follows uses all)."""
+    lines = lines.take(np.argsort(-lines.length)[:SEARCH_LINES])
     focals = np.geomspace(*focal_range, FOCAL_STEPS)
     yaws = np.radians(np.arange(0.0, 90.0, YAW_STEP_DEG))
     tol = np.sin(np.radians(SEARCH_TOLERANCE_DEG))

@@ -76,20 +76,24 @@ def unmasked_pieces(segments: np.ndarray, allowed: np.ndarray, step_px: float = 
     """The parts (M, 4) of the segments (N, 4) that lie where ``allowed`` (H, W) is True, tested every ``step_px``
     along them: a floor edge passing behind a person keeps its two ends (pieces shorter than two steps are
     left out)."""
+    segments = np.asarray(segments, np.float64).reshape(-1, 4)
+    if len(segments) == 0:
+        return segments
     height, width = allowed.shape
-    pieces = []
-    for x1, y1, x2, y2 in segments:
-        count = max(int(np.hypot(x2 - x1, y2 - y1) / step_px), 1) + 1
-        s = np.linspace(0.0, 1.0, count)
-        x, y = x1 + s * (x2 - x1), y1 + s * (y2 - y1)
-        xi, yi = np.rint(x).astype(int), np.rint(y).astype(int)
-        ok = (xi >= 0) & (xi < width) & (yi >= 0) & (yi < height)
-        ok[ok] = allowed[yi[ok], xi[ok]]
-        edges = np.diff(np.concatenate([[0], ok.astype(np.int8), [0]]))
-        for first, last in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0] - 1):
-            if last - first >= 2:
-                pieces.append([x[first], y[first], x[last], y[last]])
-    return np.array(pieces, np.float64).reshape(-1, 4)
+    counts = np.maximum((lengths(segments) / step_px).astype(int), 1) + 1  # samples along each
+    longest = int(counts.max())
+    s = np.arange(longest)[None] / np.maximum(counts - 1, 1)[:, None]  # (N, S), past 1 beyond each's end
+    x = segments[:, :1] + s * (segments[:, 2:3] - segments[:, :1])
+    y = segments[:, 1:2] + s * (segments[:, 3:4] - segments[:, 1:2])
+    xi, yi = np.rint(x).astype(int), np.rint(y).astype(int)
+    ok = (np.arange(longest)[None] < counts[:, None]) & (xi >= 0) & (xi < width) & (yi >= 0) & (yi < height)
+    ok[ok] = allowed[yi[ok], xi[ok]]
+    edges = np.diff(np.pad(ok.astype(np.int8), ((0, 0), (1, 1))), axis=1)
+    rows, first = np.nonzero(edges == 1)  # row-major: each row's runs in order, starts and ends alike
+    last = np.nonzero(edges == -1)[1] - 1
+    keep = last - first >= 2
+    rows, first, last = rows[keep], first[keep], last[keep]
+    return np.column_stack([x[rows, first], y[rows, first], x[rows, last], y[rows, last]])
 
 
 def lengths(segments: np.ndarray) -> np.ndarray:

@@ -98,13 +98,18 @@ def find_verticals(lines: Lines, focal: float, min_length_px: float, count: int 
         refined = _refine(pool, points[seed])
         if refined is None:
             continue
-        up = _ups(refined[None], focal)[0]
-        if any(abs(_ups(v.point[None], focal)[0] @ up) >= near for v in found):
+        if any(same_point(refined, v.point, focal) for v in found):
             continue
         inliers = np.zeros(len(lines), bool)
         inliers[candidates[_inliers(pool, refined)]] = True
         found.append(Vertical(refined, inliers, float(lines.length[inliers].sum())))
     return found
+
+
+def same_point(first: np.ndarray, second: np.ndarray, focal: float) -> bool:
+    """Whether two vertical vanishing points (3,) give the world's up within ``SEPARATION_DEG`` at ``focal``."""
+    ups = _ups(np.stack([first, second]), focal)
+    return bool(abs(ups[0] @ ups[1]) >= np.cos(np.radians(SEPARATION_DEG)))
 
 
 def _inliers(lines: Lines, point: np.ndarray) -> np.ndarray:
