@@ -146,7 +146,10 @@ def estimate(
     (z = 0 its floor, the camera on the z axis looking along +y): one file for several videos names their cameras,
     it does not place them in one rig.
     """
+    import torch
+
     from platypose.api import lift
+    from platypose.cli.threads import threads_for
     from platypose.lifting.calibration import save_calibration
     from platypose.lifting.calibration.model import Calibration, new_meta
     from platypose.lifting.calibration.toml_format import write_toml
@@ -157,9 +160,11 @@ def estimate(
     if out.suffix.lower() not in (".toml", ".json"):
         raise InputError(f"{out}: --out must end in .toml (Pose2Sim layout) or .json (native)", option="out")
     check_writable(out)
+    threads = threads_for(None)  # as lift's, so that its detections and quick lift are lift's
+    torch.set_num_threads(threads)
     cameras, comments = [], [f"platypose calib estimate: {len(videos)} camera(s), each in its own estimated world"]
     for video in videos:
-        result = lift(video, persons=persons, samples=FLOOR_PASS_SAMPLES)
+        result = lift(video, persons=persons, samples=FLOOR_PASS_SAMPLES, threads=threads)
         if "camera" not in result.meta or result.meta["floor"] is None:
             raise InputError(f"{video}: camera not estimated ({'; '.join(result.meta['notes'])})")
         cameras.append(result.cameras[0])
