@@ -61,10 +61,11 @@ def split_hooks(pool, settings, name: str, log, read: Callable) -> tuple[SplitLi
     return lifter, split_read
 
 
-def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, log: Callable[[str], None]) -> int:
+def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, log) -> int:
     """Detect ``source`` (a video) in pieces of ``split_s`` seconds run by ``pool`` and write the joined detections
     as its detection cache in ``folder`` (nothing to do when that cache is current); pieces already detected by an
-    earlier run (``folder/.pieces``) are not detected again. The number of pieces detected now."""
+    earlier run (``folder/.pieces``) are not detected again, and a damaged cache or piece is removed, warned of
+    (``log``, a JobLog) and detected again. The number of pieces detected now."""
     from platypose.cli.detection import cached_detector
     from platypose.detectors.cache import DetectionCache, cache_key, read_detections
     from platypose.detectors.video import video_info
@@ -73,7 +74,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
     name = cached_detector(detect).name
     key = cache_key(source, name, detect.stride, detect.max_frames)
     cache = DetectionCache(folder, source.stem)
-    if cache.load(key) is not None:
+    if cache.load(key, log.warning) is not None:
         return 0
     info = video_info(source)
     stamps = frame_stamps(source)[0]
@@ -88,7 +89,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
         path = pieces / f"{source.stem}.{_digest(piece_key)}.detections.npz"
         paths.append(path)
         keys.append(piece_key)
-        if DetectionCache(path.parent, path.name.removesuffix(".detections.npz")).load(piece_key) is None:
+        if DetectionCache(path.parent, path.name.removesuffix(".detections.npz")).load(piece_key, log.warning) is None:
             stamp = int(stamps[start]) if start < len(stamps) else None
             tasks.append((detect_piece, (str(source), detect, start, stamp, count, str(path), piece_key)))
     started = time.perf_counter()

@@ -19,6 +19,7 @@ from platypose.cli.lift_batch import run_batch
 from platypose.cli.lift_jobs import discover_jobs
 from platypose.cli.lift_run import RunSettings, run_job
 from platypose.cli.split_pieces import PIECES, LocalPieces, SplitExecutor
+from platypose.lifting.job_log import JobLog
 from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, WindowSettings
 
 DEMO = "video/sports2d-demo"
@@ -78,9 +79,9 @@ def test_pieces_detect_the_frames_of_an_unsplit_run(data_dir, tmp_path):
     video = data_dir / DEMO / "demo.mp4"
     options = DetectOptions(threads=1, stride=10)
     pool = InProcess()
-    lines = []
-    assert detect_in_pieces(video, options, tmp_path / "demo", 3.0, pool, lines.append) == 3
-    assert len(pool.ran) == 3 and "3 piece(s) of 3 s detected in" in lines[0]  # frames 0-89, 90-179, 180-end
+    log = JobLog()
+    assert detect_in_pieces(video, options, tmp_path / "demo", 3.0, pool, log) == 3
+    assert len(pool.ran) == 3 and "3 piece(s) of 3 s detected in" in log.lines[0]  # frames 0-89, 90-179, 180-end
     model = cached_detector(options)
     joined = DetectionCache(tmp_path / "demo", "demo").load(cache_key(video, model.name, 10, None))
     detections, indices = detect_frames(video, model, stride=10)
