@@ -2,7 +2,7 @@
 
 Bounds (stated here):
 
-- image size: 1 to ``MAX_IMAGE_SIDE`` pixels a side; fps: finite, above 0 and at most ``MAX_FPS``;
+- image size: 1 to ``MAX_IMAGE_SIDE`` pixels a side; fps: ``MIN_FPS`` to ``MAX_FPS``;
 - frame numbers: whole numbers; two files (or entries) in a row may be at most ``MAX_GAP_FRAMES``
   frames apart (a longer gap is a mis-numbered file, and would be stored as that many empty frames);
 - at most ``MAX_PEOPLE`` people in one frame (crowds beyond that are not what the lifter is for);
@@ -16,7 +16,6 @@ Bounds (stated here):
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -25,6 +24,7 @@ from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.errors import InputError
 
 MAX_IMAGE_SIDE = 100_000
+MIN_FPS = 1.0  # slower, consecutive frames lie farther apart than a person is lifted through unseen (--max-gap 1 s)
 MAX_FPS = 10_000.0
 MAX_GAP_FRAMES = 100_000
 MAX_PEOPLE = 100
@@ -67,9 +67,9 @@ def check_image_size(source: str, image_size: Sequence[int]) -> tuple[int, int]:
 
 
 def check_fps(source: str, fps: float) -> float:
-    """``fps`` as a float, InputError unless it is finite, positive and at most MAX_FPS."""
-    if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
-        raise InputError(f"{source}: fps must be a number above 0 and at most {MAX_FPS:g}, got {fps}")
+    """``fps`` as a float, InputError unless it is a number from MIN_FPS to MAX_FPS."""
+    if not MIN_FPS <= fps <= MAX_FPS:  # NaN too
+        raise InputError(f"{source}: fps must be a number from {MIN_FPS:g} to {MAX_FPS:g}, got {fps}")
     return float(fps)
 
 

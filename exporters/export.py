@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from platypose.exporters.angles import angle_series, write_angles_csv
 from platypose.exporters.bvh import write_bvh
 from platypose.exporters.csv_export import write_long_csv, write_people_csv
 from platypose.exporters.frames import Lead
@@ -95,8 +96,12 @@ def export(
     bvh: str = "median",
     rrd_video: str = "asset",
     say: Callable[[str], None] = lambda _: None,
+    warn: Callable[[str], None] | None = None,
 ) -> list[Path]:
     """Write ``formats`` of ``result`` as ``out_dir/name*``; return the paths written. Each file is atomic.
+
+    Progress goes to ``say``; a warning about a person's export (OpenSim IK that fits badly) to ``warn``, by default
+    said as ``warning: <name>: ...`` (``lift`` keeps them in its log, summary and console).
 
     The BVH fit error goes into ``meta["bvh_fit_error"]`` and OpenSim's IK fit into ``meta["opensim_ik"]`` of the
     npz written in the same call.
@@ -131,13 +136,14 @@ def export(
         from platypose.exporters.mot import flag_ik, write_mots
 
         say(f"{name}: OpenSim scaling and inverse kinematics")
-        paths, fits = write_mots(result, out_dir, name, say)
+        paths, fits = write_mots(result, out_dir, name, say, warn or (lambda text: say(f"warning: {name}: {text}")))
         written += paths
         reports = flag_ik(result.meta.get("plausibility") or [], fits, result.track_ids)
         result = result.with_meta(opensim_ik=fits, **({"plausibility": reports} if reports else {}))
+    series = angle_series(result) if {"npz", "angles", "report"} & set(formats) else {}
     if "npz" in formats:
         say(f"{name}: npz")
-        written.append(write_npz(result, out_dir / f"{name}.npz"))
+        written.append(write_npz(result, out_dir / f"{name}.npz", series))
     if "csv" in formats:
         say(f"{name}: CSV")
         written.append(write_people_csv(result, out_dir / f"{name}.csv"))
@@ -159,9 +165,6 @@ def export(
                 f"{name}: no person thumbnails from camera(s) {', '.join(unseen)}: no video of them (--video CAMERA=PATH)"
             )
     if "angles" in formats or "report" in formats:
-        from platypose.exporters.angles import angle_series, write_angles_csv
-
-        series = angle_series(result)
         if "angles" in formats:
             say(f"{name}: joint angles")
             written.append(write_angles_csv(result, series, out_dir / f"{name}_angles.csv"))

@@ -205,9 +205,14 @@ def flag_ik(reports: list[dict], fits: dict[str, dict], track_ids: np.ndarray) -
 
 
 def write_mots(
-    result: LiftResult, out_dir: Path, name: str, say: Callable[[str], None] = lambda _: None
+    result: LiftResult,
+    out_dir: Path,
+    name: str,
+    say: Callable[[str], None] = lambda _: None,
+    warn: Callable[[str], None] = lambda _: None,
 ) -> tuple[list[Path], dict[str, dict]]:
-    """``<name>_p<k>.mot`` and ``<name>_p<k>.osim`` per person seen, atomically, and each person's :class:`IkFit`."""
+    """``<name>_p<k>.mot`` and ``<name>_p<k>.osim`` per person seen, atomically, and each person's :class:`IkFit`;
+    progress to ``say``, each fit's warnings to ``warn`` (``person <k> OpenSim IK: <warning>``)."""
     osim = load_opensim()
     paths: list[Path] = []
     fits: dict[str, dict] = {}
@@ -229,5 +234,5 @@ def write_mots(
         fits[f"p{track}"] = fit.as_dict()
         say(f"{name}: person {track} OpenSim IK: marker RMS {100 * fit.rms_median_m:.1f} cm (median)")
         for warning in fit.warnings():
-            say(f"warning: {name}: person {track} OpenSim IK: {warning}")
+            warn(f"person {track} OpenSim IK: {warning}")
     return paths, fits

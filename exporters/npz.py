@@ -9,6 +9,7 @@ from typing import IO
 
 import numpy as np
 
+from platypose.exporters.angles import ANGLE_NAMES, SERIES_COLUMNS, angle_series
 from platypose.exporters.frames import FrameArray, frame_chunks
 from platypose.exporters.npz_checks import check_coordinates, check_field_sizes
 from platypose.exporters.result import LiftResult
@@ -35,7 +36,8 @@ REQUIRED = (
 )
 
 
-FRAME_AXES = {"hypotheses": 2, "median": 1, "keypoints2d": 2, "energy": 2}  # written a chunk of frames at a time
+# Written a chunk of frames at a time.
+FRAME_AXES = {"hypotheses": 2, "median": 1, "keypoints2d": 2, "energy": 2, "angles": 1}
 
 
 def cameras_json(cameras: tuple[Camera, ...]) -> str:
@@ -44,8 +46,18 @@ def cameras_json(cameras: tuple[Camera, ...]) -> str:
     return json.dumps(calibration_to_dict(calibration))
 
 
-def result_arrays(result: LiftResult) -> dict[str, np.ndarray | FrameArray]:
-    """The npz fields of ``result`` as plain arrays (no pickled objects; long ones may stay on disk)."""
+def angle_array(result: LiftResult, series: dict[int, np.ndarray]) -> np.ndarray:
+    """The npz's ``angles`` ``(P, T, A, 4)`` float32 from :func:`exporters.angles.angle_series` (NaN for a person
+    without a series)."""
+    out = np.full((result.num_persons, result.num_frames, len(ANGLE_NAMES), len(SERIES_COLUMNS)), np.nan, np.float32)
+    for p, values in series.items():
+        out[p] = values
+    return out
+
+
+def result_arrays(result: LiftResult, series: dict[int, np.ndarray]) -> dict[str, np.ndarray | FrameArray]:
+    """The npz fields of ``result`` as plain arrays (no pickled objects; long ones may stay on disk), its joint
+    angles from ``series`` (:func:`exporters.angles.angle_series`)."""
     arrays = {
         "hypotheses": result.hypotheses,
         "median": result.median,
@@ -59,20 +71,24 @@ def result_arrays(result: LiftResult) -> dict[str, np.ndarray | FrameArray]:
         "units": np.array(result.units),
         "up_axis": np.array(result.up_axis),
         "meta": np.array(json.dumps(result.meta, sort_keys=True)),
+        "angles": angle_array(result, series),
+        "angle_names": np.array(ANGLE_NAMES),
+        "angle_columns": np.array(SERIES_COLUMNS),
     }
     if result.energy is not None:
         arrays["energy"] = result.energy
     return arrays
 
 
-def write_npz(result: LiftResult, path: Path | str) -> Path:
+def write_npz(result: LiftResult, path: Path | str, series: dict[int, np.ndarray] | None = None) -> Path:
     """Write ``result`` to ``path`` (npz, as ``np.savez`` would) atomically; meta must be JSON-serialisable.
 
+    Its joint angles are ``series`` (:func:`exporters.angles.angle_series` of ``result``; None: computed here).
     Long arrays are copied a chunk of frames at a time.
     """
     path = Path(path)
     try:
-        arrays = result_arrays(result)
+        arrays = result_arrays(result, angle_series(result) if series is None else series)
     except TypeError as err:
         raise InputError(f"{path}: meta is not JSON-serialisable ({err})") from None
     with atomic_open(path) as f, zipfile.ZipFile(f, mode="w", compression=zipfile.ZIP_STORED, allowZip64=True) as z:

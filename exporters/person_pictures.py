@@ -55,8 +55,8 @@ def joint_boxes(keypoints2d: np.ndarray, seen: np.ndarray | None = None) -> tupl
 
 def shared(keypoints2d: np.ndarray) -> np.ndarray:
     """Per person, camera and frame ``(P, C, T)``: the largest share of the person's box that another person's box
-    covers there, from keypoints ``(C, T, P, 17, 3)`` (0 where the person or everyone else is unseen)."""
-    low, high = joint_boxes(np.moveaxis(np.asarray(keypoints2d), 2, 0))  # (P, C, T, 2)
+    covers there, from keypoints ``(C, P, T, 17, 3)`` (0 where the person or everyone else is unseen)."""
+    low, high = joint_boxes(np.moveaxis(np.asarray(keypoints2d), 1, 0))  # (P, C, T, 2)
     size = np.clip(high - low, 0.0, None)
     area = size[..., 0] * size[..., 1]
     most = np.zeros(area.shape)
@@ -96,11 +96,12 @@ def good_frame(
 
 
 def good_frames(result) -> dict[int, GoodFrame]:
-    """Person index -> good frame, for every person of ``result`` (a LiftResult) seen somewhere."""
+    """Person index -> good frame, for every person of ``result`` (a LiftResult, keypoints2d ``(C, P, T, 17, 3)``)
+    seen somewhere."""
     sizes = [tuple(c.size) for c in result.cameras]
     keypoints = np.asarray(result.keypoints2d)
     covered = shared(keypoints)
-    frames = {p: good_frame(keypoints[:, :, p], sizes, covered[p]) for p in range(result.num_persons)}
+    frames = {p: good_frame(keypoints[:, p], sizes, covered[p]) for p in range(result.num_persons)}
     return {p: f for p, f in frames.items() if f is not None}
 
 

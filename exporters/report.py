@@ -24,6 +24,7 @@ LEG_ANGLES = ("right_hip_flexion", "left_hip_flexion", "right_knee_flexion", "le
 UPPER_ANGLES = ("trunk_flexion", "right_shoulder_elevation", "left_shoulder_elevation", "right_elbow_flexion")
 _COLOURS = ("tab:red", "tab:blue", "tab:orange", "tab:cyan")
 MAX_ROWS = 8  # persons drawn (the longest present first)
+WHO_CHARS = 24  # characters per line of the caption under a thumbnail (its column is narrow)
 FLAG_CHARS = (64, 256)  # a row's flag text: characters per line, in all (longer is cut with "...")
 
 
@@ -61,13 +62,13 @@ def _draw_who(ax, result: LiftResult, p: int, good, picture) -> None:
     ax.set_axis_off()
     if picture is not None:
         ax.imshow(picture)
-    caption = f"person {int(result.track_ids[p])}"
+    lines = [f"person {int(result.track_ids[p])}"]
     if good is not None:
         x1, y1, x2, y2 = good.box
         camera = result.cameras[good.camera].name
-        caption += f"\n{camera} frame {good.frame}\nbox {x1:.0f},{y1:.0f}-{x2:.0f},{y2:.0f} px"
-        caption += "" if picture is not None else f"\n(no thumbnail: no video of {camera} given)"
-    ax.set_title(caption, fontsize=8)
+        lines += [f"{camera} frame {good.frame}", f"box {x1:.0f},{y1:.0f}-{x2:.0f},{y2:.0f} px"]
+        lines += [] if picture is not None else [f"(no thumbnail: no video of {camera} given)"]
+    ax.set_title("\n".join(fill(line, WHO_CHARS) for line in lines), fontsize=8)  # within the column's width
 
 
 def _row_title(ax, title: str, flagged: str) -> None:

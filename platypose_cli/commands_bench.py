@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import stat
 import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -84,6 +85,19 @@ def sampler_section(prior, config, frames: int, repeats: int, matmul_size: int, 
         "runtime_matmul_gflops": own,
         "utilisation": timing.network_gflops / own,
     }
+
+
+def check_video_to_loop(video: Path) -> None:
+    """InputError naming ``video`` unless it is a regular file (a FIFO, a device or a folder is no video to loop)."""
+    from platypose.lifting.errors import InputError
+    from platypose.lifting.files.reads import file_kind
+
+    try:
+        mode = os.stat(video).st_mode
+    except OSError:
+        raise InputError(f"{video}: video to loop not found (give --video)") from None
+    if not stat.S_ISREG(mode):
+        raise InputError(f"{video}: is {file_kind(mode)}, not a video file to loop (give --video)")
 
 
 def clip_section(prior, video: Path, seconds: float, threads: int | None, say, persons: str = "largest") -> dict:
@@ -235,8 +249,8 @@ def bench(
 
     if end_to_end and not 0 < clip_seconds <= MAX_CLIP_S:  # NaN fails too
         raise InputError(f"--clip-seconds {clip_seconds:g}: give a length in seconds above 0, at most {MAX_CLIP_S:g}")
-    if end_to_end and not video.is_file():
-        raise InputError(f"{video}: video to loop not found (give --video)")
+    if end_to_end:
+        check_video_to_loop(video)
     persons_count(persons)  # InputError for a value --persons does not take
     threads = threads_for(threads)
     torch.set_num_threads(threads)

@@ -60,7 +60,7 @@ def lift_settings(
     )
     resolve_device(prior.device)
     check_writable(out, folder=True)
-    chosen = parse_formats(formats)
+    chosen = parse_formats((*parse_formats(formats), "npz"))  # the npz, the source of truth, always
     if "mot" in chosen:
         from platypose.exporters.mot import load_opensim
 
@@ -160,7 +160,7 @@ def lift(
         "npz,csv,bvh,rrd",
         "--formats",
         help="Comma-separated: npz, csv, csv-long (every hypothesis), bvh, trc, c3d, angles, mot (OpenSim IK), "
-        "report, rrd (docs/outputs.md).",
+        "report, rrd (docs/outputs.md). The npz is always written: export makes the others from it.",
         rich_help_panel="Output",
     ),
     persons: str = field_option(TakeSettings, "persons", "People"),
@@ -226,7 +226,13 @@ def lift(
     arguments = {k: as_json(v) for k, v in locals().items() if k != "help_all"}
     from platypose.cli.console import say_over_bar
     from platypose.cli.lift_batch import run_batch
-    from platypose.cli.lift_jobs import check_views_match, discover_jobs, expand_inputs, keypoints_job
+    from platypose.cli.lift_jobs import (
+        check_camera_count,
+        check_views_match,
+        discover_jobs,
+        expand_inputs,
+        keypoints_job,
+    )
     from platypose.cli.safe_names import printable
     from platypose.lifting.errors import InputError
     from platypose.lifting.files.reads import check_readable_inputs
@@ -247,6 +253,8 @@ def lift(
         job_list = discover_jobs(paths, camera_names)
     if cams is not None:
         check_views_match(job_list, camera_names, cams)
+        if keypoints is None:
+            check_camera_count(job_list, camera_names, cams)
     given = [v.source for job in job_list for v in job.views] + [
         p for p in (root_trajectory, prior.path if prior else None) if p
     ]
@@ -302,6 +310,12 @@ def lift(
     try:
         entries = run_batch(job_list, settings, jobs, resume, say, retry_failed, batch_executor)
     except KeyboardInterrupt:
-        typer.echo(f"interrupted; {out / 'summary.json'} lists the inputs that finished", err=True)
+        done = (out / "summary.json").is_file()
+        typer.echo(
+            f"interrupted; {out / 'summary.json'} lists the inputs that finished"
+            if done
+            else "interrupted; no input finished",
+            err=True,
+        )
         raise typer.Exit(130) from None
     finish(entries, out)

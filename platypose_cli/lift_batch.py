@@ -32,15 +32,17 @@ from platypose.cli.lift_run import (
     MANIFEST,
     RunSettings,
     earlier_failure,
+    earlier_flags,
     fingerprint,
     finished_outputs,
+    flag_lines,
     job_entry,
     remove_stale_staging,
     run_job,
 )
 from platypose.cli.locks import exclusive_lock
+from platypose.cli.safe_names import printable
 from platypose.cli.threads import threads_for
-from platypose.lifting.checks.flags import person_lines
 
 SUMMARY = "summary.json"
 
@@ -124,6 +126,8 @@ def run_batch(
             remove_stale_staging(settings.out, job.name)  # a killed run's staging folder goes even when skipped
             entries[index] = {**job_entry(job, "skipped", outputs), "reason": why}
             say(f"{job.name}: skipped, {why} ({len(outputs)} files)")
+            for flagged in earlier_flags(folder):  # what that run found, as it said it
+                say_over_bar(printable(f"  {job.name}: {flagged}"))
         elif failed is not None:
             entries[index] = {**job_entry(job, "failed", error=f"earlier run: {failed}"), "error_kind": "input"}
             say(f"{job.name}: not retried, failed earlier with the same files and settings (--retry-failed)")
@@ -136,12 +140,13 @@ def run_batch(
         write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
         line = f"{jobs[index].name}: {entry['status']} in {entry['seconds']:.1f} s"
         say(line + (f": {entry['error']}" if entry["error"] else ""))
-        persons = entry.get("plausibility", [])
-        for flagged in person_lines(persons, [p["track_id"] for p in persons]):  # shown even with --quiet
+        for flagged in flag_lines(entry.get("plausibility", [])):  # shown even with --quiet
             say_over_bar(f"  {jobs[index].name}: {flagged}")
 
     settings.out.mkdir(parents=True, exist_ok=True)
-    write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
+    if entries:  # inputs --resume settled; else the first input to finish writes it (a batch that fails to start,
+        # such as --cpus-per-input beyond every Ray node, leaves no empty summary)
+        write_summary(settings.out, [entries[i] for i in sorted(entries)], started, settings.arguments)
     hidden = settings.quiet or not todo
     bar_options = {"length": len(todo), "label": "inputs", "file": sys.stderr, "hidden": hidden, "show_eta": True}
     with terminate_as_interrupt(), typer.progressbar(**bar_options) as bar:

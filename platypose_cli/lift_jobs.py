@@ -174,3 +174,27 @@ def check_views_match(jobs: Sequence[Job], camera_names: Sequence[str], cams: Pa
         f"{', '.join(views[:8])}{', ...' if len(views) > 8 else ''}); name each video or keypoint folder after its "
         f"camera (e.g. {camera_names[0]}.mp4) or rename the cameras in the calibration"
     )
+
+
+def _calibrated(camera_names: Sequence[str], view: str) -> bool:
+    """Whether ``view`` can be lifted with the calibration of ``camera_names`` (:func:`match_views`' rule)."""
+    try:
+        match_views(camera_names, [view], allow_missing=True)
+    except InputError:
+        return False
+    return True
+
+
+def check_camera_count(jobs: Sequence[Job], camera_names: Sequence[str], cams: Path) -> None:
+    """One InputError when more videos than the calibration's cameras are given and some match none of them (a
+    calibration of one camera for a take of four: each other camera's video would fail alone, each in its line)."""
+    videos = [v for job in jobs for v in job.views]
+    strangers = [v.source.name for v in videos if not _calibrated(camera_names, v.name)]
+    if len(videos) <= len(camera_names) or not strangers:
+        return
+    cameras = f"{len(camera_names)} camera{'s' if len(camera_names) > 1 else ''}"
+    raise InputError(
+        f"{cams}: the calibration has {cameras} ({', '.join(camera_names)}), you gave "
+        f"{len(videos)} videos; {', '.join(strangers[:8])}{', ...' if len(strangers) > 8 else ''} match none of its "
+        f"cameras: give the calibration of every camera, or lift only the videos it calibrates"
+    )

@@ -185,7 +185,7 @@ def export_atomically(result, videos, staging: Path, folder: Path, name: str, fo
     """Export into ``staging``, then move every file written into ``folder``; returns the final paths."""
     from platypose.exporters import export
 
-    written = export(result, staging, name, formats, videos, say=log)
+    written = export(result, staging, name, formats, videos, say=log, warn=log.warning)
     (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here: see output_set
     final = []
     for path in written:
@@ -217,6 +217,19 @@ def finished_outputs(folder: Path, formats, digest: str | None = None) -> tuple[
     if changed:
         return None, f"output(s) {', '.join(changed)} differ from what the earlier run wrote"
     return outputs, "finished earlier with the same inputs and settings"
+
+
+def flag_lines(reports: list[dict]) -> list[str]:
+    """The console's lines about a lift's flagged persons, from its plausibility ``reports`` (:func:`person_lines`)."""
+    from platypose.lifting.checks.flags import person_lines
+
+    return person_lines(reports, [report["track_id"] for report in reports])
+
+
+def earlier_flags(folder: Path) -> list[str]:
+    """The flag lines the finished earlier run in ``folder`` kept in its lift.json (none from older versions)."""
+    flags = (read_record(folder / MANIFEST, valid_manifest) or {}).get("flags")
+    return flags if isinstance(flags, list) and all(isinstance(line, str) for line in flags) else []
 
 
 def fingerprint(job: Job, settings: RunSettings) -> str:
@@ -332,6 +345,7 @@ def _run_locked(job: Job, settings: RunSettings, pieces=None) -> dict:
             "outputs": [p.name for p in written],  # relative to this folder
             "files": digests(written),
             "fingerprint": digest,
+            "flags": flag_lines(result.meta["plausibility"]),  # said again when --resume skips this input
         }
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
         (folder / FAILURE).unlink(missing_ok=True)

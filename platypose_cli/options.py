@@ -35,6 +35,7 @@ SETTINGS = {  # each group of options and its settings class
 }
 PANELS = {"windows": "Sampler", "prior": "Sampler"}  # groups shown in another group's help panel
 RENAMED = {("prior", "path"): "--prior"}  # fields whose flag is not their name
+CONTEXT = "settings_options_context"  # the typer.Context parameter settings_options adds: which options were given
 FLAG_SPELLINGS = {"detector format": "--detector-format", "person detector": "--person-detector"}
 
 
@@ -107,11 +108,7 @@ def settings_options(
                 f.field,
                 inspect.Parameter.KEYWORD_ONLY,
                 default=typer.Option(
-                    defaults.get(f.field),
-                    *f.names,
-                    help=f.help,
-                    show_default=f.field in defaults or _shown(f.default, f.names),
-                    rich_help_panel=f.panel,
+                    defaults.get(f.field, f.default), *f.names, help=f.help, show_default=True, rich_help_panel=f.panel
                 ),
                 annotation=f.type if f.field in defaults else f.type | None,
             )
@@ -122,14 +119,18 @@ def settings_options(
             for n, p in signature.parameters.items()
             if n != parameter
         ]
+        stacked = CONTEXT in signature.parameters  # a settings_options below this one added the context
 
         @functools.wraps(command)
         def wrapper(**values):
+            context = values.get(CONTEXT) if stacked else values.pop(CONTEXT, None)  # an inner one reads it too
             given = {f.field: values.pop(f.field) for f in chosen}
-            given = {k: v for k, v in given.items() if v is not None}
+            given = {k: v for k, v in given.items() if v is not None and (k in defaults or _given(context, k))}
             built = given if given_only else SETTINGS[group](**given)
             return command(**values, **{parameter: built})
 
+        if not stacked:
+            added.append(inspect.Parameter(CONTEXT, inspect.Parameter.KEYWORD_ONLY, annotation=typer.Context))
         wrapper.__signature__ = signature.replace(parameters=kept + added)
         wrapper.__annotations__ = {p.name: p.annotation for p in kept + added}
         del wrapper.__wrapped__  # typer must read the new signature, not the command's
@@ -138,14 +139,10 @@ def settings_options(
     return decorate
 
 
-def _shown(default: object, names: Sequence[str]) -> str | bool:
-    """How --help shows a class default: the value, the flag of a true/false switch, or nothing for None."""
-    if default is None:
-        return False
-    if isinstance(default, bool):
-        on, _, off = names[0].partition("/")
-        return (on if default else off).lstrip("-")
-    return str(default)
+def _given(context: typer.Context | None, name: str) -> bool:
+    """Whether option ``name`` was given on the command line (not left at its default); True without a context."""
+    source = None if context is None else context.get_parameter_source(name)
+    return source is None or source.name != "DEFAULT"
 
 
 def _resolved(annotation, command: Callable):

@@ -93,7 +93,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
             stamp = int(stamps[start]) if start < len(stamps) else None
             tasks.append((detect_piece, (str(source), detect, start, stamp, count, str(path), piece_key)))
     started = time.perf_counter()
-    seconds = pool.run(tasks, [f"{source.name}:{i}" for i in range(len(tasks))])
+    seconds = pool.run(tasks, [f"{source.name}:{i}" for i in range(len(tasks))], say=log)
     if tasks:
         log(
             f"{source}: {len(tasks)} piece(s) of {split_s:g} s detected {piece_times(seconds, time.perf_counter() - started)}"
@@ -160,7 +160,7 @@ class SplitLifter:
                 progress(list(range(P)), done[0], len(tasks))
 
         started = time.perf_counter()
-        seconds = self.pool.run(tasks, names, each)
+        seconds = self.pool.run(tasks, names, each, say=self.log)
         if tasks:
             self.log(f"{len(tasks)} piece(s) lifted {piece_times(seconds, time.perf_counter() - started)}")
         join_pieces(pieces, persons, paths, times, absent, margin, hypotheses, median, energy)

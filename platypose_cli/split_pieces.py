@@ -117,9 +117,16 @@ class LocalPieces:
                 process.terminate()
         self.pool.shutdown(wait=True, cancel_futures=True)
 
-    def run(self, tasks: Sequence[Task], names: Sequence[str], each: Callable[[int], None] = lambda i: None) -> list:
+    def run(
+        self,
+        tasks: Sequence[Task],
+        names: Sequence[str],
+        each: Callable[[int], None] = lambda i: None,
+        say: Callable[[str], None] = lambda _: None,
+    ) -> list:
         """Run ``tasks``; their results in task order, ``each(i)`` as task i finishes. InputError of a task is raised as it is; a task that raises
-        twice, or is in the pool when a worker dies ``DEATHS`` times, raises RuntimeError naming it."""
+        twice, or is in the pool when a worker dies ``DEATHS`` times, raises RuntimeError naming it. Each task run
+        again is said (``say``: the job's log)."""
         from concurrent.futures.process import BrokenProcessPool
 
         futures = {self.pool.submit(fn, *args): (i, 0, 0) for i, (fn, args) in enumerate(tasks)}
@@ -140,10 +147,15 @@ class LocalPieces:
                     self.pool.shutdown(wait=False, cancel_futures=True)
                     self.pool = self._new_pool()
                     again = [(i, failed, deaths)] + list(futures.values())
+                    held = ", ".join(names[j] for j, _, _ in again)
+                    say(f"a worker process died; running piece(s) {held} again in new processes")
                     futures = {self.pool.submit(*_call(tasks[j])): (j, f, d + 1) for j, f, d in again}
                 except Exception as err:
                     if failed >= 1:
                         raise RuntimeError(_retry_message(names[i], err, 2)) from err
+                    say(
+                        f"piece {names[i]} failed ({type(err).__name__}: {' '.join(str(err).split())}); running it again"
+                    )
                     futures[self.pool.submit(*_call(tasks[i]))] = (i, failed + 1, deaths)
                 else:
                     each(i)
@@ -178,8 +190,14 @@ class RayPieces:
     def __exit__(self, *failure) -> None:
         return None
 
-    def run(self, tasks: Sequence[Task], names: Sequence[str], each: Callable[[int], None] = lambda i: None) -> list:
-        """As :meth:`LocalPieces.run`."""
+    def run(
+        self,
+        tasks: Sequence[Task],
+        names: Sequence[str],
+        each: Callable[[int], None] = lambda i: None,
+        say: Callable[[str], None] = lambda _: None,
+    ) -> list:
+        """As :meth:`LocalPieces.run`; Ray runs a task again by itself, out of sight of ``say``."""
         from platypose.cli.lift_ray import ray_failure
 
         ray = self.ray

@@ -2,7 +2,9 @@
 focal length of its lens (:mod:`platypose.lifting.calibration.lens`), as a camera in the estimated world (z up,
 the floor z = 0, the camera on the z axis looking along +y), and the sentence that says what was found.
 
-``lift`` without ``--cams`` and ``calib estimate`` both call :func:`fit_view`.
+Experimental: ``lift`` does not call :func:`fit_view` (without ``--cams`` it assumes a default camera,
+:mod:`platypose.lifting.calibration.defaults`); ``tools/camera_errors.py`` does, to compare its estimates with a
+calibration.
 """
 
 from __future__ import annotations

@@ -7,9 +7,11 @@ without waiting for a writer, refused unless it is a regular file, and read in c
 
 from __future__ import annotations
 
+import json
 import os
 import stat
 from pathlib import Path
+from typing import Any
 
 from platypose.lifting.errors import InputError
 
@@ -50,6 +52,18 @@ def read_regular(path: Path | str, limit: int, what: str = "file") -> bytes:
             if size > limit:
                 raise InputError(f"{path}: over {limit / 2**20:.0f} MiB, too large for a {what}")
     return b"".join(chunks)
+
+
+def json_value(text: bytes | str) -> Any:
+    """The JSON value of ``text``; ValueError saying in words why there is none: not JSON (not UTF-8, a syntax
+    error), or arrays and tables nested deeper than Python's recursion allows (about a thousand levels), where
+    ``json`` would raise RecursionError."""
+    try:
+        return json.loads(text)
+    except RecursionError:
+        raise ValueError("nested too deep") from None
+    except ValueError as err:  # JSONDecodeError, UnicodeDecodeError
+        raise ValueError(f"not JSON: {str(err).splitlines()[0][:80]}") from None
 
 
 def check_readable_inputs(paths: list[Path], what: str = "input") -> None:

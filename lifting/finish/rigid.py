@@ -7,7 +7,8 @@ hypothesis gets one rigid shape (:mod:`lifting.finish.rigid_shape`: one length p
 body, the medians over the frames where the person is present; one camera leaves every hypothesis its
 own size, so shapes are per hypothesis), and every frame is moved onto it from the pelvis outwards,
 each joint moving as little as it can *across the rays* of the views that see it, that is, in the
-images:
+images. Where several views see a person, the sampler's lasting offsets from what they measure are first
+corrected (:mod:`lifting.finish.measured`). Then
 
     minimise (x - x0)^T H (x - x0),  H = sum over the views seeing the joint of (I - d d^T) + ALONG_RAY I,
 
@@ -53,6 +54,7 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.checks.plausibility import stance_ankles
 from platypose.lifting.finish.branches import choose_branches
 from platypose.lifting.finish.hinge_speed import steady_hinges
+from platypose.lifting.finish.measured import measure, steady_shift
 from platypose.lifting.finish.representative import agreeing, median_flexion, median_motion
 from platypose.lifting.finish.rigid_shape import (
     BODY_JOINTS,
@@ -61,7 +63,7 @@ from platypose.lifting.finish.rigid_shape import (
     clip_shape,
     rebuild,
 )
-from platypose.lifting.finish.smoothing import smooth_frames
+from platypose.lifting.finish.smoothing import present_spans, smooth_frames
 from platypose.lifting.finish.stance_legs import hold_stance_legs
 from platypose.lifting.floor import Floor
 from platypose.lifting.rotations import kabsch, rotvec_matrices, skew
@@ -181,12 +183,6 @@ def _place_rows(targets: np.ndarray, shape: RigidShape, centres: np.ndarray, see
     return placed
 
 
-def present_spans(present: np.ndarray) -> list[slice]:
-    """The runs of True in ``present`` ``(T,)``, as slices."""
-    edges = np.diff(np.concatenate([[0], present.astype(np.int8), [0]]))
-    return [slice(int(a), int(b)) for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0])]
-
-
 def rigid_paths(
     joints: np.ndarray,
     shape: RigidShape,
@@ -298,9 +294,10 @@ def rigid_person(
     seen = np.moveaxis(keypoints[:, :, person, :, 2] > 0, 0, -1)  # (T, 17, C)
     before = np.array(median[person], np.float64)  # (T, 17, 3)
     stretch = np.abs(bone_lengths(before) - clip_shape(before).lengths)
+    shift = 0.0 if len(cameras) < 2 else steady_shift(before, measure(keypoints[:, :, person], cameras), fps)
     for start in range(0, N, HYPOTHESES_AT_ONCE):
         n = slice(start, min(start + HYPOTHESES_AT_ONCE, N))
-        motions = np.asarray(hypotheses[person, n], np.float64)
+        motions = np.asarray(hypotheses[person, n], np.float64) + shift
         shape = person_shape(motions, len(cameras))
         hypotheses[person, n] = rigid_paths(motions, shape, centres, seen, fps, floor, limits=False)
     members = np.zeros((N, T), dtype=bool)

@@ -1,4 +1,5 @@
-"""Paths smoothed over time: the least squared acceleration against the least change (a banded solve)."""
+"""Paths smoothed over time: the least squared acceleration against the least change (a banded solve), over the
+runs of frames where a person is present."""
 
 from __future__ import annotations
 
@@ -32,3 +33,9 @@ def smooth_over_time(values: np.ndarray, smoothness: float) -> np.ndarray:
 def smooth_frames(values: np.ndarray, smoothness: float) -> np.ndarray:
     """:func:`smooth_over_time` along axis 1 of ``values`` ``(K, T, ...)``."""
     return np.moveaxis(smooth_over_time(np.moveaxis(values, 1, 0), smoothness), 0, 1)
+
+
+def present_spans(present: np.ndarray) -> list[slice]:
+    """The runs of True in ``present`` ``(T,)``, as slices."""
+    edges = np.diff(np.concatenate([[0], present.astype(np.int8), [0]]))
+    return [slice(int(a), int(b)) for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0])]

@@ -16,6 +16,7 @@ import numpy as np
 
 from platypose.lifting.anatomy.limits import within_limits
 from platypose.lifting.camera import Camera, project
+from platypose.lifting.finish.measured import measure, steady_shift
 from platypose.lifting.finish.representative import agreeing, median_flexion, median_motion
 from platypose.lifting.finish.rigid import answer_arms, person_shape, rigid_paths
 from platypose.lifting.floor import plane_floor
@@ -153,14 +154,9 @@ def lift_windows(
     rigid as ``platypose lift`` makes its output (not the frame-by-frame baseline), not yet held within the joint
     limits (:func:`finished_windows` does that, after their answer). ``hidden`` (F,): frames no camera sees (a
     detection gap: no keypoints, no reprojection energy; the prior fills them)."""
-    rng = np.random.default_rng(config.seed + 1)
-    pixels = np.stack([project(windows, c) for c in cameras])  # (C, B, F, 17, 2)
-    pixels = pixels + rng.normal(0.0, noise_px, pixels.shape) if noise_px > 0 else pixels
+    keypoints = window_keypoints(cameras, windows, noise_px, config.seed, hidden)
+    pixels, confidence = keypoints[..., :2], keypoints[..., 2]
     B, F = windows.shape[:2]
-    confidence = np.ones(pixels.shape[:-1])
-    if hidden is not None:
-        confidence[:, :, hidden] = 0.0
-        pixels[:, :, hidden] = np.nan
     if frame_by_frame:
         pixels = pixels.reshape(len(cameras), B * F, 1, 17, 2)
         confidence = confidence.reshape(len(cameras), B * F, 1, 17)
@@ -174,8 +170,24 @@ def lift_windows(
     if frame_by_frame:
         joints = joints.reshape(B, F, config.samples, 17, 3).transpose(0, 2, 1, 3, 4)
     elif rigid:
-        joints = rigid_windows(joints, cameras, prior.fps, config.floor, hidden, limits=False)
+        joints = rigid_windows(joints, cameras, prior.fps, config.floor, keypoints, hidden, limits=False)
     return joints
+
+
+def window_keypoints(
+    cameras: Sequence[Camera], windows: np.ndarray, noise_px: float, seed: int, hidden: np.ndarray | None = None
+) -> np.ndarray:
+    """Keypoints ``(C, B, F, 17, 3)`` of true windows ``(B, F, 17, 3)`` seen by ``cameras``: their pixels with
+    Gaussian noise of ``noise_px`` (drawn from ``seed``; the same for the same arguments) and confidence 1, NaN
+    pixels and confidence 0 on the ``hidden`` frames (F,)."""
+    rng = np.random.default_rng(seed + 1)
+    pixels = np.stack([project(windows, c) for c in cameras])  # (C, B, F, 17, 2)
+    pixels = pixels + rng.normal(0.0, noise_px, pixels.shape) if noise_px > 0 else pixels
+    confidence = np.ones(pixels.shape[:-1])
+    if hidden is not None:
+        confidence[:, :, hidden] = 0.0
+        pixels[:, :, hidden] = np.nan
+    return np.concatenate([pixels, confidence[..., None]], axis=-1)
 
 
 def rigid_windows(
@@ -183,13 +195,15 @@ def rigid_windows(
     cameras: Sequence[Camera],
     fps: float,
     floor: tuple[float, float, float, float] | None,
+    keypoints: np.ndarray | None,
     hidden: np.ndarray | None = None,
     limits: bool = True,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.finish.rigid.rigid_paths`, each
-    hypothesis on its own shape over its window, :func:`lifting.finish.rigid.person_shape`), every view seeing every
-    joint but on the ``hidden`` frames (F,), none taken under ``floor`` (the sampler's plane, or None); ``limits``
-    as ``rigid_paths``'s."""
+    hypothesis on its own shape over its window, :func:`lifting.finish.rigid.person_shape`; with several views and
+    the ``keypoints`` ``(C, B, F, 17, 3)`` they saw, first shifted as their answer's lasting offsets from those ask,
+    :func:`lifting.finish.measured.steady_shift`), every view seeing every joint but on the ``hidden`` frames (F,),
+    none taken under ``floor`` (the sampler's plane, or None); ``limits`` as ``rigid_paths``'s."""
     ground = None if floor is None else plane_floor(*floor, "evaluation")
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
@@ -197,6 +211,9 @@ def rigid_windows(
         seen[hidden] = False
     out = np.empty_like(hypotheses)
     for b, window in enumerate(np.asarray(hypotheses, np.float64)):
+        if keypoints is not None and len(cameras) > 1:
+            answer = median_motion(window, agreeing(window))
+            window = window + steady_shift(answer, measure(keypoints[:, b], cameras), fps)
         out[b] = rigid_paths(window, person_shape(window, len(cameras)), centres, seen, fps, ground, limits)
     return out
 
@@ -217,7 +234,7 @@ def finished_windows(
     answers = np.stack([median_motion(np.asarray(h, np.float64), m) for h, m in zip(hypotheses, members)])
     if not rigid:
         return hypotheses, answers
-    answers = rigid_windows(answers[:, None], cameras, fps, floor, hidden)[:, 0]
+    answers = rigid_windows(answers[:, None], cameras, fps, floor, None, hidden)[:, 0]
     hypotheses = within_limits(np.asarray(hypotheses, np.float64))
     flexion = [median_flexion(h, m) for h, m in zip(hypotheses, members)]
     return hypotheses, np.stack([answer_arms(a, f, fps, len(cameras)) for a, f in zip(answers, flexion)])

@@ -9,11 +9,11 @@ is strict and refuses files that are not ours.
 
 from __future__ import annotations
 
-import glob
 import hashlib
 import io
 import json
 import math
+import re
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -23,19 +23,24 @@ from torch import nn
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.atomic import atomic_open
+from platypose.lifting.files.reads import read_regular
 from platypose.lifting.prior.checks import (
     CONFIG_BOUNDS,
-    PIECES_FORMAT,
     check_config,
     check_config_type,
     check_config_value,
     check_joint_names,
     check_manifest,
     check_weights,
-    is_pieces_index,
-    join_pieces,
 )
 from platypose.lifting.prior.features import FEATURES_PER_FRAME, Normalizer
+from platypose.lifting.prior.pieces import (
+    MAX_CHECKPOINT_BYTES,
+    PIECES_FORMAT,
+    is_pieces_index,
+    join_pieces,
+    listed_pieces,
+)
 from platypose.lifting.prior.schedule import TRAIN_STEPS
 from platypose.lifting.settings import PriorArchitecture
 from platypose.lifting.skeleton import JOINT_NAMES
@@ -205,13 +210,19 @@ def save_prior(path: str | Path, bundle: PriorBundle, extra: dict | None = None,
     return write_checkpoint_bytes(Path(path), buffer.getvalue(), piece_bytes)
 
 
+def piece_names(path: Path) -> re.Pattern:
+    """The names :func:`write_checkpoint_bytes` gives the pieces of a checkpoint at ``path``: ``NAME.SHA12.NNN``."""
+    return re.compile(re.escape(path.name) + r"\.[0-9a-f]{12}\.[0-9]{3,}")
+
+
 def write_checkpoint_bytes(path: Path, data: bytes, piece_bytes: int = PIECE_BYTES) -> str:
     """Write checkpoint bytes at ``path``: one file, or, over ``piece_bytes``, pieces ``NAME.SHA12.001, ...``
     beside it and at ``path`` the JSON index naming each piece's size and sha256. Each file is written
     atomically and the index last, so a checkpoint already there stays loadable until the new one is complete;
-    pieces of earlier checkpoints are then removed. Returns the checkpoint's sha256 (that of the joined bytes)."""
+    the pieces the earlier index listed (of the names written here, :func:`piece_names`) are then removed, and no
+    other file. Returns the checkpoint's sha256 (that of the joined bytes)."""
     checksum = hashlib.sha256(data).hexdigest()
-    earlier = set(path.parent.glob(f"{glob.escape(path.name)}.*.[0-9][0-9][0-9]"))
+    earlier = listed_pieces(path, piece_names(path))
     if len(data) <= piece_bytes:
         with atomic_open(path, "wb") as stream:
             stream.write(data)
@@ -233,9 +244,10 @@ def write_checkpoint_bytes(path: Path, data: bytes, piece_bytes: int = PIECE_BYT
 
 
 def read_checkpoint_bytes(path: Path) -> bytes:
-    """The bytes of the checkpoint at ``path``: the file itself, or the pieces its index names, joined and checked
-    (:func:`lifting.prior.checks.join_pieces`)."""
-    data = path.read_bytes()
+    """The bytes of the checkpoint at ``path`` (a regular file of at most ``MAX_CHECKPOINT_BYTES``): the file
+    itself, or the pieces its index names, checked before and as they are read
+    (:func:`lifting.prior.pieces.join_pieces`)."""
+    data = read_regular(path, MAX_CHECKPOINT_BYTES, "prior checkpoint")
     return join_pieces(path, data) if is_pieces_index(data[:256]) else data
 
 

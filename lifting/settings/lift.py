@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 import numbers
 import os
 from collections.abc import Mapping
@@ -26,6 +25,7 @@ DEVICES = ("cpu", "cuda", "auto")
 RUNTIMES = ("auto", "float32", "bfloat16", "onnx")
 ROOT_MODES = ("auto", "triangulate", "solve")
 
+MAX_GAP_S = 24 * 3600.0  # a person unseen for longer than a day is not one motion lifted through its gap
 MAX_SAMPLER_VALUE = 1e6  # any number of the sampler's settings; float32 squares stay finite under 3.4e38
 
 
@@ -80,7 +80,8 @@ class SamplerConfig:
             value = getattr(self, f.name)
             if isinstance(value, float) and abs(value) > MAX_SAMPLER_VALUE:
                 raise InputError(
-                    f"{f.name} must be at most {MAX_SAMPLER_VALUE:g} in size, got {value:g}", option=f.name
+                    f"{f.name} must be between {-MAX_SAMPLER_VALUE:,.0f} and {MAX_SAMPLER_VALUE:,.0f}, got {float(value)!r}",
+                    option=f.name,
                 )
         require(
             [
@@ -153,9 +154,9 @@ class WindowSettings:
                 ),
                 (self.anchor_weight >= 0, "anchor_weight", f"anchor_weight must be >= 0, got {self.anchor_weight}"),
                 (
-                    math.isfinite(self.max_gap) and self.max_gap >= 0,
+                    0 <= self.max_gap <= MAX_GAP_S,
                     "max_gap",
-                    f"max_gap must be a number of seconds >= 0, got {self.max_gap}",
+                    f"max_gap must be a number of seconds from 0 to {MAX_GAP_S:.0f} (a day), got {self.max_gap!r}",
                 ),
             ]
         )

@@ -134,7 +134,8 @@ def synchronise(
         synced = with_offsets(cameras, read_offsets(Path(choice), names))
         check_overlap(synced, frame_times, str(choice))
         return Synced(synced, "offsets")
-    estimate = estimate_offsets([main_person(k) for k in keypoints], frame_times, cameras)
+    persons = [main_person(k) for k in keypoints]
+    estimate = estimate_offsets(persons, frame_times, cameras)
     shortest = min(float(t[-1] - t[0]) if len(t) else 0.0 for t in frame_times)
     offsets = trusted_offsets(estimate, cameras, shortest, warn)
     synced = with_offsets(cameras, offsets)
@@ -161,11 +162,28 @@ def synchronise(
                 f"sync {camera.name}: the reprojection error still falls at 2 frames from the motion estimate, "
                 "where the search stops: the offset or the calibration may be off by that much"
             )
-    log(
-        f"sync: median reprojection error {estimate.error_before_px:.1f} px as recorded, "
-        f"{estimate.error_after_px:.1f} px with the estimated offsets"
-    )
+    log(error_line(persons, frame_times, cameras, offsets, estimate))
     return Synced(synced, "auto", [float(v) for v in estimate.confidence])
+
+
+def error_line(
+    persons: Sequence[np.ndarray],
+    frame_times: Sequence[np.ndarray],
+    cameras: Sequence[Camera],
+    offsets: Sequence[float],
+    estimate: Any,
+) -> str:
+    """The log line of ``--sync auto``'s reprojection errors: with the calibration's offsets, with the ``offsets``
+    used, and, where some of the ``estimate``'s were not applied, what they would have given (named as such)."""
+    from platypose.lifting.sync.offsets import offsets_error
+
+    recorded = offsets_error(persons, frame_times, cameras, [c.time_offset_s for c in cameras])
+    used = offsets_error(persons, frame_times, cameras, offsets)
+    line = f"sync: median reprojection error {recorded:.1f} px with the calibration's offsets, {used:.1f} px with those used"
+    kept = [c.name for c, o, e in zip(cameras, offsets, estimate.offsets_s) if o != float(e)]
+    if kept:
+        line += f"; the estimates not applied ({', '.join(kept)}) would give {estimate.error_after_px:.1f} px"
+    return line
 
 
 def trusted_offsets(

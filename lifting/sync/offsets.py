@@ -181,6 +181,17 @@ def views_error(
     return float(np.median(errors[seen])) if seen.any() else float("nan")
 
 
+def offsets_error(
+    views: Sequence[np.ndarray], frame_times: Sequence[np.ndarray], cameras: Sequence[Camera], offsets_s
+) -> float:
+    """Median reprojection error (px) of one person's ``views`` triangulated together, each view's ``frame_times``
+    shifted by its offset in ``offsets_s``, at (up to ``MAX_REFINE_FRAMES`` of) the first view's frame times."""
+    times = [np.asarray(t, dtype=np.float64) for t in frame_times]
+    at = times[0][:: max(len(times[0]) // MAX_REFINE_FRAMES, 1)]
+    views = [np.asarray(v, dtype=np.float64) for v in views]
+    return views_error(views, times, cameras, np.asarray(offsets_s, dtype=np.float64), at)
+
+
 def _refine(
     views: Sequence[np.ndarray],
     times: Sequence[np.ndarray],
@@ -237,10 +248,9 @@ def estimate_offsets(
             lag, confidence[c] = 0, 0.0
         # reference[k + lag] matches signal[k]: grid time t_c0 + k / rate is reference time t_00 + (k + lag) / rate
         coarse[c] = times[0][0] - times[c][0] + lag / rate
-    at = times[0][:: max(len(times[0]) // MAX_REFINE_FRAMES, 1)]
     offsets = _refine(views, times, cameras, coarse, rate)
-    before = views_error(views, times, cameras, np.zeros(C), at)
-    after = views_error(views, times, cameras, offsets, at)
+    before = offsets_error(views, times, cameras, np.zeros(C))
+    after = offsets_error(views, times, cameras, offsets)
     at_limit = np.abs(offsets - coarse) * rate >= REFINE_FRAMES - 0.5 * REFINE_STEP
     return SyncEstimate(offsets, correlation, confidence, before, after, rate, at_limit, motion)
 

@@ -103,3 +103,13 @@ def tiny_default_prior(monkeypatch, prior_file):
 
     monkeypatch.setattr(prior_module, "DEFAULT_PRIOR", Path(prior_file))
     return prior_file
+
+
+def test_prior_load_checks_a_pieces_index_before_reading(tmp_path):
+    index = tmp_path / "prior.pt"
+    piece = {"file": "prior.pt.0123456789ab.001", "bytes": 10, "sha256": "0" * 64}
+    (tmp_path / piece["file"]).write_bytes(b"0123456789")
+    text = '{"format": "platypose-prior-pieces", "bytes": 10, "sha256": "%s", "pieces": %s}'
+    index.write_text(text % ("0" * 64, str([piece] * 6000).replace("'", '"')))
+    with pytest.raises(platypose.InputError, match=r"prior.pt: the index's piece sizes do not sum to its 10 bytes$"):
+        platypose.Prior.load(index)

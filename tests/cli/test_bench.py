@@ -225,6 +225,25 @@ def test_bench_cli_bad_input_exits_2(run_cli, tiny_prior_path, args, message) ->
     assert message in stderr and len(stderr.strip().splitlines()) == 1
 
 
+def test_a_video_to_loop_that_is_no_file_is_named_for_what_it_is(tmp_path):
+    import os
+
+    from platypose.cli.commands_bench import check_video_to_loop
+    from platypose.lifting.errors import InputError
+
+    fifo = tmp_path / "clip.mp4"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match=r"clip.mp4: is a FIFO \(named pipe\), not a video file to loop"):
+        check_video_to_loop(fifo)  # was "not found"
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(InputError, match=r"folder: is a folder, not a video file to loop"):
+        check_video_to_loop(tmp_path / "folder")
+    with pytest.raises(InputError, match=r"gone.mp4: video to loop not found \(give --video\)"):
+        check_video_to_loop(tmp_path / "gone.mp4")
+    (tmp_path / "real.mp4").write_bytes(b"x")
+    check_video_to_loop(tmp_path / "real.mp4")
+
+
 def test_sigterm_while_the_clip_is_written_removes_it(tiny_prior_path, data_dir, tmp_path) -> None:
     """SIGTERM while the looped clip is being written ends bench with exit 130 and leaves nothing in TMPDIR."""
     import os

@@ -45,6 +45,32 @@ def test_help_shows_switches_without_a_type_and_options_in_panels(run_cli):
     assert out.index("─ Experimental ") > out.index("--samples") and "--temperature" in out.split("─ Experimental ")[1]
 
 
+def test_help_shows_a_settings_default_as_its_value(run_cli):
+    code, out, _ = run_cli("lift", "--help-all")
+    assert code == 0 and "[default: 50]" in out and "[default: ddim]" in out and "(50)" not in out
+    assert "[default: (" not in " ".join(out.split())  # not as a description in brackets
+
+
+def test_an_option_left_at_its_default_is_not_given(monkeypatch):
+    """A settings option is given only when typed: one the user leaves out takes the class's (or command's) default
+    however --help shows it (``train`` builds one of two classes from the values given)."""
+    import typer
+    from typer.testing import CliRunner
+
+    from platypose.cli.options import settings_options
+
+    seen = []
+    app = typer.Typer()
+
+    @app.command()
+    @settings_options("train", parameter="given", given_only=True)
+    def show(given: dict = None) -> None:
+        seen.append(given)
+
+    assert CliRunner().invoke(app, ["--iterations", "7"]).exit_code == 0
+    assert seen == [{"iterations": 7}]
+
+
 def test_lift_eval_and_bench_spell_the_shared_options_alike(run_cli):
     for command in ("lift", "eval", "bench"):
         code, out, _ = run_cli(command, "--help-all" if command == "lift" else "--help")
@@ -115,3 +141,37 @@ def test_lift_help_fits_one_screen_with_the_common_options_and_help_all_shows_ev
     assert len(LIFT_SHOWN) == 11 and len(full.splitlines()) > 150
     listed = set(re.findall(r"(--[a-z][a-z0-9-]*)", full))
     assert {"--temperature", "--executor", "--ray-address", "--floor", "--sync", "--seed", "--prior"} <= listed
+
+
+def test_lift_always_writes_the_npz(tmp_path):
+    """The npz is the source of truth (export and info read it): lift writes it whatever --formats names."""
+    from platypose.cli.commands_lift import lift_settings
+    from platypose.cli.detection import DetectOptions
+    from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
+
+    settings = lift_settings(
+        tmp_path,
+        None,
+        PriorSettings(),
+        DetectOptions(),
+        SamplerConfig(),
+        WindowSettings(),
+        "trc,angles,report",
+        "all",
+        "auto",
+        None,
+        True,
+        {},
+    )
+    assert settings.formats == ("npz", "trc", "angles", "report")
+
+
+def test_lift_md_says_how_many_cameras_the_demo_runs():
+    from pathlib import Path
+
+    from platypose.cli.commands_demo import demo_job, demo_take
+
+    views = len(demo_job(demo_take(), "videos").views)
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "lift.md").read_text(encoding="utf-8")
+    line = next(line for line in doc.splitlines() if line.startswith("platypose demo  "))  # the quick start
+    assert f"({views} of its 4 cameras)" in line

@@ -282,6 +282,28 @@ def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> Non
     assert sorted(p.name for p in tmp_path.iterdir()) == ["take"]
 
 
+def test_a_lifts_opensim_ik_warnings_are_its_warnings(data_dir, tmp_path) -> None:
+    """OpenSim's IK warnings of a lift go into its log's warnings (summary.json, the console, the npz's meta), not
+    only into log.txt as progress lines."""
+    pytest.importorskip("opensim")
+    from export_helpers import two_person_result
+
+    from platypose.cli.lift_run import export_atomically, staging_folder
+    from platypose.exporters.npz import read_npz
+    from platypose.lifting.job_log import JobLog
+
+    result = two_person_result(data_dir)
+    log = JobLog()
+    result = result.with_meta(warnings=log.warnings)  # as the pipeline's result holds its log's warnings
+    folder = tmp_path / "clip"
+    folder.mkdir()
+    with staging_folder(folder, "clip") as staging:
+        export_atomically(result, {}, staging, folder, "clip", ("npz", "mot"), log)
+    assert [w.split(":")[0] for w in log.warnings] == ["person 0 OpenSim IK", "person 7 OpenSim IK"]
+    assert all("marker RMS" in w and "(over 3)" in w for w in log.warnings)
+    assert read_npz(folder / "clip.npz").meta["warnings"] == log.warnings
+
+
 def test_demo_lifts_the_bundled_take(run_cli, tmp_path, prior_file) -> None:
     from platypose.exporters.npz import read_npz
 

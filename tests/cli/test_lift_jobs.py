@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from platypose.cli.lift_jobs import discover_jobs, expand_inputs, keypoints_job
+from platypose.cli.lift_jobs import check_camera_count, discover_jobs, expand_inputs, keypoints_job
 from platypose.lifting.errors import InputError
 
 TAKE = "video/pose2sim-balancing"
@@ -27,6 +27,21 @@ def test_videos_of_calibrated_cameras_form_one_take(data_dir) -> None:
     # without a multi-camera calibration each video is its own input
     jobs = discover_jobs(expand_inputs([str(take / "cam0[12].mp4")]), ())
     assert [j.name for j in jobs] == ["cam01", "cam02"] and all(len(j.views) == 1 for j in jobs)
+
+
+def test_more_videos_than_calibrated_cameras_are_one_error_saying_so(data_dir) -> None:
+    videos = expand_inputs([str(data_dir / TAKE / "cam0*.mp4")])
+    jobs = discover_jobs(videos, ("cam_01",))  # a calibration of one camera for the take of four
+    with pytest.raises(InputError) as caught:
+        check_camera_count(jobs, ("cam_01",), Path("one.json"))
+    assert str(caught.value) == (
+        "one.json: the calibration has 1 camera (cam_01), you gave 4 videos; cam02.mp4, cam03.mp4, cam04.mp4 match "
+        "none of its cameras: give the calibration of every camera, or lift only the videos it calibrates"
+    )
+    check_camera_count(discover_jobs(videos, CAMERAS), CAMERAS, Path("calib.toml"))  # one take of four cameras
+    check_camera_count(discover_jobs(videos[:1], ("cam_01",)), ("cam_01",), Path("one.json"))
+    clips = [data_dir / TAKE / "cam01.mp4", data_dir / "video/sports2d-demo/demo.mp4"]  # clips of one camera
+    check_camera_count(discover_jobs(clips, ("cam_01",)), ("cam_01",), Path("one.json"))
 
 
 def test_folder_of_videos_and_of_takes(data_dir, tmp_path) -> None:

@@ -323,6 +323,7 @@ def test_ray_options_are_checked_before_any_work(cluster, run_cli, batch_folder,
         *batch_args(batch_folder, prior_file, tmp_path, "--executor", "ray", "--cpus-per-input", "3")
     )
     assert code == 2 and "--cpus-per-input 3: the largest Ray node has 2 CPU(s)" in err
+    assert not (tmp_path / "summary.json").exists()  # no empty summary of a batch that never started
     code, _, err = run_cli(*batch_args(batch_folder, prior_file, tmp_path, "--executor", "ray", "--jobs", "2"))
     assert code == 2 and "--jobs is for --executor local" in err
     code, _, err = run_cli(*batch_args(batch_folder, prior_file, tmp_path, "--collect"))

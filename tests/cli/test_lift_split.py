@@ -37,7 +37,7 @@ class InProcess:
     def __exit__(self, *failure) -> None:
         return None
 
-    def run(self, tasks, names, each=lambda i: None) -> list:
+    def run(self, tasks, names, each=lambda i: None, say=lambda _: None) -> list:
         results = []
         for i, (fn, args) in enumerate(tasks):
             if len(self.ran) == self.stop_at:
@@ -205,9 +205,15 @@ def test_a_piece_that_fails_once_is_run_again(tmp_path):
         (dies_once, (str(tmp_path / "b"),)),
         (fails_once, (str(tmp_path / "c"),)),
     ]
+    said = []
     with LocalPieces(2, 1) as pool:
-        pool.run(tasks, ["0", "1", "2"], done.append)
+        pool.run(tasks, ["0", "1", "2"], done.append, said.append)
         assert sorted(done) == [0, 1, 2]
+        # each run again is in the job's log
+        assert "piece 0 failed (RuntimeError: a transient failure); running it again" in said
+        assert "piece 2 failed (RuntimeError: a transient failure); running it again" in said
+        died = [line for line in said if line.startswith("a worker process died; running piece(s) ")]
+        assert died and "1" in died[0].split("piece(s) ")[1], said
         with pytest.raises(RuntimeError, match="piece 7 failed 2 times: RuntimeError: broken x"):
             pool.run([(always_fails, (str(tmp_path / "x"),))], ["7"])
 

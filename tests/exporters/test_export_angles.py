@@ -11,6 +11,7 @@ import pytest
 from export_helpers import two_person_result
 
 from platypose.exporters.angles import ANGLE_NAMES, angle_series, continue_angles, joint_angles, write_angles_csv
+from platypose.exporters.export import export
 from platypose.exporters.report import ankle_heights, write_report
 from platypose.lifting.anatomy.hinges import HINGE_NAMES
 from platypose.lifting.skeleton import JOINT_INDEX as J
@@ -187,6 +188,23 @@ def test_csv_reads_back(result, tmp_path):
     assert float(row["time_s"]) == result.frame_times[12]
     held = {r["filled"] for r in rows if r["person"] == "7" and int(r["frame"]) < 5}
     assert held == {"1"} and {r["filled"] for r in rows if r["person"] == "0"} == {"0"}
+
+
+def test_npz_holds_the_angles_the_csv_holds(result, tmp_path):
+    """The npz stores the fit's angles (no reader re-derives them): read back by numpy, they are the CSV's rows."""
+    export(result, tmp_path, "clip", formats=("npz", "angles"))
+    with np.load(tmp_path / "clip.npz", allow_pickle=False) as raw:
+        angles, names, columns = raw["angles"], list(raw["angle_names"]), list(raw["angle_columns"])
+    assert angles.shape == (2, result.num_frames, len(ANGLE_NAMES), 4) and angles.dtype == np.float32
+    assert names == list(ANGLE_NAMES) and columns == ["median", "q05", "q50", "q95"]
+    with open(tmp_path / "clip_angles.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    for row in rows[:: len(rows) // 97]:
+        p = result.track_ids.tolist().index(int(row["person"]))
+        got = angles[p, int(row["frame"]), names.index(row["angle"])]
+        want = [float(row[f"{c}_deg"]) for c in columns]
+        np.testing.assert_allclose(got, want, atol=5e-3)
+    assert np.isfinite(angles[0]).all() and np.isfinite(angles[1, 5:]).all()
 
 
 def test_report_ankle_heights_stand_on_the_lifts_floor():

@@ -8,7 +8,7 @@ import numpy as np
 from export_helpers import read_entities, two_person_result
 
 from platypose.detectors.openpose import read_openpose_folder
-from platypose.exporters.person_pictures import THUMBNAIL_HEIGHT, GoodFrame, good_frame, thumbnails
+from platypose.exporters.person_pictures import THUMBNAIL_HEIGHT, GoodFrame, good_frame, good_frames, thumbnails
 from platypose.exporters.rrd import write_rrd
 from platypose.lifting.calibration.defaults import default_camera
 
@@ -43,6 +43,23 @@ def test_the_good_frame_of_each_real_person_boxes_their_joints_and_its_thumbnail
         assert abs(picture.shape[1] / THUMBNAIL_HEIGHT - (x2 - x1) / (y2 - y1)) < 0.05
         assert picture.std() > 10  # a picture of someone, not a blank
     assert thumbnails(result, {}, frames) == {}  # no video: no thumbnail
+
+
+def test_each_real_person_of_a_result_gets_a_picture_of_themselves(data_dir):
+    tracks = read_openpose_folder(data_dir / TAKE / "openpose-body25b" / "cam01_json")  # two people
+    keypoints = np.moveaxis(tracks.keypoints, 1, 0)[None]  # (C, P, T, 17, 3), as in a LiftResult
+    camera = default_camera("cam01", *tracks.image_size)
+    result = SimpleNamespace(cameras=(camera,), fps=60.0, frame_times=tracks.frame_times, keypoints2d=keypoints)
+    result.num_persons = tracks.num_persons
+    frames = good_frames(result)
+    assert sorted(frames) == [0, 1]
+    for p, good in frames.items():
+        x1, y1, x2, y2 = good.box
+        own = keypoints[good.camera, p, good.frame]
+        joints = own[own[:, 2] > 0, :2]
+        assert len(joints) >= 4 and ((joints >= [x1, y1]) & (joints <= [x2, y2])).all()  # their own joints
+    pictures = thumbnails(result, {"cam01": data_dir / TAKE / "cam01.mp4"}, frames)
+    assert frames[0].box != frames[1].box and pictures[0].shape != pictures[1].shape  # two different pictures
 
 
 def test_the_recording_holds_who_each_person_is(data_dir, tmp_path):

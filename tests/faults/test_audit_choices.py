@@ -5,6 +5,7 @@ must end in a clean error (checked for its words) or be handled well (:mod:`audi
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -49,10 +50,29 @@ def _(w: Path) -> Run:
     return Run(args, says=("a plain number is ambiguous; write largest:1", "id:1"))
 
 
+@case("temperature-just-over-its-bound-says-both-as-they-are")
+def _(w: Path) -> Run:
+    args = lift_args(openpose_copy(w), w / "out", "--temperature", "1000000.5")
+    return Run(args, says=("--temperature", "must be between -1,000,000 and 1,000,000, got 1000000.5"))
+
+
+@case("split-with-a-max-gap-of-1e308")
+def _(w: Path) -> Run:
+    args = lift_args(openpose_copy(w), w / "out", "--max-gap", "1e308", "--split-seconds", "2", "--jobs", "2")
+    return Run(args, says=("--max-gap", "from 0 to 86400 (a day), got 1e+308"))
+
+
+@case("bench-video-fifo")
+def _(w: Path) -> Run:
+    fifo = w / "clip.mp4"
+    os.mkfifo(fifo)
+    return Run(["bench", "--video", fifo, "-q"], says=("clip.mp4: is a FIFO (named pipe), not a video file to loop",))
+
+
 @case("energy-scale-1e308")
 def _(w: Path) -> Run:
     args = lift_args(openpose_copy(w), w / "out", "--energy-scale", "1e308")
-    return Run(args, says=("energy-scale", "must be at most 1e+06 in size, got 1e+308"))
+    return Run(args, says=("energy-scale", "must be between -1,000,000 and 1,000,000, got 1e+308"))
 
 
 @case("calibration-time-offset-1e308")

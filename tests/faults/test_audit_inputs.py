@@ -203,7 +203,7 @@ def _(w: Path) -> Run:
 @case("detect-fps-inf")
 def _(w: Path) -> Run:
     args = ["detect", openpose_copy(w), "--fps", "inf", "--image-size", "1920x1088", "--out", w / "out", "-q"]
-    return Run(args, says=("cam01_json: fps must be a number above 0 and at most 10000, got inf",))
+    return Run(args, says=("cam01_json: fps must be a number from 1 to 10000, got inf",))
 
 
 @case("lift-fps-inf")
@@ -221,8 +221,14 @@ def _(w: Path) -> Run:
             "--out",
             w / "out",
         ],
-        says=("cam01_json", "fps must be a number above 0 and at most 10000, got inf"),
+        says=("cam01_json", "fps must be a number from 1 to 10000, got inf"),
     )
+
+
+@case("lift-fps-1e-300")
+def _(w: Path) -> Run:
+    args = ["lift", "--keypoints", openpose_copy(w), "--fps", "1e-300", "--image-size", "1920x1088", *FAST]
+    return Run([*args, "--out", w / "out"], says=("cam01_json", "fps must be a number from 1 to 10000, got 1e-300"))
 
 
 @case("lift-seed-1e23")

@@ -79,8 +79,10 @@ def test_600_people_in_a_frame_is_refused_quickly(data_dir, tmp_path):
 @pytest.mark.parametrize(
     "fps, size, match",
     [
-        (float("inf"), SIZE, "fps must be a number above 0"),
-        (0.0, SIZE, "fps must be a number above 0"),
+        (float("inf"), SIZE, "fps must be a number from 1 to 10000, got inf"),
+        (0.0, SIZE, "fps must be a number from 1 to 10000, got 0.0"),
+        (1e-300, SIZE, "fps must be a number from 1 to 10000, got 1e-300"),  # was read, and found no person
+        (float("nan"), SIZE, "fps must be a number from 1 to 10000, got nan"),
         (60.0, (0, 0), "image size 0x0"),
         (60.0, (1920, -4), "image size 1920x-4"),
     ],

@@ -86,6 +86,35 @@ def test_a_second_writer_of_one_folder_refuses_and_writes_nothing(tmp_path) -> N
     entry = run_job(job, RunSettings(out=out))  # free again: the run goes on (and fails on the missing video)
     assert entry["status"] == "failed" and "another platypose run" not in entry["error"]
     assert (folder / "failed.json").is_file()
+    assert not (folder / ".lift.lock").exists()  # no empty lock file left in the output folder
+
+
+def test_a_lock_file_goes_when_released_and_a_waiter_on_it_locks_anew(tmp_path) -> None:
+    import threading
+
+    from platypose.cli.locks import Busy, exclusive_lock
+
+    path = tmp_path / ".lift.lock"
+    held, waiting, done = threading.Event(), threading.Event(), threading.Event()
+
+    def wait_for_it() -> None:
+        waiting.set()
+        with exclusive_lock(path):  # blocks on the first holder's file, which is gone when it gets it
+            held.set()
+            done.wait(10)
+
+    with exclusive_lock(path):
+        waiter = threading.Thread(target=wait_for_it)
+        waiter.start()
+        waiting.wait(10)
+        time.sleep(0.2)  # the waiter has opened the file and waits on its lock
+    assert held.wait(10) and path.is_file()  # the waiter holds a new lock file
+    with pytest.raises(Busy):
+        with exclusive_lock(path, wait=False):
+            pass
+    done.set()
+    waiter.join(10)
+    assert not path.exists()
 
 
 # ---------------------------------------------------------------------------- the real CLI, with a FIFO in the way
@@ -135,3 +164,29 @@ def test_a_fifo_as_lift_json_is_set_aside_by_resume(tmp_path) -> None:
     warning = f"warning: {out / 'cam01/lift.json'}: damaged (is a FIFO (named pipe), a regular bookkeeping file"
     assert sum(line.startswith(warning) for line in done.stderr.splitlines()) == 1, done.stderr
     assert json.loads((out / "cam01/lift.json").read_text())["outputs"] == ["cam01.npz"]
+
+
+@pytest.mark.parametrize(
+    ("flags", "said"),
+    [(["person 0: flagged: spread"], ["person 0: flagged: spread"]), ([5], []), ("person 0", []), (None, [])],
+)
+def test_a_resumed_input_says_the_flags_its_lift_json_kept(tmp_path, flags, said) -> None:
+    from platypose.cli.lift_run import earlier_flags
+
+    manifest = {"outputs": ["a.npz"], "formats": ["npz"], **({"flags": flags} if flags is not None else {})}
+    (tmp_path / "lift.json").write_text(json.dumps(manifest))
+    assert earlier_flags(tmp_path) == said
+
+
+def test_a_batch_whose_executor_refuses_to_start_leaves_no_summary(tmp_path) -> None:
+    from platypose.cli.lift_batch import run_batch
+    from platypose.lifting.errors import InputError
+
+    def refuses(*_) -> None:
+        raise InputError("--cpus-per-input 64: the largest Ray node has 2 CPU(s)")
+
+    missing = tmp_path / "a.mp4"
+    job = Job("a", str(missing), (View("a", missing, missing),))
+    with pytest.raises(InputError):
+        run_batch([job], RunSettings(out=tmp_path / "out"), executor=refuses)
+    assert not (tmp_path / "out" / "summary.json").exists()

@@ -57,11 +57,24 @@ def test_weights_of_another_shape_are_named(tiny_prior, tmp_path) -> None:
         load_prior(path)
 
 
-@pytest.mark.parametrize("value", [1e308, np.float64(1e308), 1e7])
-def test_sampler_numbers_are_bounded(value) -> None:
-    with pytest.raises(InputError, match=r"energy_scale must be at most 1e\+06 in size, got") as err:
+@pytest.mark.parametrize(
+    ("value", "shown"),
+    [(1e308, "1e+308"), (np.float64(1e308), "1e+308"), (1e7, "10000000.0"), (1e6 + 0.5, "1000000.5")],
+)
+def test_sampler_numbers_are_bounded(value, shown) -> None:
+    with pytest.raises(InputError) as err:
         SamplerConfig(energy_scale=value)
+    assert str(err.value) == f"energy_scale must be between -1,000,000 and 1,000,000, got {shown}"  # not "1e+06"
     assert err.value.option == "energy_scale"
+
+
+@pytest.mark.parametrize("value", [1e308, 86400.5, -1.0])
+def test_max_gap_is_bounded_to_a_day(value) -> None:
+    from platypose.lifting.settings import WindowSettings
+
+    with pytest.raises(InputError) as err:
+        WindowSettings(max_gap=value)
+    assert str(err.value) == f"max_gap must be a number of seconds from 0 to 86400 (a day), got {value!r}"
 
 
 def _edited_prior(source, path, edit) -> str:

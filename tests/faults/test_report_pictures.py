@@ -3,6 +3,7 @@ a report without a video says why its thumbnails are missing, and two overlappin
 
 from __future__ import annotations
 
+import re
 from types import SimpleNamespace
 
 import numpy as np
@@ -62,8 +63,10 @@ def test_a_report_without_videos_says_why_it_has_no_thumbnails(data_dir, tmp_pat
     export(result, tmp_path, "r", "report", say=said.append)
     cameras = ", ".join(sorted({result.cameras[f.camera].name for f in good_frames(result).values()}))
     assert f"r: no person thumbnails from camera(s) {cameras}: no video of them (--video CAMERA=PATH)" in said
-    captions = [text for text, _ in _titles(drawn[0]) if text.startswith("person 7\n")]
-    assert captions and captions[0].endswith("given)") and "(no thumbnail: no video of cam" in captions[0]
+    captions = [(text, box) for text, box in _titles(drawn[0]) if text.startswith("person 7\n")]
+    (text, box), width = captions[0], drawn[0].bbox.width
+    assert re.search(r"\(no thumbnail: no video of cam0\d given\)$", " ".join(text.split()))
+    assert box.x0 >= 0 and box.x1 <= width  # the whole caption is in the picture, none cut at its edge
 
 
 def _person(x: float, height: float) -> np.ndarray:
@@ -76,16 +79,17 @@ def _person(x: float, height: float) -> np.ndarray:
 
 
 def test_two_overlapping_people_get_pictures_of_their_own(tmp_path) -> None:
-    keypoints = np.zeros((1, 20, 2, 17, 3))  # (C, T, P, 17, 3)
+    keypoints = np.zeros((1, 2, 20, 17, 3))  # (C, P, T, 17, 3), as in a LiftResult
     for t in range(10):  # together, nearest the camera: each tallest here, one box over the other
-        keypoints[0, t, 0] = _person(500, 400 + t)
-        keypoints[0, t, 1] = _person(520, 400 + t)
+        keypoints[0, 0, t] = _person(500, 400 + t)
+        keypoints[0, 1, t] = _person(520, 400 + t)
     for t in range(10, 20):  # apart, farther away
-        keypoints[0, t, 0] = _person(100, 300)
-        keypoints[0, t, 1] = _person(1200, 300)
+        keypoints[0, 0, t] = _person(100, 300)
+        keypoints[0, 1, t] = _person(1200, 300)
     result = SimpleNamespace(cameras=(default_camera("cam01", 1080, 1920),), keypoints2d=keypoints, num_persons=2)
     frames = good_frames(result)
     boxes = [np.array(frames[p].box) for p in (0, 1)]
     overlap = np.clip(np.minimum(boxes[0][2:], boxes[1][2:]) - np.maximum(boxes[0][:2], boxes[1][:2]), 0, None)
     assert overlap.prod() == 0.0  # the pictures do not show the same people
     assert frames[0].frame >= 10 and frames[1].frame >= 10
+    assert frames[0].box[2] < 500 < frames[1].box[0]  # each picture shows its own person (at 100 and 1200 px)

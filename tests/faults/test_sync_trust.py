@@ -3,6 +3,7 @@ confidence, keeps the calibration's offset and says so; views where nobody is se
 
 from __future__ import annotations
 
+import re
 import warnings
 from pathlib import Path
 from types import SimpleNamespace
@@ -31,12 +32,21 @@ def test_a_synchronised_take_with_unreliable_motion_keeps_its_offsets() -> None:
     keypoints[3][::2] = np.nan
     keypoints[3][::2, ..., 2] = 0
     said: list[str] = []
+    logged: list[str] = []
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
-        synced = synchronise("auto", keypoints, [t.frame_times for t in tracks], cameras, lambda _: None, said.append)
+        synced = synchronise("auto", keypoints, [t.frame_times for t in tracks], cameras, logged.append, said.append)
     assert synced.record()["offsets_s"] == {"cam_01": 0.0, "cam_02": 0.0, "cam_03": 0.0, "cam_04": 0.0}
     refused = [line for line in said if "is not applied: its confidence" in line]
     assert len(refused) == 3 and all("the calibration's +0.000 s is kept" in line for line in refused)
+    # the error line gives the offsets used their own number, and names the estimates not applied as such
+    pattern = (
+        r"sync: median reprojection error ([\d.]+) px with the calibration's offsets, ([\d.]+) px with those used; "
+        r"the estimates not applied \(cam_02, cam_03, cam_04\) would give [\d.]+ px"
+    )
+    (line,) = [line for line in logged if line.startswith("sync: median")]
+    match = re.fullmatch(pattern, line)
+    assert match and match[1] == match[2], line  # nothing applied: what was used is the calibration's
 
 
 def test_a_large_shift_needs_high_confidence() -> None:

@@ -54,6 +54,22 @@ def test_the_lens_from_metadata_else_the_prior():
     assert source == PRIOR and focal == pytest.approx(960 / math.tan(math.radians(30)))
 
 
+@pytest.mark.parametrize(
+    "value", ["-26", "26e3", "\uff12\uff16", "\uff11\uff12\uff13", "26 or 52", "f/1.8 26", "7", "801", ""]
+)
+def test_a_lens_tag_is_read_only_as_a_whole_number_in_range(value: str):
+    tags = {"com.apple.quicktime.camera.focal_length.35mm_equivalent": value}
+    focal, source = lens_focal(tags, (1080, 1920))
+    assert source == PRIOR and focal == pytest.approx(960 / math.tan(math.radians(30)))
+
+
+@pytest.mark.parametrize("value, millimetres", [("26", 26.0), (" 26.5 ", 26.5), ("26 mm", 26.0), ("800", 800.0)])
+def test_a_plain_lens_tag_is_read(value: str, millimetres: float):
+    tags = {"FocalLengthIn35mmFormat": value}
+    focal, source = lens_focal(tags, (1080, 1920))
+    assert source == METADATA and focal == pytest.approx(millimetres / math.hypot(36, 24) * math.hypot(1080, 1920))
+
+
 def test_pose_of_a_posed_camera_is_its_pose():
     camera = posed_camera("c", (1080, 1920), 1234.0, 22.5, -13.4, 1.9)
     assert pose_of(camera) == pytest.approx({"pitch_deg": 22.5, "roll_deg": -13.4, "height_m": 1.9, "focal_px": 1234.0})

@@ -15,7 +15,7 @@ from platypose.lifting.anatomy.limits import hinge_coordinates, limit_excess
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.camera import project
 from platypose.lifting.checks.plausibility import stance_slides
-from platypose.lifting.finish.rigid import place_on_sphere, rigid_motion, rigid_paths
+from platypose.lifting.finish.rigid import place_on_sphere, rigid_motion, rigid_paths, rigid_person
 from platypose.lifting.finish.rigid_shape import RigidShape, body_frames, body_offsets, clip_shape
 from platypose.lifting.finish.smoothing import smooth_over_time
 from platypose.lifting.finish.stance_legs import two_bone_limb
@@ -27,6 +27,7 @@ from platypose.lifting.skeleton import bone_lengths
 from platypose.lifting.timebase import resample
 from platypose.lifting.tracks.persons import lift_persons
 from platypose.lifting.tracks.roots import presence
+from platypose.lifting.triangulation import triangulate, view_median_errors
 from platypose.pipeline import lift_take
 
 TAKE = "video/pose2sim-balancing"
@@ -218,6 +219,25 @@ def test_a_real_lift_is_rigid_and_keeps_its_image(tiny_prior, athlete):
     lowest, was = hyps[..., 2].min(axis=-1), before_h[0][..., 2].min(axis=-1)
     assert (lowest >= np.minimum(was, 0.0) - 1e-5).all()
     assert result.meta["rigid_bones"]["p0"]["stretch_m"] > 0.0
+
+
+def test_four_views_correct_a_lasting_offset_and_keep_the_spread(athlete):
+    """The athlete's four views (OpenPose, 60 frames): hypotheses 3 cm off the keypoints' triangulation for the
+    whole clip, spread 2 cm about it, are made rigid nearer the keypoints in every view, still as spread
+    (lifting.finish.measured)."""
+    cameras, keypoints, times = athlete
+    kp = keypoints[:, :60]  # (C, T, 1, 17, 3)
+    points = triangulate(kp[:, :, 0, :, :2], kp[:, :, 0, :, 2], cameras)
+    points = np.where(np.isfinite(points), points, np.nanmedian(points, axis=0))  # a joint seen once: its median
+    spread = np.random.default_rng(2).normal(0.0, 0.02, size=(1, 6, 1, 17, 3))  # one offset per hypothesis
+    hypotheses = points + [0.03, -0.02, 0.0] + spread
+    median = np.median(hypotheses, axis=1)
+    before = view_median_errors(median[0], kp[:, :, 0], cameras)
+    width = np.std(hypotheses[0], axis=0).mean()
+    rigid_person(hypotheses, median, kp, cameras, 0, 60.0)
+    after = view_median_errors(median[0], kp[:, :, 0], cameras)
+    assert (after < before).all() and after.mean() < 0.9 * before.mean(), (before, after)  # the views disagree
+    assert 0.8 < np.std(hypotheses[0], axis=0).mean() / width < 1.2
 
 
 @pytest.mark.slow  # the shipped prior

@@ -72,7 +72,7 @@ def _check(run_cli, data_dir: Path, sync: str):
 def test_calib_check_reports_offsets(run_cli, data_dir: Path, tmp_path: Path):
     code, stdout, _ = _check(run_cli, data_dir, "auto")
     assert code == 0 and stdout.count("confidence") == 3 and "sync cam_02:" in stdout
-    assert "px as recorded" in stdout
+    assert "px with the calibration's offsets, " in stdout and "px with those used" in stdout
     offsets = tmp_path / "offsets.json"
     offsets.write_text('{"cam01": 0.0, "cam02": 0.0, "cam_03": -0.0833, "CAM-4": 0.0}')
     code, stdout, _ = _check(run_cli, data_dir, str(offsets))
