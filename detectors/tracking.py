@@ -10,7 +10,8 @@ person sizes (repairs the ID switches left by occlusions and missed
 detections); best pairs first, each fragment joined at most once per end.
 Tracks with fewer than ``min_track_frames`` observed frames are dropped. Last,
 with ``repair_switches``, two tracks that came close and switched identities are
-swapped back from the switch on (``detectors.id_repair``).
+swapped back from the switch on (``detectors.id_repair``). With ``repair_sides``, frames where the detector
+labelled a person's left as their right are relabelled (``detectors.side_swaps``).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from platypose.detectors.id_repair import SwitchRepairConfig, repair_id_switches
 from platypose.detectors.keypoints import missing_persons
 from platypose.detectors.person_choice import check_point_in_image, indices_of_ids, nearest_track, parse_persons
 from platypose.detectors.pose_metrics import person_size, pose_distance
+from platypose.detectors.side_swaps import repair_side_swaps
 from platypose.detectors.types import PoseTrack2D
 
 _NO_MATCH = 1e6
@@ -43,6 +45,7 @@ class TrackerConfig:
     min_confidence: float = 0.2
     min_track_frames: int = 3
     repair_switches: bool = True  # swap identities back where two tracks that came close were switched
+    repair_sides: bool = True  # undo the detector's left/right label swaps (detectors.side_swaps)
 
 
 @dataclass
@@ -163,6 +166,8 @@ def track_detections(
     if config.repair_switches:
         repair = SwitchRepairConfig(min_confidence=config.min_confidence, min_joints=config.min_joints)
         keypoints = repair_id_switches(keypoints, times, repair)[0]
+    if config.repair_sides:
+        keypoints = repair_side_swaps(keypoints)[0]
     return PoseTrack2D(keypoints, times, np.arange(len(tracks)), image_size, source)
 
 

@@ -221,7 +221,7 @@ def finished_outputs(folder: Path, formats, digest: str | None = None) -> tuple[
 
 
 def flag_lines(reports: list[dict]) -> list[str]:
-    """The console's lines about a lift's flagged persons, from its plausibility ``reports`` (:func:`person_lines`)."""
+    """The console's lines about a lift's flagged persons, from its plausibility ``reports`` (:func:`lifting.checks.flags.person_lines`)."""
     from platypose.lifting.checks.flags import person_lines
 
     return person_lines(reports, [report["track_id"] for report in reports])

@@ -199,19 +199,16 @@ def always_fails(marker: str) -> None:
 def test_a_piece_that_fails_once_is_run_again(tmp_path):
     """On this machine's processes, a piece task that raises, or whose worker dies, once is run again and the split
     goes on; one that fails twice stops it with a line naming the piece."""
-    done = []
-    tasks = [
-        (fails_once, (str(tmp_path / "a"),)),
-        (dies_once, (str(tmp_path / "b"),)),
-        (fails_once, (str(tmp_path / "c"),)),
-    ]
-    said = []
-    with LocalPieces(2, 1) as pool:
-        pool.run(tasks, ["0", "1", "2"], done.append, said.append)
-        assert sorted(done) == [0, 1, 2]
-        # each run again is in the job's log
+    with LocalPieces(2, 1) as pool:  # raised: run again in the same pool, each rerun said
+        done, said = [], []
+        pool.run([(fails_once, (str(tmp_path / name),)) for name in "ac"], ["0", "2"], done.append, said.append)
+        assert sorted(done) == [0, 1]
         assert "piece 0 failed (RuntimeError: a transient failure); running it again" in said
         assert "piece 2 failed (RuntimeError: a transient failure); running it again" in said
+    with LocalPieces(2, 1) as pool:  # a worker died: the pool's pieces run again in new processes, said once
+        done, said = [], []
+        pool.run([(dies_once, (str(tmp_path / "b"),))], ["1"], done.append, said.append)
+        assert done == [0]
         died = [line for line in said if line.startswith("a worker process died; running piece(s) ")]
         assert died and "1" in died[0].split("piece(s) ")[1], said
         with pytest.raises(RuntimeError, match="piece 7 failed 2 times: RuntimeError: broken x"):
