@@ -61,14 +61,16 @@ def detect_video(
 ) -> PoseTrack2D:
     """Detect and track people in ``video`` -> tracks (T, P, 17, 3) at the processed frames' times.
 
-    With ``cache_dir``, detections are read from / written to a cache file there. A video that decodes
-    to fewer frames than its container states gets a note (``tracks.notes``) saying so.
+    With ``cache_dir``, detections are read from / written to a cache file there (a damaged one is removed and
+    detected again). A damaged cache, and a video that decodes to fewer frames than its container states, get a
+    note (``tracks.notes``) saying so.
     """
     video = Path(video)
     info = video_info(video)
     key = cache_key(video, detector.name, stride, max_frames)
     cache = DetectionCache(Path(cache_dir), video.stem) if cache_dir is not None else None
-    cached = cache.load(key) if cache is not None else None
+    damaged: list[str] = []  # a damaged cache is removed and detected again: said in the tracks' notes
+    cached = cache.load(key, damaged.append) if cache is not None else None
     if cached is not None:
         detections, indices = cached
     else:
@@ -79,4 +81,4 @@ def detect_video(
     times = processed_times(video, indices, info.fps)
     tracks = track_detections(ours, times, info.image_size, f"{video} ({detector.name})", tracker)
     short = decoding_shortfall(video, info, indices, stride, max_frames)
-    return replace(tracks, notes=tracks.notes + (short,)) if short else tracks
+    return replace(tracks, notes=tracks.notes + tuple(damaged) + ((short,) if short else ()))

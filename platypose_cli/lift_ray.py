@@ -25,10 +25,11 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from platypose.cli.console import say_over_bar
 from platypose.cli.lift_jobs import Job
 from platypose.cli.lift_run import MANIFEST, RunSettings, remove_stale_staging
 from platypose.cli.ray_address import check_ray_address
@@ -129,17 +130,30 @@ def lift_on_worker(job: Job, settings: RunSettings, threads: int, cwd: str, coll
     return entry, files, worker
 
 
-def write_collected(folder: Path, entry: dict, files: dict[str, bytes]) -> dict:
+def write_collected(folder: Path, entry: dict, files: dict[str, bytes], say=say_over_bar) -> dict:
     """Write a job's collected ``files`` into ``folder`` atomically, ``lift.json`` last (its output names are
-    relative to its folder, so it holds as it was written on the worker); the entry with paths in ``folder``."""
-    from platypose.cli.lift_run import JOB_LOCK
-    from platypose.cli.locks import exclusive_lock
+    relative to its folder, so it holds as it was written on the worker), removing the outputs of an earlier run
+    that this one did not write, as a local run does; the entry with paths in ``folder``. Another run writing the
+    folder is waited for, and ``say`` says so."""
+    from platypose.cli.lift_run import JOB_LOCK, remove_stale_outputs
+    from platypose.cli.locks import Busy, exclusive_lock
     from platypose.lifting.files.atomic import atomic_open
 
     folder.mkdir(parents=True, exist_ok=True)
-    with exclusive_lock(folder / JOB_LOCK):  # waits for another run writing the folder: never mixes with it
+    with ExitStack() as held:
+        try:
+            held.enter_context(exclusive_lock(folder / JOB_LOCK, wait=False))
+        except Busy:
+            say(f"{folder.name}: another platypose run is writing {folder}/ now; waiting for it to end")
+            held.enter_context(exclusive_lock(folder / JOB_LOCK))  # never mixes with it
         (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here
-        for relative in sorted((n for n in files if n != JOB_LOCK), key=lambda name: name == MANIFEST):
+        files = {n: content for n, content in files.items() if n != JOB_LOCK}
+        if entry["status"] == "ok":
+            stale = remove_stale_outputs(folder, entry["name"], [folder / n for n in files])
+            if stale and "log.txt" in files:
+                line = f"removed output(s) of an earlier run that this run did not write: {', '.join(stale)}\n"
+                files["log.txt"] += line.encode()
+        for relative in sorted(files, key=lambda name: name == MANIFEST):
             with atomic_open(folder / relative) as stream:
                 stream.write(files[relative])
     entry = dict(entry, outputs=[str(folder / Path(p).name) for p in entry["outputs"]])

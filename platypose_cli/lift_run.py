@@ -42,6 +42,7 @@ from platypose.cli.options import as_json, cli_message
 from platypose.cli.output_names import FAILURE, MANIFEST, job_sources
 from platypose.cli.output_set import changed_files, digests
 from platypose.cli.progress_bars import GroupBars
+from platypose.cli.split_pieces import remove_pieces
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.atomic import existing_kind, write_text_atomic
 from platypose.lifting.job_log import JobLog
@@ -349,7 +350,7 @@ def _run_locked(job: Job, settings: RunSettings, pieces=None) -> dict:
         }
         write_text_atomic(folder / MANIFEST, json.dumps(manifest, indent=1))
         (folder / FAILURE).unlink(missing_ok=True)
-        shutil.rmtree(folder / ".pieces", ignore_errors=True)  # a split lift's piece cache: done with
+        remove_pieces(settings.out, job.name)  # a split lift's piece cache: done with
         entry.update(status="ok", outputs=outputs, floor=result.meta["floor"], plausibility=result.meta["plausibility"])
     except Exception as err:
         kind = failure_kind(err)

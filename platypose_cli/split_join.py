@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import pickle
 import time
 from collections.abc import Callable, Sequence
@@ -24,7 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.cli.split_pieces import detect_piece, lift_piece, piece_folder
+from platypose.cli.piece_files import read_lift_piece
+from platypose.cli.piece_plan import PiecePlan
+from platypose.cli.split_pieces import detect_piece, lift_piece, make_piece_folder, piece_folder
 from platypose.lifting.tracks.seams import cross_fade, fade_weights, match_hypotheses, plan_pieces
 
 MIN_MARGIN_S = 1.0  # seconds each piece is lifted past its own frames, at least (and at least --max-gap)
@@ -61,10 +64,11 @@ def split_hooks(pool, settings, name: str, log, read: Callable) -> tuple[SplitLi
     return lifter, split_read
 
 
-def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, log: Callable[[str], None]) -> int:
+def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, log) -> int:
     """Detect ``source`` (a video) in pieces of ``split_s`` seconds run by ``pool`` and write the joined detections
     as its detection cache in ``folder`` (nothing to do when that cache is current); pieces already detected by an
-    earlier run (``folder/.pieces``) are not detected again. The number of pieces detected now."""
+    earlier run (``folder/.pieces``) are not detected again, and a damaged cache or piece is removed, warned of
+    (``log``, a JobLog) and detected again. The number of pieces detected now."""
     from platypose.cli.detection import cached_detector
     from platypose.detectors.cache import DetectionCache, cache_key, read_detections
     from platypose.detectors.video import video_info
@@ -73,26 +77,31 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
     name = cached_detector(detect).name
     key = cache_key(source, name, detect.stride, detect.max_frames)
     cache = DetectionCache(folder, source.stem)
-    if cache.load(key) is not None:
+    if cache.load(key, log.warning) is not None:
         return 0
     info = video_info(source)
     stamps = frame_stamps(source)[0]
     step = max(int(round(split_s * info.fps / detect.stride)), 1) * detect.stride  # a multiple of the stride
     starts = list(range(0, max(len(stamps), 1), step))
     pieces = piece_folder(folder.parent, folder.name)
-    pieces.mkdir(parents=True, exist_ok=True)
-    tasks, paths, keys = [], [], []
+    make_piece_folder(pieces)
+    plan = PiecePlan(pieces)
+    tasks, paths, todo = [], [], []
     for n, start in enumerate(starts):
         count = None if n == len(starts) - 1 else step  # the last piece reads to the end, whatever the header says
         piece_key = json.dumps({"video": key, "start": start, "count": count})
         path = pieces / f"{source.stem}.{_digest(piece_key)}.detections.npz"
         paths.append(path)
-        keys.append(piece_key)
-        if DetectionCache(path.parent, path.name.removesuffix(".detections.npz")).load(piece_key) is None:
+        if os.path.lexists(path) and (why := plan.why_not(path)) is not None:
+            log.warning(f"damaged split piece {source.name}:{n}: {path}: {why}; removed, detected again")
+            path.unlink(missing_ok=True)
+            plan.forget(path)
+        if DetectionCache(path.parent, path.name.removesuffix(".detections.npz")).load(piece_key, log.warning) is None:
             stamp = int(stamps[start]) if start < len(stamps) else None
             tasks.append((detect_piece, (str(source), detect, start, stamp, count, str(path), piece_key)))
+            todo.append(n)
     started = time.perf_counter()
-    seconds = pool.run(tasks, [f"{source.name}:{i}" for i in range(len(tasks))], say=log)
+    seconds = pool.run(tasks, [f"{source.name}:{n}" for n in todo], lambda i: plan.record(paths[todo[i]]), say=log)
     if tasks:
         log(
             f"{source}: {len(tasks)} piece(s) of {split_s:g} s detected {piece_times(seconds, time.perf_counter() - started)}"
@@ -108,10 +117,11 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
 
 class SplitLifter:
     """:func:`platypose.lifting.tracks.persons.lift_persons` spread over pieces of ``split_s`` seconds run by ``pool``, the
-    pieces cached in ``folder`` (a piece lifted by an earlier run with the same inputs is read back); ``prior``
-    (PriorSettings) is what the workers load. ``log`` gets one line per call."""
+    pieces cached in ``folder`` (a piece lifted by an earlier run with the same inputs, whose digest the plan of
+    pieces holds, is read back); ``prior`` (PriorSettings) is what the workers load. ``log`` (a JobLog) gets one
+    line per call, and a warning for each damaged piece (removed and lifted again)."""
 
-    def __init__(self, pool, prior, split_s: float, folder: Path, log: Callable[[str], None]) -> None:
+    def __init__(self, pool, prior, split_s: float, folder: Path, log) -> None:
         self.pool, self.prior, self.split_s, self.folder, self.log = pool, prior, split_s, folder, log
 
     def __call__(
@@ -122,10 +132,12 @@ class SplitLifter:
         (P, T, 17, 3) and ``energy`` (P, N, T), NaN where ``absent`` (P, T)."""
         margin = margin_seconds(windows.max_gap)
         pieces = plan_pieces(times, self.split_s, margin)
-        self.folder.mkdir(parents=True, exist_ok=True)
-        tasks, paths, persons, names, earlier = [], [], [], [], 0
-        for n, piece in enumerate(pieces):
-            t = piece.lifted
+        make_piece_folder(self.folder)
+        plan = PiecePlan(self.folder)
+
+        def task(n: int) -> tuple[list[int], Path, tuple]:
+            """Piece n's persons present, its file, and the task that lifts it."""
+            t = pieces[n].lifted
             who = [p for p in range(absent.shape[0]) if not absent[p, t].all()]
             inputs = {
                 "keypoints": np.ascontiguousarray(keypoints[:, t][:, :, who]),
@@ -139,14 +151,23 @@ class SplitLifter:
             key = _digest(prior.checksum, self.prior, *(inputs[k] for k in ("keypoints", "times", "absent")),
                           inputs["roots"], inputs["cameras"], config, windows)  # fmt: skip
             path = self.folder / f"lift.{key}.npz"
+            return who, path, (lift_piece, (self.prior, inputs, str(path)))
+
+        def name(n: int) -> str:
+            return f"{n} (frames {pieces[n].lifted.start}-{pieces[n].lifted.stop - 1})"
+
+        tasks, todo, paths, persons = [], [], [], []
+        for n in range(len(pieces)):
+            who, path, work = task(n)
             paths.append(path)
             persons.append(who)
-            if who and path.is_file():
-                earlier += 1
-            elif who:
-                tasks.append((lift_piece, (self.prior, inputs, str(path))))
-                names.append(f"{n} (frames {t.start}-{t.stop - 1})")
+            if who and os.path.lexists(path) and (why := plan.why_not(path)) is not None:
+                self._drop(plan, path, f"piece {name(n)}: {path}: {why}")
+            if who and not os.path.lexists(path):
+                tasks.append(work)
+                todo.append(n)
         P = absent.shape[0]
+        earlier = sum(1 for who in persons if who) - len(tasks)
         self.log(
             f"lifting in {len(pieces)} piece(s) of {self.split_s:g} s (+{margin:g} s either side), "
             f"{earlier} done earlier"
@@ -154,15 +175,36 @@ class SplitLifter:
         done = [0]
 
         def each(i: int) -> None:
+            plan.record(paths[todo[i]])
             done[0] += 1
             if progress is not None:
                 progress(list(range(P)), done[0], len(tasks))
 
         started = time.perf_counter()
-        seconds = self.pool.run(tasks, names, each, say=self.log)
+        seconds = self.pool.run(tasks, [name(n) for n in todo], each, say=self.log)
         if tasks:
             self.log(f"{len(tasks)} piece(s) lifted {piece_times(seconds, time.perf_counter() - started)}")
-        join_pieces(pieces, persons, paths, times, absent, margin, hypotheses, median, energy)
+
+        def load(n: int) -> tuple[np.ndarray, np.ndarray]:
+            """Piece n's arrays, checked; a piece that fails the checks is removed and lifted once more."""
+            who, path = persons[n], paths[n]
+            if not who:
+                return np.zeros((0, 0, 0, 17, 3), np.float32), np.zeros((0, 0, 0), np.float32)
+            present = ~absent[who][:, pieces[n].lifted]
+            try:
+                return read_lift_piece(path, present, config.samples)
+            except ValueError as err:
+                self._drop(plan, path, f"piece {name(n)}: {path}: {err}")
+            self.pool.run([task(n)[2]], [name(n)], lambda i: plan.record(path), say=self.log)
+            return read_lift_piece(path, present, config.samples)
+
+        join_pieces(pieces, persons, load, times, absent, margin, hypotheses, median, energy)
+
+    def _drop(self, plan: PiecePlan, path: Path, why: str) -> None:
+        """Remove a damaged piece file and its line in the plan, warning ``why``."""
+        self.log.warning(f"damaged split {why}; removed, lifted again")
+        path.unlink(missing_ok=True)
+        plan.forget(path)
 
 
 def piece_times(seconds: Sequence[float | None], wall: float) -> str:
@@ -170,14 +212,6 @@ def piece_times(seconds: Sequence[float | None], wall: float) -> str:
     each = np.array([s for s in seconds or [] if s is not None])
     told = f", each {np.median(each):.1f} s median, {each.max():.1f} s at most on its worker" if len(each) else ""
     return f"in {wall:.1f} s{told}"
-
-
-def _load(path: Path, who: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-    """A piece's (hypotheses, energy) from ``path``; empty arrays for a piece nobody is in."""
-    if not who:
-        return np.zeros((0, 0, 0, 17, 3), np.float32), np.zeros((0, 0, 0), np.float32)
-    with np.load(path, allow_pickle=False) as data:
-        return data["hypotheses"], data["energy"]
 
 
 def _over(frames: slice, piece_lifted: slice, who, h, e, P: int, N: int) -> tuple[np.ndarray, np.ndarray]:
@@ -192,8 +226,9 @@ def _over(frames: slice, piece_lifted: slice, who, h, e, P: int, N: int) -> tupl
     return hyp, en
 
 
-def join_pieces(pieces, persons, paths, times, absent, margin, hypotheses, median, energy) -> None:
-    """Write the pieces' results (files ``paths``, persons ``persons``) into the take's arrays in frame order: each
+def join_pieces(pieces, persons, load, times, absent, margin, hypotheses, median, energy) -> None:
+    """Write the pieces' results (``load(n)``: piece n's hypotheses and energy; persons ``persons``) into the take's
+    arrays in frame order: each
     piece's hypotheses reordered to continue the piece before (over the frames both lifted), cross-faded around
     each seam (:func:`platypose.lifting.tracks.seams.fade_weights`), NaN where ``absent``; one piece (and the one
     before) in memory at a time."""
@@ -202,7 +237,7 @@ def join_pieces(pieces, persons, paths, times, absent, margin, hypotheses, media
     previous = None  # (piece, persons, hypotheses, energy) of the piece before, reordered
     written = 0
     for n, piece in enumerate(pieces):
-        h, e = _load(paths[n], persons[n])
+        h, e = load(n)
         h, e = np.array(h), np.array(e)
         if previous is not None:
             before, who_before, hb, eb = previous

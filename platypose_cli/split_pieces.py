@@ -14,16 +14,18 @@ from __future__ import annotations
 import math
 import os
 import shutil
+import stat
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, wait
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.reads import file_kind
 
 MAX_SPLIT_S = 24 * 3600.0  # --split-seconds above a day is no piece of one take (as offsets are bounded)
 DEATHS = 2  # on this machine, a piece is run again after its worker died this many times (as Ray's max_retries)
@@ -34,6 +36,18 @@ Task = tuple[Callable, tuple]  # a module-level function and its (picklable) arg
 def piece_folder(out: Path, name: str) -> Path:
     """Where the pieces of job ``name`` are cached."""
     return out / name / PIECES
+
+
+def make_piece_folder(folder: Path) -> None:
+    """Create the piece folder ``folder`` if missing; InputError naming it when something else is in its place (a
+    symbolic link would lead the pieces out of ``--out``, a file would fail every run), as a lock file is refused."""
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    with suppress(FileExistsError):
+        folder.mkdir()
+    mode = os.lstat(folder).st_mode
+    if not stat.S_ISDIR(mode):
+        kind = "a regular file" if stat.S_ISREG(mode) else file_kind(mode)
+        raise InputError(f"{folder}: is {kind}, not the folder of pieces platypose made; remove it")
 
 
 def remove_pieces(out: Path, name: str) -> None:

@@ -26,7 +26,9 @@ rays, equal in the image: placed frame by frame, knees and elbows bend one way, 
 seen by one view (in most frames), each limb's branch is chosen over the whole motion first
 (:mod:`lifting.finish.branches`: a Viterbi pass weighing the joint limits, the sampler's depth and the move
 between frames). Where a bone lies nearly across the ray, a small change of length needs a large change of
-depth: frame-to-frame jitter. So each bone's direction and each body's rotation is then smoothed over time
+depth: frame-to-frame jitter. So the trunk's twist is first held within what a spine allows
+(:mod:`lifting.finish.twist`: a pelvis or thorax turned the other way for a few frames is turned back), then each
+bone's direction and each body's rotation smoothed over time
 (:func:`lifting.finish.smoothing.smooth_over_time`, ``SMOOTHNESS`` at 30 fps: a change at 5 Hz is halved,
 slower ones pass), the motion rebuilt from the pelvis with the clip's shape, and each ankle that stood in the
 sampler's motion put back where the sampler planted it (:mod:`lifting.finish.stance_legs`). Several views need no smoothing of the bones (it cost them
@@ -65,6 +67,7 @@ from platypose.lifting.finish.rigid_shape import (
 )
 from platypose.lifting.finish.smoothing import present_spans, smooth_frames
 from platypose.lifting.finish.stance_legs import hold_stance_legs
+from platypose.lifting.finish.twist import untwisted
 from platypose.lifting.floor import Floor
 from platypose.lifting.rotations import kabsch, rotvec_matrices, skew
 from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
@@ -224,7 +227,7 @@ def _smooth_one_view(placed: np.ndarray, present: np.ndarray, shape: RigidShape,
     lengths, bodies = shape.lengths[:, None], shape.bodies[:, None]  # (K, 1, ...): over frames
     for span in present_spans(present):
         here = placed[:, span]  # (K, t, 17, 3)
-        turns = kabsch(bodies, body_offsets(here), np.ones(3))  # (K, t, B, 3, 3), exact: the bodies are rigid
+        turns = untwisted(kabsch(bodies, body_offsets(here), np.ones(3)))  # (K, t, B, 3, 3), exact: bodies are rigid
         turns = kabsch(np.eye(3), np.swapaxes(smooth_frames(turns, smoothness), -1, -2), np.ones(3))
         directions = smooth_frames(bone_vectors(here) / lengths[..., None], smoothness)
         directions /= np.maximum(np.linalg.norm(directions, axis=-1, keepdims=True), 1e-12)

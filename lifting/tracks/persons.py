@@ -129,7 +129,8 @@ def reprojection_report(
 ) -> tuple[dict[str, float], list[str]]:
     """Per view, the median pixel distance between the median motion ``(P, T, 17, 3)`` and the view's keypoints
     ``(C, T, P, 17, 3)`` (the largest over the persons the view sees well: :func:`well_seen`), and a warning for each view above
-    ``REPROJECTION_WARNING_SHARE`` of its image width.
+    ``REPROJECTION_WARNING_SHARE`` of its image width; one warning instead when every view that sees someone is
+    above it (the calibration as a whole does not fit the videos: swapped, or another take's).
 
     With one view guidance fits the keypoints exactly and nothing is reported (empty dict). With several, a
     view far off the others usually has a wrong calibration (or a detector that lost the person there).
@@ -143,10 +144,20 @@ def reprojection_report(
         judged = np.where(well_seen(keypoints) & np.isfinite(stacked), stacked, -np.inf).max(axis=1)
         errors = np.where(np.isfinite(judged), judged, np.nan)  # NaN: a view that sees nobody
     report = {cam.name: round(float(e), 2) for cam, e in zip(cameras, errors)}
-    warnings = [
+    off = [
+        (cam, value) for cam, value in zip(cameras, report.values()) if value > REPROJECTION_WARNING_SHARE * cam.width
+    ]
+    judged = [value for value in report.values() if np.isfinite(value)]
+    if len(off) >= 2 and len(off) == len(judged):  # no view fits: the calibration, not a view, is wrong
+        shares = [value / cam.width for cam, value in off]
+        return report, [
+            f"every view: the median motion lies {min(v for _, v in off):.1f}-{max(v for _, v in off):.1f} px "
+            f"(median) from its keypoints, {min(shares):.0%}-{max(shares):.0%} of the image width: the calibration "
+            "does not fit these videos (videos or camera names swapped, or another take's calibration?): check with "
+            "platypose calib check"
+        ]
+    return report, [
         f"view {cam.name}: the median motion lies {value:.1f} px (median) from its keypoints, "
         f"{value / cam.width:.0%} of the image width; check its calibration and its detections"
-        for cam, value in zip(cameras, report.values())
-        if value > REPROJECTION_WARNING_SHARE * cam.width
+        for cam, value in off
     ]
-    return report, warnings

@@ -19,6 +19,7 @@ from platypose.cli.lift_batch import run_batch
 from platypose.cli.lift_jobs import discover_jobs
 from platypose.cli.lift_run import RunSettings, run_job
 from platypose.cli.split_pieces import PIECES, LocalPieces, SplitExecutor
+from platypose.lifting.job_log import JobLog
 from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, WindowSettings
 
 DEMO = "video/sports2d-demo"
@@ -78,9 +79,9 @@ def test_pieces_detect_the_frames_of_an_unsplit_run(data_dir, tmp_path):
     video = data_dir / DEMO / "demo.mp4"
     options = DetectOptions(threads=1, stride=10)
     pool = InProcess()
-    lines = []
-    assert detect_in_pieces(video, options, tmp_path / "demo", 3.0, pool, lines.append) == 3
-    assert len(pool.ran) == 3 and "3 piece(s) of 3 s detected in" in lines[0]  # frames 0-89, 90-179, 180-end
+    log = JobLog()
+    assert detect_in_pieces(video, options, tmp_path / "demo", 3.0, pool, log) == 3
+    assert len(pool.ran) == 3 and "3 piece(s) of 3 s detected in" in log.lines[0]  # frames 0-89, 90-179, 180-end
     model = cached_detector(options)
     joined = DetectionCache(tmp_path / "demo", "demo").load(cache_key(video, model.name, 10, None))
     detections, indices = detect_frames(video, model, stride=10)
@@ -250,3 +251,116 @@ def test_bad_split_values_are_one_line(run_cli, data_dir, tmp_path, extra, messa
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], err
     assert not (tmp_path / "out" / "demo").exists()
+
+
+@pytest.mark.parametrize("kind", ["symbolic link", "regular file"])
+def test_a_piece_folder_that_is_not_a_folder_is_refused(data_dir, prior_file, tmp_path, kind):
+    """``OUT/<name>/.pieces`` that is a symbolic link (to a folder outside --out) or a regular file fails the input
+    with one line naming it, as ``.lift.lock`` is refused; nothing is written where the link leads."""
+    video = data_dir / DEMO / "demo.mp4"
+    (job,) = discover_jobs([video])
+    settings = lift_settings_for(data_dir, prior_file, tmp_path / "out")
+    seed_detections(data_dir, video, tmp_path / "out" / job.name)
+    pieces, elsewhere = tmp_path / "out" / job.name / PIECES, tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    if kind == "symbolic link":
+        pieces.symlink_to(elsewhere)
+    else:
+        pieces.write_text("")
+    entry = run_job(job, settings, pieces=InProcess())
+    assert entry["status"] == "failed" and entry["error_kind"] == "input", entry
+    assert entry["error"] == f"{pieces}: is a {kind}, not the folder of pieces platypose made; remove it", entry
+    assert list(elsewhere.iterdir()) == []
+
+
+def deflated_zeros(path: Path) -> None:
+    """A 4 MB-class npz of deflated zeros under a piece's name: arrays far larger than any piece, in a small file."""
+    import io
+    import zipfile
+
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f4", "fortran_order": False, "shape": (2, 4, 10**6, 51)})
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+        with archive.open("hypotheses.npy", "w", force_zip64=True) as member:
+            member.write(header.getvalue())
+            for _ in range(2 * 4 * 51 * 4):
+                member.write(bytes(10**6))
+        archive.writestr("energy.npy", header.getvalue())
+
+
+def tampered(path: Path) -> None:
+    """The piece with every coordinate moved by 1 m: shapes and values plausible, only the digest tells."""
+    with np.load(path) as data:
+        arrays = {name: data[name] for name in data.files}
+    arrays["hypotheses"] = arrays["hypotheses"] + 1.0
+    with open(path, "wb") as stream:
+        np.savez(stream, **arrays)
+
+
+@pytest.mark.parametrize(
+    "damage",
+    [lambda path: os.truncate(path, 30000), deflated_zeros, tampered, lambda path: path.write_bytes(b"\0" * 100)],
+    ids=["truncated", "deflated zeros", "tampered", "not an npz"],
+)
+def test_a_damaged_piece_is_warned_removed_and_lifted_again(data_dir, prior_file, tmp_path, damage):
+    """After a split lift killed with one piece finished, that piece damaged (truncated to 30000 bytes, replaced by
+    gigabytes of deflated zeros, its values changed, not an npz at all) is not read: the next run warns, removes it
+    and lifts it again, and writes the arrays of a split lift that was never interrupted."""
+    from platypose.exporters.npz import read_npz
+
+    video = data_dir / DEMO / "demo.mp4"
+    (job,) = discover_jobs([video])
+    results = {}
+    for run in ("damaged", "in one go"):
+        settings = lift_settings_for(data_dir, prior_file, tmp_path / run)
+        seed_detections(data_dir, video, tmp_path / run / job.name)
+        if run == "damaged":
+            with pytest.raises(KeyboardInterrupt):
+                run_job(job, settings, pieces=InProcess(stop_at=1, error=KeyboardInterrupt))
+            (piece,) = (tmp_path / run / job.name / PIECES).glob("lift.*.npz")
+            damage(piece)
+        pool = InProcess()
+        entry = run_job(job, settings, pieces=pool)
+        assert entry["status"] == "ok", entry
+        assert len(pool.ran) == 3
+        said = [w for w in entry["warnings"] if w.startswith("damaged split piece 0 (frames 0-")]
+        assert len(said) == (1 if run == "damaged" else 0), entry["warnings"]
+        assert run == "in one go" or f"{piece}: " in said[0] and said[0].endswith("; removed, lifted again")
+        results[run] = read_npz(tmp_path / run / job.name / "demo.npz")
+    a, b = results.values()
+    assert np.array_equal(a.hypotheses, b.hypotheses, equal_nan=True)
+
+
+def test_a_piece_read_back_is_checked_before_use(data_dir, prior_file, tmp_path):
+    """A real piece's arrays are read back only as the lift wrote them: other shapes (checked in the npz headers,
+    before loading), values not finite where a person is present, or coordinates over 1 km from the origin are
+    one ValueError each saying so."""
+    from platypose.cli.piece_files import read_lift_piece
+
+    video = data_dir / DEMO / "demo.mp4"
+    (job,) = discover_jobs([video])
+    settings = lift_settings_for(data_dir, prior_file, tmp_path)
+    seed_detections(data_dir, video, tmp_path / job.name)
+    with pytest.raises(KeyboardInterrupt):
+        run_job(job, settings, pieces=InProcess(stop_at=1, error=KeyboardInterrupt))
+    (piece,) = (tmp_path / job.name / PIECES).glob("lift.*.npz")
+    with np.load(piece) as data:
+        hypotheses, energy = data["hypotheses"], data["energy"]
+    present = ~np.isnan(energy).all(axis=1)
+    h, e = read_lift_piece(piece, present, 4)
+    assert np.array_equal(h, hypotheses, equal_nan=True) and present.any()
+    t = present.shape[1]
+    with pytest.raises(
+        ValueError, match=rf"arrays energy \(2, 4, {t}\) float32, .* \(2, 4, {t - 1}, 17, 3\) float32 were"
+    ):
+        read_lift_piece(piece, present[:, :-1], 4)
+    p, t = np.argwhere(present)[0]
+    for value, message in (
+        (np.nan, "not finite in frames where a person is present"),
+        (2e3, r"coordinates 2e\+03 m from the origin \(over 1000 m\)"),
+    ):
+        changed = hypotheses.copy()
+        changed[p, 0, t, 3, 1] = value
+        np.savez(tmp_path / "changed.npz", hypotheses=changed, energy=energy)
+        with pytest.raises(ValueError, match=message):
+            read_lift_piece(tmp_path / "changed.npz", present, 4)

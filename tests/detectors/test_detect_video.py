@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import tracemalloc
 from pathlib import Path
 
@@ -70,6 +71,34 @@ def test_detect_video_streams_and_caches(data_dir: Path, movenet, tmp_path: Path
     np.testing.assert_array_equal(again.keypoints, tracks.keypoints)
     detect_video(video, Counting(), stride=5, max_frames=4, cache_dir=tmp_path)
     assert len(calls) == 8  # other settings: the stale cache is not used
+
+
+def _keypoints_swapped(path: Path) -> None:
+    """The cache with its keypoints one frame short of its counts: arrays that do not fit together."""
+    with np.load(path) as data:
+        arrays = {name: data[name] for name in data.files}
+    arrays["keypoints"] = arrays["keypoints"][:-1]
+    np.savez(path, **arrays)
+
+
+@pytest.mark.parametrize(
+    "damage",
+    [lambda path: os.truncate(path, path.stat().st_size // 2), _keypoints_swapped],
+    ids=["truncated", "arrays that do not fit"],
+)
+def test_a_damaged_detection_cache_is_removed_and_detected_again(data_dir: Path, movenet, tmp_path: Path, damage):
+    """A detection cache cut short, or whose arrays do not fit together, is not read (no BadZipFile, no
+    IndexError): the video is detected again, the cache rewritten, and the tracks' notes say so."""
+    video = data_dir / POSE2SIM / "cam02.mp4"
+    first = detect_video(video, movenet, stride=10, max_frames=4, cache_dir=tmp_path)
+    damage(tmp_path / "cam02.detections.npz")
+    again = detect_video(video, movenet, stride=10, max_frames=4, cache_dir=tmp_path)
+    np.testing.assert_array_equal(again.keypoints, first.keypoints)
+    (note,) = [n for n in again.notes if "damaged detection cache" in n]
+    assert note.startswith(f"{tmp_path / 'cam02.detections.npz'}: damaged detection cache (") and note.endswith(
+        "); removed, detected again"
+    )
+    assert detect_video(video, movenet, stride=10, max_frames=4, cache_dir=tmp_path).notes == first.notes
 
 
 def test_detection_holds_one_frame_at_a_time(data_dir: Path) -> None:

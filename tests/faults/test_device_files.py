@@ -8,6 +8,7 @@ import os
 import socket
 import stat
 import threading
+import time
 
 import pytest
 
@@ -53,19 +54,35 @@ def test_a_fifo_is_written_through_to_its_reader_and_refused_without_one(tmp_pat
     os.mkfifo(fifo)
     with pytest.raises(InputError, match=r"pipe\.json: a FIFO \(named pipe\) that no one reads"):
         write_text_atomic(fifo, "lost")
-    received = []
-    reader = threading.Thread(target=lambda: received.append(fifo.read_text()))
+    received, opened = [], threading.Event()
+
+    def read_all() -> None:  # opens its end before the write (no probe, whose close would end the read early)
+        fd = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+        opened.set()
+        data, deadline = b"", time.monotonic() + 10
+        try:
+            while time.monotonic() < deadline:
+                try:
+                    chunk = os.read(fd, 4096)
+                except BlockingIOError:  # a writer is connected, nothing to read yet
+                    chunk = None
+                if chunk:
+                    data += chunk
+                elif chunk == b"" and data:  # the writer closed after writing
+                    break
+                else:
+                    time.sleep(0.005)
+        finally:
+            os.close(fd)
+        received.append(data.decode())
+
+    reader = threading.Thread(target=read_all)
     reader.start()
     try:
-        for _ in range(200):  # until the reader has opened its end
-            try:
-                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-                break
-            except OSError:
-                threading.Event().wait(0.01)
+        assert opened.wait(10)
         write_text_atomic(fifo, "through")
     finally:
-        reader.join(10)
+        reader.join(15)
     assert received == ["through"] and stat.S_ISFIFO(os.lstat(fifo).st_mode)
 
 

@@ -101,6 +101,27 @@ def test_swapped_cameras_warned_and_views_judged_by_persons_seen_well(take_views
     assert report["cam_02"] < 20 and not [w for w in warnings if "cam_02" in w], (report, warnings)
 
 
+def test_keypoints_swapped_in_pairs_are_one_line_saying_the_calibration_does_not_fit(
+    run_cli, data_dir, tmp_path, prior_file
+):
+    """The take's keypoint folders swapped in pairs (cam01 with cam04, cam02 with cam03): each pair triangulates
+    with itself, so no view stands alone, but the lift fits no view; one line says the calibration does not fit."""
+    folder = tmp_path / "kp"
+    folder.mkdir()
+    for ours, theirs in (("cam01", "cam04"), ("cam02", "cam03"), ("cam03", "cam02"), ("cam04", "cam01")):
+        (folder / f"{ours}_json").symlink_to(data_dir / TAKE / "openpose-body25b" / f"{theirs}_json")
+    args = ("--cams", str(data_dir / TAKE / "calib_pose2sim.toml"), "--prior", prior_file, "--samples", "4")
+    common = (*args, "--fps", "60", "--image-size", "1920x1088", "--threads", "1", "--formats", "npz", "-q")
+    code, out, err = run_cli("lift", "--keypoints", str(folder), "--out", str(tmp_path / "o"), *common)
+    assert code == 0, err
+    lines = [line for line in err.splitlines() if "median motion lies" in line]
+    assert len(lines) == 1 and "every view:" in lines[0] and "calibration does not fit" in lines[0], err
+    code, out, err = run_cli(
+        "lift", "--keypoints", str(data_dir / TAKE / "openpose-body25b"), "--out", str(tmp_path / "right"), *common
+    )
+    assert code == 0 and "every view" not in err, err  # the rig as it is: not every view is off
+
+
 def test_calibration_names_matching_no_video_are_one_error(run_cli, data_dir, tmp_path, prior_file, batch_folder):
     folder = tmp_path / "in"
     folder.mkdir()
