@@ -67,7 +67,8 @@ def lift(
     bundled MoveNet) or precomputed keypoints (an OpenPose folder, our npz / CSV, MMPose
     JSON); its name (file stem, folder name without ``_json``) is matched to the camera's.
     ``cams``: a calibration file, a loaded :class:`Calibration` or a list of cameras; None
-    for one view (a level camera at the origin is assumed). ``prior``: a loaded
+    for one view (a video's camera from its scene's lines and people, else a level camera at
+    the origin, as ``lift`` without ``--cams``). ``prior``: a loaded
     :class:`Prior` (load it once for many takes) or a checkpoint path (None: the shipped
     prior). ``sampler`` / ``windows``: settings objects; keyword arguments named after
     :class:`SamplerConfig` fields (``samples=20, seed=1``) replace those fields.
