@@ -95,9 +95,13 @@ def _lift(run_cli, video: Path, out: Path, prior: str, seed: int) -> np.ndarray:
     from platypose.exporters.npz import read_npz
 
     # no floor: one uncalibrated view's floor is estimated from the frames there are, 24 or 16 here, and grounding
-    # on a floor found under other frames moves the person; these tests compare the readers
+    # on a floor found under other frames moves the person; nor the camera of the scene's lines, estimated from
+    # the frames there are (a pitch 0.1 degree apart moves the person 1 cm): the default camera, through --cams;
+    # these tests compare the readers
+    cams = out.parent / f"{video.stem}-calib.json"
+    assert run_cli("calib", "convert", str(video), "--out", str(cams))[0] == 0
     args = ("lift", str(video), "--prior", prior, "--out", str(out), "--samples", "8", "--seed", str(seed))
-    args += ("--floor", "none")
+    args += ("--floor", "none", "--cams", str(cams))
     code, stdout, stderr = run_cli(*args, "--formats", "npz", "--persons", "largest", "--quiet")
     assert code == 0, stdout + stderr
     result = read_npz(next(out.rglob("*.npz")))
