@@ -70,9 +70,10 @@ def video_scene_camera(
     hold_focal: bool = False,
 ) -> SceneCamera:
     """The camera of the video at ``path`` from its scene's lines, with the people its ``keypoints`` show masked
-    out (optional: per frame of the video, each (P, J, 3) x, y, confidence; an array (T, P, J, 3) will do); ``focal_px`` from ``focal_source`` as in
-    :func:`scene_camera` (``hold_focal``: trusted, the lines' own not reported). ``times`` (T,): the keypoints'
-    seconds from the video's start where they are not one per frame (each sampled frame takes the nearest)."""
+    out (optional: per frame of the video, each (P, J, 3) x, y, confidence; an array (T, P, J, 3) will do);
+    ``focal_px`` from ``focal_source`` as in :func:`scene_camera` (``hold_focal``: trusted, the lines' own not
+    reported). ``times`` (T,): the keypoints' seconds from the video's start where they are not one per frame
+    (each sampled frame takes the nearest)."""
     indices, frames = sample_frames(path, count)
     boxes = None
     if keypoints is not None:
