@@ -151,7 +151,8 @@ def reprojection_report(
     if len(off) >= 2 and len(off) == len(judged):  # no view fits: the calibration, not a view, is wrong
         shares = [value / cam.width for cam, value in off]
         return report, [
-            f"every view: the median motion lies {min(v for _, v in off):.1f}-{max(v for _, v in off):.1f} px "
+            f"views {', '.join(cam.name for cam, _ in off)} (all of them): the median motion lies "
+            f"{min(v for _, v in off):.1f}-{max(v for _, v in off):.1f} px "
             f"(median) from its keypoints, {min(shares):.0%}-{max(shares):.0%} of the image width: the calibration "
             "does not fit these videos (videos or camera names swapped, or another take's calibration?): check with "
             "platypose calib check"
