@@ -149,12 +149,18 @@ def reprojection_report(
     ]
     judged = [value for value in report.values() if np.isfinite(value)]
     if len(off) >= 2 and len(off) == len(judged):  # no view fits: the calibration, not a view, is wrong
+        low, high = min(v for _, v in off), max(v for _, v in off)
         shares = [value / cam.width for cam, value in off]
+        share = (
+            f"{min(shares):.0%}"
+            if f"{min(shares):.0%}" == f"{max(shares):.0%}"
+            else f"{min(shares):.0%}-{max(shares):.0%}"
+        )
         return report, [
-            f"every view: the median motion lies {min(v for _, v in off):.1f}-{max(v for _, v in off):.1f} px "
-            f"(median) from its keypoints, {min(shares):.0%}-{max(shares):.0%} of the image width: the calibration "
-            "does not fit these videos (videos or camera names swapped, or another take's calibration?): check with "
-            "platypose calib check"
+            f"views {', '.join(cam.name for cam, _ in off)} (no view fits): the median motion lies {low:.1f}-{high:.1f} "
+            f"px (median) from their keypoints, {share} of the image "
+            "width: the calibration does not fit these videos (videos or camera names swapped, or another take's "
+            "calibration?); check it with platypose calib check"
         ]
     return report, [
         f"view {cam.name}: the median motion lies {value:.1f} px (median) from its keypoints, "

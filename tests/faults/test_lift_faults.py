@@ -169,8 +169,8 @@ def test_swapped_calibration_is_named_in_the_console_and_summary(run_cli, data_d
     code, _, err = run_cli(*argv)
     assert code == 0
     warnings = " ".join(summary(tmp_path / "out")["inputs"][0]["warnings"])
-    assert "view cam_0" in warnings and "check its calibration" in warnings
-    assert "warning: " in err and "check its calibration" in err
+    assert "cam_01" in warnings and "cam_02" in warnings and "calibration" in warnings
+    assert "warning: " in err and "calibration" in err
 
 
 def _lift_process(argv: list[str]) -> subprocess.Popen:
