@@ -13,7 +13,7 @@ import numpy as np
 
 from platypose.lifting.calibration.from_people import MIN_OBSERVATIONS, CameraEstimate, estimate_camera
 from platypose.lifting.calibration.lens import METADATA, lens_focal
-from platypose.lifting.calibration.pose_above_floor import posed_camera
+from platypose.lifting.calibration.pose_above_floor import pitched, posed_camera
 from platypose.lifting.camera import Camera
 
 
@@ -22,7 +22,7 @@ def estimate_note(estimate: CameraEstimate) -> str:
     sd = estimate.sd
     return (
         f"camera estimated from {estimate.persons} person(s) in {estimate.observations} upright person-frames "
-        f"({estimate.rejected} left out): pitched {estimate.pitch_deg:.1f} +- {sd['pitch_deg']:.1f} degrees down, "
+        f"({estimate.rejected} left out): {pitched(estimate.pitch_deg, sd['pitch_deg'])}, "
         f"rolled {estimate.roll_deg:.1f} +- {sd['roll_deg']:.1f}, focal length {estimate.focal_px:.0f} +- "
         f"{sd['focal_px']:.0f} px (from the {estimate.focal_source}), {estimate.height_m:.2f} +- "
         f"{sd['height_m']:.2f} m above the floor"

@@ -41,6 +41,13 @@ def posed_camera(
     return Camera(name=name, size=size, K=intrinsics(focal_px, size), R=R, t=-R @ np.array([0.0, 0.0, height_m]))
 
 
+def pitched(pitch_deg: float, sd_deg: float | None = None) -> str:
+    """Words for a camera's pitch (positive: looking down), as the log says it: "pitched 2.4 degrees up" rather than
+    "pitched -2.4 degrees down"; with its spread ``sd_deg`` when given."""
+    spread = "" if sd_deg is None else f" +- {sd_deg:.1f}"
+    return f"pitched {abs(pitch_deg):.1f}{spread} degrees {'down' if pitch_deg >= 0 else 'up'}"
+
+
 def pitch_roll(up: np.ndarray) -> tuple[float, float]:
     """Pitch and roll (degrees) of a camera that sees the world's up as the unit vector ``up`` (3,) in its own
     coordinates (image up is -y)."""

@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from platypose.lifting.calibration.pose_above_floor import pitched
 from platypose.lifting.camera import Camera
 from platypose.lifting.floor import Floor
 
@@ -69,7 +70,7 @@ def world_note(height_m: float, pitch_deg: float) -> str:
     """The sentence that says outputs are in the estimated world (meta, log, report)."""
     return (
         f"estimated world: z = 0 is the estimated floor, z up; the camera {height_m:.2f} m above it on the z axis, "
-        f"pitched {pitch_deg:.1f} degrees down, looking along +y"
+        f"{pitched(pitch_deg)}, looking along +y"
     )
 
 

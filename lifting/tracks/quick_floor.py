@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from platypose.lifting.calibration.pose_above_floor import pitched
 from platypose.lifting.camera import Camera
 from platypose.lifting.floor import Floor, floor_under
 from platypose.lifting.job_log import JobLog
@@ -72,7 +73,7 @@ def quick_floor(
     else:
         log(
             f"floor estimated under a quick lift of {quick.samples} hypotheses ({seconds:.1f} s): camera "
-            f"{meta['camera_height_m']:.2f} m above it, pitched {meta['camera_pitch_deg']:.1f} degrees down "
+            f"{meta['camera_height_m']:.2f} m above it, {pitched(meta['camera_pitch_deg'])} "
             f"{'(the scene) ' if level_known else ''}"
             f"({meta['stance_points']} standing ankles); --floor z=H or a calibration sets it instead"
         )

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.calibration.lens import METADATA, PRIOR, prior_focal
-from platypose.lifting.calibration.pose_above_floor import posed_camera
+from platypose.lifting.calibration.pose_above_floor import pitched, posed_camera
 from platypose.lifting.calibration.scene.estimate import SceneCamera
 from platypose.lifting.camera import Camera
 
@@ -67,8 +67,8 @@ def assumed_camera(
     focal_text = f"{focal:.0f} px" + ("" if focal_sd is None else f" +- {focal_sd:.0f}")
     lines = [
         f"camera from the scene's lines ({scene.segments} segments): rolled {scene.roll_deg:.1f} +- "
-        f"{scene.sd['roll_deg']:.1f} degrees, pitched {scene.pitch_deg:.1f} +- {scene.sd['pitch_deg']:.1f} "
-        f"degrees down ({scene.source['pitch_deg']}); focal length {focal_text} ({focal_source}); height from the "
+        f"{scene.sd['roll_deg']:.1f} degrees, {pitched(scene.pitch_deg, scene.sd['pitch_deg'])} "
+        f"({scene.source['pitch_deg']}); focal length {focal_text} ({focal_source}); height from the "
         f"{HEIGHT_SOURCE}"
     ]
     if scene.focal_note is not None and metadata_focal is None:

@@ -174,3 +174,12 @@ def test_a_segment_behind_a_box_keeps_its_ends():
     pieces = unmasked_pieces(np.array([[10.0, 50.0, 390.0, 50.0]]), allowed)
     assert len(pieces) == 2
     assert pieces[0, 0] == 10.0 and 140.0 < pieces[0, 2] < 150.0 and 250.0 <= pieces[1, 0] < 260.0
+
+
+def test_a_camera_looking_up_is_said_to_look_up() -> None:
+    """The log's words for a pitch: a negative pitch (the sports2d demo's scene: -2.4 degrees) reads "up", not
+    "-2.4 degrees down"."""
+    from platypose.lifting.calibration.pose_above_floor import pitched
+
+    assert pitched(-2.4) == "pitched 2.4 degrees up"
+    assert pitched(18.3, 0.3) == "pitched 18.3 +- 0.3 degrees down"
