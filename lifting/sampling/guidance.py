@@ -80,7 +80,7 @@ class GuidedProblem:
         offset = solve_translation(placed, self.rays, self.obs.cameras, self.config.translation_smoothness)
         offset = self.views.limit_offset(local[..., 0, :], offset)
         if self.grounding is not None:  # windows seen by one camera: stance ankles' rays meet the floor
-            offset = self.grounding.place(placed, offset)
+            offset = self.grounding.place(placed, offset, None if self.anchor is None else self.anchor.landing)
         if self.anchor is not None:  # continuation: start on the anchor, return to the rays' placement by the end
             offset = continued_offset(offset, local, self.anchor)
         return offset

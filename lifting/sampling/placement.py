@@ -23,6 +23,7 @@ from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
 
 DEPTH_RANGE = 1.5  # one view: a root over this many times nearer or farther than the median hypothesis is moved back
 SIZE_LIMITS = (0.5, 2.0)  # the size prior never scales a prediction by more than this
+MIN_GAP_FRAMES = 6  # prior frames unseen right after a window's anchored ones: a gap the person reappears from
 
 
 @dataclass(frozen=True)
@@ -35,12 +36,15 @@ class Anchor:
     them) and held by an energy of ``weight`` per squared metre. ``seen`` (B, F), if given, is 1 on frames with
     keypoints in some view: the continued placement is kept until the first of them after the anchored frames
     (:func:`continuation_ramp`), so a window inside a detection gap carries the track on instead of placing it.
+    ``landing`` (B,), if given, is True for windows the floor contact places (:func:`reappearing`: the person is
+    back in them, or in the window before, after a gap; :meth:`lifting.sampling.grounding.Grounding.place`).
     """
 
     joints: torch.Tensor
     mask: torch.Tensor
     weight: float = 100.0
     seen: torch.Tensor | None = None
+    landing: torch.Tensor | None = None
 
 
 def continuation_ramp(mask: torch.Tensor, seen: torch.Tensor | None = None) -> torch.Tensor:
@@ -79,6 +83,18 @@ def continuation_ramp(mask: torch.Tensor, seen: torch.Tensor | None = None) -> t
     ramp = ((end - frames) / (end - held).clamp(min=1)).clamp(0, 1)
     ramp = torch.where(frames <= held, torch.ones_like(ramp), ramp)
     return torch.where(((seen > 0) & (frames > last_held)).any(-1, keepdim=True), ramp, torch.ones_like(ramp))
+
+
+def reappearing(mask: torch.Tensor, seen: torch.Tensor | None, min_gap: int = 1) -> torch.Tensor:
+    """Windows ``(B,)`` (bool) whose anchored frames (``mask`` ``(B, F)``) are followed by at least ``min_gap`` frames
+    no camera sees, then by a frame some camera sees (``seen`` ``(B, F)``): the person reappears in them after a gap
+    that began before them, so the placement they continue was carried across the gap by the prior alone."""
+    if seen is None:
+        return torch.zeros(mask.shape[0], dtype=torch.bool, device=mask.device)
+    frames = torch.arange(mask.shape[-1], dtype=mask.dtype, device=mask.device)
+    last_held = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+    back = torch.where((seen > 0) & (frames > last_held), frames, float(mask.shape[-1])).amin(-1)  # (B,)
+    return (back < mask.shape[-1]) & (back - last_held[:, 0] - 1 >= min_gap)
 
 
 def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) -> torch.Tensor:
