@@ -5,7 +5,13 @@ import numpy as np
 import torch
 
 from platypose.lifting.offline.camera_rigs import ring_cameras
-from platypose.lifting.sampling.placement import DEPTH_RANGE, continuation_ramp, limit_depth, typical_size
+from platypose.lifting.sampling.placement import (
+    DEPTH_RANGE,
+    continuation_ramp,
+    limit_depth,
+    reappearing,
+    typical_size,
+)
 from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_lengths
 
 
@@ -54,6 +60,15 @@ def test_a_gap_right_after_the_anchor_with_enough_seen_after_it_is_placed_by_the
 def test_a_window_inside_a_gap_carries_the_track_on():
     mask, seen = _rows([[0, 1], []])
     assert (continuation_ramp(mask, seen) == 1).all()
+
+
+def test_a_person_reappears_in_a_window_only_after_a_gap_that_began_before_it():
+    """The floor contact places the windows a person comes back in after a gap (the Sports2D man, carried across his
+    1.5 s gap, stood 0.6 m above the floor): back after 5 unseen frames right after the anchor; not after 1 (a
+    missed detection); not when seen before the gap in the window (its rays place it across); not when never back."""
+    mask, seen = _rows([[0, 1, *range(7, 12)], [0, 1, *range(3, 12)], [0, 1, 2, 3, 9, 10, 11], [0, 1]])
+    assert reappearing(mask, seen, min_gap=3).tolist() == [True, False, False, False]
+    assert not reappearing(mask, None).any()
 
 
 def test_depth_limit_keeps_every_root_in_front_and_near_the_others():
