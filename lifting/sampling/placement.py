@@ -24,6 +24,7 @@ from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
 DEPTH_RANGE = 1.5  # one view: a root over this many times nearer or farther than the median hypothesis is moved back
 SIZE_LIMITS = (0.5, 2.0)  # the size prior never scales a prediction by more than this
 MIN_GAP_FRAMES = 6  # prior frames unseen right after a window's anchored ones: a gap the person reappears from
+LANDING_RAMP = 8  # prior frames over which a window the floor contact places leaves the carried placement
 
 
 @dataclass(frozen=True)
@@ -101,7 +102,13 @@ def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) 
     """Offsets ``(B, N, F, 3)`` of poses ``local`` ``(B, N, F, 17, 3)`` that start on the ``anchor``'s first
     pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`)."""
     continued = anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
-    ramp = continuation_ramp(anchor.mask, anchor.seen)[:, None, :, None]
+    ramp = continuation_ramp(anchor.mask, anchor.seen)
+    if anchor.landing is not None:  # the floor contact takes over within LANDING_RAMP frames of the anchor
+        frames = torch.arange(ramp.shape[-1], dtype=ramp.dtype, device=ramp.device)
+        last_held = (anchor.mask.sum(-1, keepdim=True) - 1).clamp(min=0)
+        short = ((last_held + LANDING_RAMP - frames) / LANDING_RAMP).clamp(0, 1)
+        ramp = torch.where(anchor.landing[:, None], torch.minimum(ramp, short), ramp)
+    ramp = ramp[:, None, :, None]
     return ramp * continued + (1 - ramp) * offset
 
 
