@@ -30,9 +30,10 @@ from scipy.sparse.linalg import spsolve
 from platypose.lifting.camera import Camera
 from platypose.lifting.checks.plausibility import standing_heights
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
+from platypose.lifting.sampling.placement import SIZE_LIMITS
 from platypose.lifting.tracks.roots import MIN_SEEN_JOINTS
 
-CUTOFF_HZ = 1.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
+CUTOFF_HZ = 3.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
 AIRBORNE_WEIGHT = 0.005  # data weight of frames whose feet do not stand (changes over about 0.8 Hz smoothed)
 STANDING_BAND = 0.1  # metres: a lower ankle within this of the floor (or its own low level) stands
 MIN_SEEN = 10  # joints the camera must see in a frame for its placement to count fully
@@ -140,12 +141,13 @@ def floor_contact_depths(
     down from a roof while unseen stood on at roof level. After a gap, up to the next, a hypothesis standing at
     another level than it stood on over the ``SUPPORT_BEFORE`` seconds seen before the gap (or with no such
     frames) is scaled about the camera centre until its stance is at ``ANKLE_HEIGHT`` on the floor, where its
-    ankle's ray meets the floor (at least ``MIN_DROP`` below the camera). One standing at its level from before
+    ankle's ray meets the floor (at least ``MIN_DROP`` below the camera), by at most the size prior's ``SIZE_LIMITS``. One standing at its level from before
     keeps its depth (a person back on the same roof, step or floor)."""
     contact = np.full(log_depth.shape, np.nan)
     drop = camera_height - levels
     reachable = drop > MIN_DROP
-    on_floor = log_depth + np.log((camera_height - ANKLE_HEIGHT) / np.where(reachable, drop, 1.0))
+    scale = np.clip((camera_height - ANKLE_HEIGHT) / np.where(reachable, drop, 1.0), *SIZE_LIMITS)
+    on_floor = log_depth + np.log(scale)
     runs = gap_runs(unseen, fps)
     for k, (first, stop) in enumerate(runs):
         end = runs[k + 1][0] if k + 1 < len(runs) else len(unseen)

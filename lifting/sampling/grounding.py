@@ -37,6 +37,7 @@ import torch
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES
 from platypose.lifting.sampling.energy import Observations
 from platypose.lifting.sampling.linalg import SYMMETRIC_PAIRS
+from platypose.lifting.sampling.placement import SIZE_LIMITS
 
 STANCE_SPEED = 1.5  # m/s: a lower ankle slower than this stands (jitter and sliding included; a swing is faster)
 TYPICAL_EXTENT = 1.7  # metres: the diagonal of an adult's keypoints' box, standing (scales image speeds to m/s)
@@ -183,14 +184,16 @@ class Grounding:
         ankle on the floor, and whether it is known ``(B, N)``: over the frames whose lower ankle a camera sees below
         it (``drop`` ``(B, N, F, 2)`` below the camera, ``scale`` ``(B, N, F, 2)`` per ankle), the
         ``LANDING_QUANTILE`` of the lower ankle's (a foot on the floor needs the least scale; running, landing or
-        crouched, one that stands slowly may be missing), known where a quarter of the frames seen count."""
+        crouched, one that stands slowly may be missing), within the size prior's ``SIZE_LIMITS`` (an ankle barely
+        below the camera asked for 18 times), known where a quarter of the frames seen count."""
         lower = drop == drop.min(dim=-1, keepdim=True).values  # the lower ankle (the farther below the camera)
         seen = self.ankle_views.any(0)[:, None]  # (B, 1, F, 2)
         usable = lower & seen & (drop < -MIN_DROP)
         per_frame = torch.where(usable, scale, torch.nan).flatten(2)  # (B, N, 2F)
         frames_seen = seen.any(-1).sum(-1)  # (B, 1)
         known = usable.flatten(2).sum(-1) >= (0.25 * frames_seen).ceil().clamp(min=1)
-        return torch.nan_to_num(per_frame.nanquantile(LANDING_QUANTILE, dim=-1), nan=1.0), known
+        landed = torch.nan_to_num(per_frame.nanquantile(LANDING_QUANTILE, dim=-1), nan=1.0).clamp(*SIZE_LIMITS)
+        return landed, known
 
     def add_terms(
         self,

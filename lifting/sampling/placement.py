@@ -100,14 +100,25 @@ def reappearing(mask: torch.Tensor, seen: torch.Tensor | None, min_gap: int = 1)
 
 def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) -> torch.Tensor:
     """Offsets ``(B, N, F, 3)`` of poses ``local`` ``(B, N, F, 17, 3)`` that start on the ``anchor``'s first
-    pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`)."""
+    pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`).
+
+    In a window the floor contact places (``anchor.landing``) the carried placement only bridges: it gives way
+    linearly from the anchored frames to the first frame seen after them (at least ``LANDING_RAMP`` frames on),
+    and the gap's frames before that take the rays' placement there, not their own (extrapolated back over
+    the gap from one view, it moved the Sports2D man's hypotheses 8-16 m inside his gap)."""
     continued = anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
     ramp = continuation_ramp(anchor.mask, anchor.seen)
-    if anchor.landing is not None:  # the floor contact takes over within LANDING_RAMP frames of the anchor
-        frames = torch.arange(ramp.shape[-1], dtype=ramp.dtype, device=ramp.device)
-        last_held = (anchor.mask.sum(-1, keepdim=True) - 1).clamp(min=0)
-        short = ((last_held + LANDING_RAMP - frames) / LANDING_RAMP).clamp(0, 1)
-        ramp = torch.where(anchor.landing[:, None], torch.minimum(ramp, short), ramp)
+    if anchor.landing is not None and anchor.seen is not None:
+        F = ramp.shape[-1]
+        frames = torch.arange(F, dtype=ramp.dtype, device=ramp.device)
+        last_held = (anchor.mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+        back = torch.where((anchor.seen > 0) & (frames > last_held), frames, float(F - 1)).amin(-1, keepdim=True)
+        end = torch.maximum(back, last_held + LANDING_RAMP)
+        bridge = ((end - frames) / (end - last_held).clamp(min=1)).clamp(0, 1)
+        landing = anchor.landing[:, None]
+        ramp = torch.where(landing, bridge, ramp)
+        at_back = offset.gather(2, back.long()[:, None, :, None].expand(-1, offset.shape[1], 1, 3))  # (B, N, 1, 3)
+        offset = torch.where((landing & (frames < back))[:, None, :, None], at_back, offset)
     ramp = ramp[:, None, :, None]
     return ramp * continued + (1 - ramp) * offset
 

@@ -7,7 +7,10 @@ import torch
 from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.sampling.placement import (
     DEPTH_RANGE,
+    LANDING_RAMP,
+    Anchor,
     continuation_ramp,
+    continued_offset,
     limit_depth,
     reappearing,
     typical_size,
@@ -104,3 +107,19 @@ def test_size_prior_scales_each_hypothesis_to_its_own_factor(heldout_window):
     same = typical_size(poses)[0].numpy()  # no factors: one scale for the window keeps relative sizes
     ratio = bone_lengths(same[1]).sum(-1) / bone_lengths(same[0]).sum(-1)
     assert np.allclose(ratio, 1.3)
+
+
+def test_a_window_the_floor_contact_places_bridges_the_gap_to_where_the_person_is_seen_again():
+    """After a gap right after the anchor (frames 2-14 unseen, seen from 15): the carried placement gives way
+    linearly to the rays' placement at the first frame seen, and the gap's frames take the rays' placement there,
+    not their own (extrapolated back over the gap from one view, it moved the Sports2D man's hypotheses 8-16 m in
+    his gap). A window the person is seen in throughout leaves the carried placement within ``LANDING_RAMP`` frames."""
+    mask, seen = _rows([[0, 1, *range(15, 24)], list(range(24))], frames=24)
+    anchor = Anchor(torch.zeros(2, 1, 24, 17, 3), mask, seen=seen, landing=torch.tensor([True, True]))
+    frames = torch.arange(24.0)
+    offset = frames[None, None, :, None].expand(2, 1, 24, 3)  # the rays' placement: the frame's number
+    placed = continued_offset(offset, torch.zeros(2, 1, 24, 17, 3), anchor)[:, 0, :, 0]
+    bridge = torch.where(frames < 15, 15 * ((frames - 1) / 14).clamp(min=0), frames)
+    torch.testing.assert_close(placed[0], bridge)
+    short = ((1 + LANDING_RAMP - frames) / LANDING_RAMP).clamp(0, 1)
+    torch.testing.assert_close(placed[1], (1 - short) * torch.where(frames < 2, 2.0, frames))
