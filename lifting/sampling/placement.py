@@ -105,13 +105,20 @@ def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) 
     In a window the floor contact places (``anchor.landing``) the carried placement only bridges: it gives way
     linearly from the anchored frames to the first frame seen after them (at least ``LANDING_RAMP`` frames on),
     and the gap's frames before that take the rays' placement there, not their own (extrapolated back over
-    the gap from one view, it moved the Sports2D man's hypotheses 8-16 m inside his gap)."""
+    the gap from one view, it moved the Sports2D man's hypotheses 8-16 m inside his gap). Likewise the frames
+    after the last one seen in a window (a gap it ends in) take the rays' placement of that frame and go on with
+    the prior's motion from there, not the rays' own extrapolated over the gap."""
     continued = anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
     ramp = continuation_ramp(anchor.mask, anchor.seen)
+    F = ramp.shape[-1]
+    frames = torch.arange(F, dtype=ramp.dtype, device=ramp.device)
+    last_held = (anchor.mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+    if anchor.seen is not None:  # frames after the last one seen go on from its placement with the prior's motion
+        last_seen = torch.where((anchor.seen > 0) & (frames > last_held), frames, -1.0).amax(-1, keepdim=True)
+        at_last = offset.gather(2, last_seen.clamp(min=0).long()[:, None, :, None].expand(-1, offset.shape[1], 1, 3))
+        trailing = (last_seen >= 0) & (frames > last_seen)
+        offset = torch.where(trailing[:, None, :, None], at_last, offset)
     if anchor.landing is not None and anchor.seen is not None:
-        F = ramp.shape[-1]
-        frames = torch.arange(F, dtype=ramp.dtype, device=ramp.device)
-        last_held = (anchor.mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
         back = torch.where((anchor.seen > 0) & (frames > last_held), frames, float(F - 1)).amin(-1, keepdim=True)
         end = torch.maximum(back, last_held + LANDING_RAMP)
         bridge = ((end - frames) / (end - last_held).clamp(min=1)).clamp(0, 1)

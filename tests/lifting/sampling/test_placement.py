@@ -123,3 +123,15 @@ def test_a_window_the_floor_contact_places_bridges_the_gap_to_where_the_person_i
     torch.testing.assert_close(placed[0], bridge)
     short = ((1 + LANDING_RAMP - frames) / LANDING_RAMP).clamp(0, 1)
     torch.testing.assert_close(placed[1], (1 - short) * torch.where(frames < 2, 2.0, frames))
+
+
+def test_a_window_that_ends_in_a_gap_goes_on_from_where_the_person_was_last_seen():
+    """Seen on frames 2-6 after the anchor, unseen from 7 to the window's end: those frames take the rays' placement
+    of frame 6 (the prior's motion goes on from there), not the rays' own extrapolated over the gap from one view."""
+    mask, seen = _rows([[0, 1, 2, 3, 4, 5, 6]])
+    anchor = Anchor(torch.zeros(1, 1, 12, 17, 3), mask, seen=seen)
+    frames = torch.arange(12.0)
+    offset = frames[None, None, :, None].expand(1, 1, 12, 3)  # the rays' placement: the frame's number
+    placed = continued_offset(offset, torch.zeros(1, 1, 12, 17, 3), anchor)[0, 0, :, 0]
+    ramp = continuation_ramp(mask, seen)[0]
+    torch.testing.assert_close(placed, (1 - ramp) * frames.clamp(max=6.0))
