@@ -83,7 +83,7 @@ class GuidedProblem:
         offset = self.views.limit_offset(local[..., 0, :], offset)
         anchor = self.anchor
         if anchor is not None and anchor.landing is not None:  # the floor contact places one view's landing
-            landing = anchor.landing & (self.grounding.single if self.grounding is not None else False)
+            landing = None if self.grounding is None else anchor.landing & self.grounding.single
             anchor = replace(anchor, landing=landing)
         if self.grounding is not None:  # windows seen by one camera: stance ankles' rays meet the floor
             offset = self.grounding.place(placed, offset, None if anchor is None else anchor.landing)

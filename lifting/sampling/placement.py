@@ -37,8 +37,8 @@ class Anchor:
     them) and held by an energy of ``weight`` per squared metre. ``seen`` (B, F), if given, is 1 on frames with
     keypoints in some view: the continued placement is kept until the first of them after the anchored frames
     (:func:`continuation_ramp`), so a window inside a detection gap carries the track on instead of placing it.
-    ``landing`` (B,), if given, is True for windows the floor contact places (:func:`reappearing`: the person is
-    back in them, or in the window before, after a gap; :meth:`lifting.sampling.grounding.Grounding.place`).
+    ``landing`` (B,), if given (a floor), is True for windows the floor contact places (:func:`landing`: the person
+    is back in them, or in the window before, after a gap; :meth:`lifting.sampling.grounding.Grounding.place`).
     """
 
     joints: torch.Tensor
@@ -98,6 +98,15 @@ def reappearing(mask: torch.Tensor, seen: torch.Tensor | None, min_gap: int = 1)
     return (back < mask.shape[-1]) & (back - last_held[:, 0] - 1 >= min_gap)
 
 
+def landing(mask: torch.Tensor, seen: torch.Tensor, seen_before: torch.Tensor) -> torch.Tensor:
+    """Anchored windows ``(B,)`` the floor contact places (``mask``, ``seen`` as :func:`reappearing`; ``seen_before``
+    ``(B, F)`` the frames seen in the window before each, none for a span's first): the person reappears in them after
+    a gap, or did in the window before and is seen in them (their frames continue the carried placement, which the
+    size prior would pull back towards a raised level)."""
+    before = reappearing(mask, seen_before, MIN_GAP_FRAMES) & (seen > 0).any(-1)
+    return reappearing(mask, seen, MIN_GAP_FRAMES) | before
+
+
 def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) -> torch.Tensor:
     """Offsets ``(B, N, F, 3)`` of poses ``local`` ``(B, N, F, 17, 3)`` that start on the ``anchor``'s first
     pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`).
@@ -105,15 +114,16 @@ def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) 
     In a window the floor contact places (``anchor.landing``) the carried placement only bridges: it gives way
     linearly from the anchored frames to the first frame seen after them (at least ``LANDING_RAMP`` frames on),
     and the gap's frames before that take the rays' placement there, not their own (extrapolated back over
-    the gap from one view, it moved the Sports2D man's hypotheses 8-16 m inside his gap). Likewise the frames
-    after the last one seen in a window (a gap it ends in) take the rays' placement of that frame and go on with
-    the prior's motion from there, not the rays' own extrapolated over the gap."""
+    the gap from one view, it moved the Sports2D man's hypotheses 8-16 m inside his gap). Likewise, where
+    ``anchor.landing`` is given (a floor), the frames after the last one seen in a window (a gap it ends in) take
+    the rays' placement of that frame and go on with the prior's motion from there, not the rays' own extrapolated
+    over the gap."""
     continued = anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
     ramp = continuation_ramp(anchor.mask, anchor.seen)
     F = ramp.shape[-1]
     frames = torch.arange(F, dtype=ramp.dtype, device=ramp.device)
     last_held = (anchor.mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
-    if anchor.seen is not None:  # frames after the last one seen go on from its placement with the prior's motion
+    if anchor.seen is not None and anchor.landing is not None:  # grounded: after the last frame seen, its placement
         last_seen = torch.where((anchor.seen > 0) & (frames > last_held), frames, -1.0).amax(-1, keepdim=True)
         at_last = offset.gather(2, last_seen.clamp(min=0).long()[:, None, :, None].expand(-1, offset.shape[1], 1, 3))
         trailing = (last_seen >= 0) & (frames > last_seen)

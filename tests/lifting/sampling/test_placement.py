@@ -126,10 +126,10 @@ def test_a_window_the_floor_contact_places_bridges_the_gap_to_where_the_person_i
 
 
 def test_a_window_that_ends_in_a_gap_goes_on_from_where_the_person_was_last_seen():
-    """Seen on frames 2-6 after the anchor, unseen from 7 to the window's end: those frames take the rays' placement
-    of frame 6 (the prior's motion goes on from there), not the rays' own extrapolated over the gap from one view."""
+    """Seen on frames 2-6 after the anchor, unseen from 7 to the window's end, on a floor: those frames take the rays'
+    placement of frame 6 (the prior's motion goes on from there), not the rays' own extrapolated over the gap."""
     mask, seen = _rows([[0, 1, 2, 3, 4, 5, 6]])
-    anchor = Anchor(torch.zeros(1, 1, 12, 17, 3), mask, seen=seen)
+    anchor = Anchor(torch.zeros(1, 1, 12, 17, 3), mask, seen=seen, landing=torch.tensor([False]))  # a floor
     frames = torch.arange(12.0)
     offset = frames[None, None, :, None].expand(1, 1, 12, 3)  # the rays' placement: the frame's number
     placed = continued_offset(offset, torch.zeros(1, 1, 12, 17, 3), anchor)[0, 0, :, 0]
