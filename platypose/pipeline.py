@@ -293,7 +293,7 @@ def lift_take(
                 prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress, lifter, level
             )
         else:
-            missing = ~presence(everyone, times)
+            missing = ~presence(everyone, times, windows.max_gap)
             others = [None] * everyone.shape[2]  # solved: a known root path belongs to a chosen person only
             floor, floor_meta = quick_floor(
                 prior, everyone, times, missing, cameras, others, sampler, windows, fps, log, progress, lifter, level

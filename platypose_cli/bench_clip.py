@@ -134,7 +134,7 @@ def lift_clip(
     lift_cpu_s = time.process_time() - seen.lift_cpu_started
     at["finishing"] = clock()
     keypoints = np.moveaxis(np.asarray(result.keypoints2d), 1, 2)  # (C, T, P, 17, 3)
-    person_frames = int(presence(keypoints, result.frame_times).sum())
+    person_frames = int(presence(keypoints, result.frame_times, take.windows.max_gap).sum())
     timings, tracks = result.meta["timings"], seen.view.tracks
     say(f"lifted {len(result.track_ids)} ({persons}), present in {person_frames} person-frames")
     return ClipTiming(

@@ -2,7 +2,8 @@
 
 python tools/gap_figures.py track OUT/demo/demo.npz
     per person: frames present / filled by the prior, pelvis path length, largest pelvis step between
-    consecutive frames (gaps included), and how much the median's bones change over the track (max - min over
+    consecutive present frames (gaps included, and the jump across a gap beyond --max-gap), each hypothesis's
+    own pelvis path (least, most, median), and how much the median's bones change over the track (max - min over
     the median length, largest over the bones)
 python tools/gap_figures.py cut OUT/demo/demo.npz CUT/demo.npz --person 1 --start 3.0 --seconds 1.5
     writes the lift's 2D keypoints (our keypoints npz, docs/keypoints.md) with person 1's detections removed
@@ -33,14 +34,17 @@ def track_figures(path: Path) -> None:
         frames = np.flatnonzero(present[p])
         if len(frames) < 2:
             continue
-        pelvis = np.asarray(result.median[p, frames[0] : frames[-1] + 1, 0], np.float64)
-        steps = np.linalg.norm(np.diff(pelvis, axis=0), axis=-1)  # NaN across a gap beyond --max-gap
+        pelvis = np.asarray(result.median[p, frames, 0], np.float64)
+        steps = np.linalg.norm(np.diff(pelvis, axis=0), axis=-1)  # between present frames: a jump across a split too
+        own = np.asarray(result.hypotheses[p][:, frames, 0], np.float64)  # (N, t, 3)
+        paths = np.linalg.norm(np.diff(own, axis=1), axis=-1).sum(axis=1)  # each hypothesis's own pelvis path
         bones = bone_lengths(np.asarray(result.median[p, frames], np.float64))  # (T, 16)
         change = (bones.max(0) - bones.min(0)) / np.median(bones, axis=0)
         print(
             f"p{track}: present {len(frames)} frames ({int((present[p] & ~seen[p]).sum())} filled by the prior), "
-            f"pelvis path {np.nansum(steps):.2f} m, largest step {np.nanmax(steps):.3f} m "
-            f"(frame {frames[0] + int(np.nanargmax(steps))}), bone lengths change by up to {100 * change.max():.2f} %"
+            f"pelvis path {steps.sum():.2f} m, largest step {steps.max():.3f} m (frame {frames[int(steps.argmax())]}), "
+            f"hypotheses' own paths {paths.min():.1f}-{paths.max():.1f} m (median {np.median(paths):.1f}), "
+            f"bone lengths change by up to {100 * change.max():.2f} %"
         )
 
 

@@ -4,7 +4,8 @@ A person's plausibility report (:mod:`lifting.checks.plausibility`) carries ``fl
 :func:`flag_text` turns them into one sentence, which the lift stores in the report as ``flag_text`` so the console,
 ``log.txt``, ``summary.json``, the report picture and the rerun recording all say the same. Only what is wrong is
 flagged: under the floor, sliding, a spread over ``SPREAD``, limb bones outside human lengths, joints outside human
-range, knee or elbow flexion changing faster than a body turns it (``hinge jumps``, with the frames), an OpenSim IK that pins a hinge at its limit or leaves large marker errors (added by ``--formats mot``,
+range, knee or elbow flexion changing faster than a body turns it (``hinge jumps``, with the frames), a body after a gap
+not the one before it (``size after gap``, :mod:`lifting.checks.gap_size`), an OpenSim IK that pins a hinge at its limit or leaves large marker errors (added by ``--formats mot``,
 :func:`exporters.mot.flag_ik`). Being seen by one camera is not wrong (depth and size then come from the prior): it is the report's
 ``one_view`` property. Where a person stands off the floor (a roof, a platform) is said too, flagged or not
 (:func:`support_text`).
@@ -54,6 +55,12 @@ def _detail(flag: str, report: dict) -> str:
         return ", ".join(
             f"{name} {entry['max_deg_per_s']} degrees/s (over {HINGE_SPEED_DEG_S:.0f}) in frames {_frames(entry['frames'])}"
             for name, entry in report["hinge_jumps"].items()
+        )
+    if flag == "size after gap":
+        gap = report["size_after_gap"]
+        return (
+            f"after the gap in frames {gap['first_frame']}-{gap['last_frame']} the keypoints give a body {gap['ratio']:g} "
+            "times the one before it (another person, or the floor or depth off): one body is a compromise there"
         )
     if flag == "opensim ik":
         return "; ".join(report["opensim_ik_warnings"])

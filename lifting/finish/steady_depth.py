@@ -29,13 +29,18 @@ from scipy.sparse.linalg import spsolve
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.checks.plausibility import standing_heights
-from platypose.lifting.floor import ANKLES, Floor
+from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
+from platypose.lifting.sampling.placement import SIZE_LIMITS
+from platypose.lifting.tracks.roots import MIN_SEEN_JOINTS
 
 CUTOFF_HZ = 3.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
 AIRBORNE_WEIGHT = 0.005  # data weight of frames whose feet do not stand (changes over about 0.8 Hz smoothed)
 STANDING_BAND = 0.1  # metres: a lower ankle within this of the floor (or its own low level) stands
 MIN_SEEN = 10  # joints the camera must see in a frame for its placement to count fully
 MIN_RUN = 0.2  # seconds: a shorter run of such frames is a blip, placed by the prior alone
+MIN_GAP = 0.2  # seconds unseen: the depth after such a gap is carried over from before it (floor_contact_depths)
+SUPPORT_BEFORE = 1.0  # seconds seen before a gap over which a hypothesis's level there is taken
+MIN_DROP = 0.05  # metres: a stance this far below the camera at least has a ray that meets the floor
 
 
 def smooth_path(
@@ -81,11 +86,15 @@ def steady_scales(
     fps: float,
     trusted: np.ndarray | None = None,
     times: np.ndarray | None = None,
+    unseen: np.ndarray | None = None,
+    camera_height: float | None = None,
 ) -> np.ndarray:
     """Per hypothesis and frame, the factor ``(N, T)`` to scale the frame about the camera centre by: pelvises
     ``(N, T, 3)`` (NaN where absent), lower-ankle heights ``(N, T)``, ``trusted`` frames ``(T,)``
     (:func:`trusted_frames`; others weigh as airborne ones), frame ``times`` ``(T,)`` (default: every 1 / ``fps``);
-    1 outside the track."""
+    1 outside the track. With ``unseen`` frames ``(T,)`` (no view sees the person) and the camera centre's
+    ``camera_height`` above the floor, a hypothesis standing after a gap at another level than before it takes
+    its depth there from the floor contact (:func:`floor_contact_depths`)."""
     depth = (pelvis - camera.center) @ camera.R[2]  # (N, T) along the optical axis
     present = np.isfinite(depth).all(axis=0) & (np.nan_to_num(depth, nan=-1.0) > 0).all(axis=0)
     scales = np.ones(depth.shape)
@@ -96,16 +105,58 @@ def steady_scales(
     response = 2 - 2 * np.cos(2 * np.pi * CUTOFF_HZ / fps)  # of a first difference at the cut-off
     lam, mu = 1.0 / response**2, 1.0 / response
     ankle = np.where(present, lower_ankle, np.nan)[:, span]
-    standing = np.abs(np.nan_to_num(ankle - standing_heights(ankle, fps), nan=np.inf)) < STANDING_BAND  # (N, t)
+    levels = standing_heights(ankle, fps)  # (N, t)
+    standing = np.abs(np.nan_to_num(ankle - levels, nan=np.inf)) < STANDING_BAND
     if trusted is not None:
         standing &= trusted[span]
     spacing = None if times is None else np.diff(np.asarray(times, np.float64)[span]) * fps
     weights = np.where(standing, 1.0, AIRBORNE_WEIGHT)
+    log_depth = np.where(present, np.log(np.where(present, depth, 1.0)), np.nan)[:, span]
+    targets = log_depth
+    if unseen is not None:  # the depth the prior carried across a gap only bridges it
+        weights = np.where(unseen[span], 0.0, weights)
+    if unseen is not None and camera_height is not None:
+        contact = floor_contact_depths(log_depth, np.where(standing, levels, np.nan), unseen[span], camera_height, fps)
+        targets = np.where(np.isfinite(contact), contact, log_depth)
     for n in range(len(depth)):
-        log_depth = np.where(present, np.log(np.where(present, depth[n], 1.0)), np.nan)[span]
-        smooth = smooth_path(log_depth, weights[n], lam, mu, spacing)
-        scales[n, span] = np.where(np.isfinite(log_depth), np.exp(smooth - np.nan_to_num(log_depth)), 1.0)
+        smooth = smooth_path(targets[n], weights[n], lam, mu, spacing)
+        scales[n, span] = np.where(np.isfinite(log_depth[n]), np.exp(smooth - np.nan_to_num(log_depth[n])), 1.0)
     return scales
+
+
+def gap_runs(unseen: np.ndarray, fps: float) -> list[tuple[int, int]]:
+    """The runs ``(first, stop)`` of ``unseen`` frames ``(T,)`` lasting ``MIN_GAP`` seconds or more, in order."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(unseen, np.int8), [0]])))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2]) if b - a >= MIN_GAP * fps]
+
+
+def floor_contact_depths(
+    log_depth: np.ndarray, levels: np.ndarray, unseen: np.ndarray, camera_height: float, fps: float
+) -> np.ndarray:
+    """Log depths ``(N, T)`` that put a hypothesis standing after a gap on the floor, NaN elsewhere.
+
+    ``log_depth`` ``(N, T)`` are the hypotheses' own, ``levels`` ``(N, T)`` their standing heights above the floor
+    where they stand on a seen frame (NaN elsewhere), ``unseen`` ``(T,)`` the frames no view sees. Across a gap (:func:`gap_runs`) a
+    hypothesis's depth is the one carried over from before it, which one view cannot check: a person who jumped
+    down from a roof while unseen stood on at roof level. After a gap, up to the next, a hypothesis standing at
+    another level than it stood on over the ``SUPPORT_BEFORE`` seconds seen before the gap (or with no such
+    frames) is scaled about the camera centre until its stance is at ``ANKLE_HEIGHT`` on the floor, where its
+    ankle's ray meets the floor (at least ``MIN_DROP`` below the camera), by at most the size prior's ``SIZE_LIMITS``. One standing at its level from before
+    keeps its depth (a person back on the same roof, step or floor)."""
+    contact = np.full(log_depth.shape, np.nan)
+    drop = camera_height - levels
+    reachable = drop > MIN_DROP
+    scale = np.clip((camera_height - ANKLE_HEIGHT) / np.where(reachable, drop, 1.0), *SIZE_LIMITS)
+    on_floor = log_depth + np.log(scale)
+    runs = gap_runs(unseen, fps)
+    for k, (first, stop) in enumerate(runs):
+        end = runs[k + 1][0] if k + 1 < len(runs) else len(unseen)
+        before = levels[:, max(first - round(SUPPORT_BEFORE * fps), 0) : first]
+        level = np.array([np.nanmedian(row) if np.isfinite(row).any() else np.nan for row in before])  # (N,)
+        moved = ~(np.abs(levels[:, stop:end] - level[:, None]) < STANDING_BAND)  # NaN level: moved
+        take = reachable[:, stop:end] & moved & np.isfinite(levels[:, stop:end])
+        contact[:, stop:end] = np.where(take, on_floor[:, stop:end], np.nan)
+    return contact
 
 
 def floor_safe(scales: np.ndarray, joints_height: np.ndarray, camera_height: float) -> np.ndarray:
@@ -137,7 +188,10 @@ def steady_person(
         [np.asarray(hypotheses[p, :, s : s + chunk][:, :, list(ANKLES)], np.float64) for s in range(0, T, chunk)], 1
     )
     height = (lambda x: floor.height(x)) if floor is not None else (lambda x: x[..., 2])
-    scales = steady_scales(pelvis, height(ankles).min(axis=-1), camera, fps, trusted_frames(seen, fps), times)
+    unseen = np.asarray(seen) < MIN_SEEN_JOINTS
+    camera_height = float(height(camera.center))
+    lower = height(ankles).min(axis=-1)
+    scales = steady_scales(pelvis, lower, camera, fps, trusted_frames(seen, fps), times, unseen, camera_height)
     centre = camera.center
     moved = 0.0
     for start in range(0, T, chunk):

@@ -4,7 +4,9 @@
 2. bodies: one shape per hypothesis over the clip, one depth branch per limb, knees, elbows and head within
    the limits a body holds (:func:`platypose.lifting.finish.rigid.rigid_person`);
 3. the median motion's reprojection against the keypoints, per view (:func:`report_reprojection`);
-4. plausibility of each person (:mod:`platypose.lifting.checks.plausibility`), said in one line each;
+4. plausibility of each person (:mod:`platypose.lifting.checks.plausibility`), said in one line each, with the
+   first gap after which the body the keypoints give is not the one before it (:mod:`platypose.lifting.checks.gap_size`,
+   measured before the bodies are made one);
 5. on an estimated floor, every output moved into the estimated world (:mod:`platypose.lifting.finish.world`).
 
 The arrays are changed in place; what the result's ``meta`` keeps is returned.
@@ -19,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from platypose.lifting.camera import Camera
-from platypose.lifting.checks.flags import person_lines
+from platypose.lifting.checks.flags import flag_text, person_lines
+from platypose.lifting.checks.gap_size import body_sizes, size_after_gap
 from platypose.lifting.checks.plausibility import plausibility
 from platypose.lifting.finish.rigid import rigid_person
 from platypose.lifting.finish.steady_depth import steady_person
@@ -64,6 +67,10 @@ def finish_take(
             seen = (np.nan_to_num(keypoints[0, :, p, :, 2]) > 0).sum(axis=-1)  # joints seen per frame
             moved = steady_person(hypotheses, p, cameras[0], fps, floor, seen, times)
             log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
+    gaps = {}  # person: the first gap after which their body is not the one before it (said once)
+    for p in range(len(track_ids)):
+        seen = (np.nan_to_num(keypoints[:, :, p, :, 2]) > 0).sum(axis=-1).max(axis=0)  # joints the best view sees
+        gaps[p] = size_after_gap(body_sizes(hypotheses, p), seen, fps)
     rigid = {}
     for p, track in enumerate(track_ids):
         began = time.perf_counter()
@@ -75,8 +82,11 @@ def finish_take(
         )
     report = report_reprojection(median, keypoints, cameras, log)
     persons = plausibility(hypotheses, keypoints, floor, fps, median=median, cameras=cameras)
-    for track, person in zip(track_ids, persons):
+    for p, (track, person) in enumerate(zip(track_ids, persons)):
         person["track_id"] = int(track)
+        if gaps[p] is not None:
+            person.update(size_after_gap=gaps[p], flags=[*person["flags"], "size after gap"])
+            person["flag_text"] = flag_text(person)
     for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
         log(line)
     if floor_meta and floor_meta["source"] == "estimated":  # outputs in the estimated world: z = 0 the floor, z up

@@ -37,6 +37,7 @@ import torch
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES
 from platypose.lifting.sampling.energy import Observations
 from platypose.lifting.sampling.linalg import SYMMETRIC_PAIRS
+from platypose.lifting.sampling.placement import SIZE_LIMITS
 
 STANCE_SPEED = 1.5  # m/s: a lower ankle slower than this stands (jitter and sliding included; a swing is faster)
 TYPICAL_EXTENT = 1.7  # metres: the diagonal of an adult's keypoints' box, standing (scales image speeds to m/s)
@@ -45,6 +46,7 @@ CONTACT_BAND = 0.1  # metres: a stance ankle this far from ANKLE_HEIGHT is not s
 SURE_SCALE = 1.15  # a floor reading that sizes a person up by less than this: every hypothesis takes it
 MAX_SCALE = 1.4  # by more than this: none (a raised support); in between a share falling linearly in log scale
 MIN_DROP = 0.05  # metres: a stance ankle must be this far below the camera for its ray to meet the floor
+LANDING_QUANTILE = 0.25  # of the lower ankle's floor scales after a gap: the frames it stands on the floor
 
 
 class Grounding:
@@ -142,9 +144,14 @@ class Grounding:
         smoothed = torch.einsum("c...,c->...", start + smoothed_move, normal) + offset
         return (smoothed < guided.clamp(max=0.0))[None]
 
-    def place(self, placed: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
+    def place(self, placed: torch.Tensor, offset: torch.Tensor, reappears: torch.Tensor | None = None) -> torch.Tensor:
         """Offsets ``(B, N, F, 3)`` of the placed poses ``placed`` ``(B, N, F, 17, 3)`` (world, before the offset),
-        rescaled about the camera of windows seen by one camera so that their stance ankles stand on the floor."""
+        rescaled about the camera of windows seen by one camera so that their stance ankles stand on the floor.
+
+        In windows where the person ``reappears`` ``(B,)`` after a gap (:func:`lifting.sampling.placement.reappearing`)
+        every hypothesis takes the floor reading of the frames seen (:meth:`landing_scale`): the level carried across
+        the gap is no evidence of a raised support, and a person landing from a drop, crouched and half seen, is
+        sized too small by the size prior (the Sports2D roof man stood 0.6 m above the floor after his gap)."""
         if not bool(self.single.any()):
             return offset
         world = placed + offset[..., None, :]
@@ -154,18 +161,39 @@ class Grounding:
         drop = (ankles - center[..., None, :]) @ self.normal  # (B, N, F, 2): below the camera is negative
         camera_height = center[..., 0, :] @ self.normal + self.offset  # (B, 1)
         scale = (self.stance_height - camera_height[..., None, None]) / drop.clamp(max=-MIN_DROP)
-        usable = stance & (drop < -MIN_DROP)
-        per_frame = torch.where(usable, scale, torch.nan).flatten(2)  # (B, N, 2F)
         frames = placed.shape[2]
+        usable = stance & (drop < -MIN_DROP)
         enough = usable.flatten(2).sum(-1) >= max(1, math.ceil(0.25 * frames))
-        window_scale = torch.nan_to_num(per_frame.nanmedian(dim=-1).values, nan=1.0)  # (B, N)
+        window_scale = torch.nan_to_num(torch.where(usable, scale, torch.nan).flatten(2).nanmedian(-1).values, nan=1.0)
         log_scale = window_scale.log().clamp(min=0)  # nearer than the size prior's: its feet were under the floor
         share = ((math.log(MAX_SCALE) - log_scale) / (math.log(MAX_SCALE) - math.log(SURE_SCALE))).clamp(0, 1)
+        if reappears is not None and bool((reappears & self.single).any()):
+            after_gap = (reappears & self.single)[:, None]  # (B, 1)
+            landed, landed_enough = self.landing_scale(drop, scale)
+            window_scale = torch.where(after_gap, landed, window_scale)
+            enough = torch.where(after_gap, landed_enough, enough)
+            share = torch.where(after_gap, torch.ones_like(share), share)
         floor_reading = enough & (self.choices < share) & self.single[:, None]  # (B, N)
         window_scale = torch.where(floor_reading, window_scale, torch.ones_like(window_scale))
         root = world[..., 0, :]
         moved_root = center + window_scale[..., None, None] * (root - center)
         return offset + (moved_root - root)
+
+    def landing_scale(self, drop: torch.Tensor, scale: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Per hypothesis of a window where the person reappears after a gap, the scale ``(B, N)`` that puts the lower
+        ankle on the floor, and whether it is known ``(B, N)``: over the frames whose lower ankle a camera sees below
+        it (``drop`` ``(B, N, F, 2)`` below the camera, ``scale`` ``(B, N, F, 2)`` per ankle), the
+        ``LANDING_QUANTILE`` of the lower ankle's (a foot on the floor needs the least scale; running, landing or
+        crouched, one that stands slowly may be missing), within the size prior's ``SIZE_LIMITS`` (an ankle barely
+        below the camera asked for 18 times), known where a quarter of the frames seen count."""
+        lower = drop == drop.min(dim=-1, keepdim=True).values  # the lower ankle (the farther below the camera)
+        seen = self.ankle_views.any(0)[:, None]  # (B, 1, F, 2)
+        usable = lower & seen & (drop < -MIN_DROP)
+        per_frame = torch.where(usable, scale, torch.nan).flatten(2)  # (B, N, 2F)
+        frames_seen = seen.any(-1).sum(-1)  # (B, 1)
+        known = usable.flatten(2).sum(-1) >= (0.25 * frames_seen).ceil().clamp(min=1)
+        landed = torch.nan_to_num(per_frame.nanquantile(LANDING_QUANTILE, dim=-1), nan=1.0).clamp(*SIZE_LIMITS)
+        return landed, known
 
     def add_terms(
         self,

@@ -8,6 +8,8 @@ anchor terms, accepts or cuts each step, and writes the accepted move back into 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import torch
 
 from platypose.lifting.anatomy.hinges import limit_residuals
@@ -79,10 +81,14 @@ class GuidedProblem:
         placed = typical_size(local, self.size_factors) if self.config.size_prior else local
         offset = solve_translation(placed, self.rays, self.obs.cameras, self.config.translation_smoothness)
         offset = self.views.limit_offset(local[..., 0, :], offset)
+        anchor = self.anchor
+        if anchor is not None and anchor.landing is not None:  # the floor contact places one view's landing
+            landing = None if self.grounding is None else anchor.landing & self.grounding.single
+            anchor = replace(anchor, landing=landing)
         if self.grounding is not None:  # windows seen by one camera: stance ankles' rays meet the floor
-            offset = self.grounding.place(placed, offset)
-        if self.anchor is not None:  # continuation: start on the anchor, return to the rays' placement by the end
-            offset = continued_offset(offset, local, self.anchor)
+            offset = self.grounding.place(placed, offset, None if anchor is None else anchor.landing)
+        if anchor is not None:  # continuation: start on the anchor, return to the rays' placement by the end
+            offset = continued_offset(offset, local, anchor)
         return offset
 
     def inpaint(self, x0: torch.Tensor) -> torch.Tensor:

@@ -23,6 +23,8 @@ from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS
 
 DEPTH_RANGE = 1.5  # one view: a root over this many times nearer or farther than the median hypothesis is moved back
 SIZE_LIMITS = (0.5, 2.0)  # the size prior never scales a prediction by more than this
+MIN_GAP_FRAMES = 6  # prior frames unseen right after a window's anchored ones: a gap the person reappears from
+LANDING_RAMP = 8  # prior frames over which a window the floor contact places leaves the carried placement
 
 
 @dataclass(frozen=True)
@@ -35,12 +37,15 @@ class Anchor:
     them) and held by an energy of ``weight`` per squared metre. ``seen`` (B, F), if given, is 1 on frames with
     keypoints in some view: the continued placement is kept until the first of them after the anchored frames
     (:func:`continuation_ramp`), so a window inside a detection gap carries the track on instead of placing it.
+    ``landing`` (B,), if given (a floor), is True for windows the floor contact places (:func:`landing`: the person
+    is back in them, or in the window before, after a gap; :meth:`lifting.sampling.grounding.Grounding.place`).
     """
 
     joints: torch.Tensor
     mask: torch.Tensor
     weight: float = 100.0
     seen: torch.Tensor | None = None
+    landing: torch.Tensor | None = None
 
 
 def continuation_ramp(mask: torch.Tensor, seen: torch.Tensor | None = None) -> torch.Tensor:
@@ -81,11 +86,57 @@ def continuation_ramp(mask: torch.Tensor, seen: torch.Tensor | None = None) -> t
     return torch.where(((seen > 0) & (frames > last_held)).any(-1, keepdim=True), ramp, torch.ones_like(ramp))
 
 
+def reappearing(mask: torch.Tensor, seen: torch.Tensor | None, min_gap: int = 1) -> torch.Tensor:
+    """Windows ``(B,)`` (bool) whose anchored frames (``mask`` ``(B, F)``) are followed by at least ``min_gap`` frames
+    no camera sees, then by a frame some camera sees (``seen`` ``(B, F)``): the person reappears in them after a gap
+    that began before them, so the placement they continue was carried across the gap by the prior alone."""
+    if seen is None:
+        return torch.zeros(mask.shape[0], dtype=torch.bool, device=mask.device)
+    frames = torch.arange(mask.shape[-1], dtype=mask.dtype, device=mask.device)
+    last_held = (mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+    back = torch.where((seen > 0) & (frames > last_held), frames, float(mask.shape[-1])).amin(-1)  # (B,)
+    return (back < mask.shape[-1]) & (back - last_held[:, 0] - 1 >= min_gap)
+
+
+def landing(mask: torch.Tensor, seen: torch.Tensor, seen_before: torch.Tensor) -> torch.Tensor:
+    """Anchored windows ``(B,)`` the floor contact places (``mask``, ``seen`` as :func:`reappearing`; ``seen_before``
+    ``(B, F)`` the frames seen in the window before each, none for a span's first): the person reappears in them after
+    a gap, or did in the window before and is seen in them (their frames continue the carried placement, which the
+    size prior would pull back towards a raised level)."""
+    before = reappearing(mask, seen_before, MIN_GAP_FRAMES) & (seen > 0).any(-1)
+    return reappearing(mask, seen, MIN_GAP_FRAMES) | before
+
+
 def continued_offset(offset: torch.Tensor, local: torch.Tensor, anchor: Anchor) -> torch.Tensor:
     """Offsets ``(B, N, F, 3)`` of poses ``local`` ``(B, N, F, 17, 3)`` that start on the ``anchor``'s first
-    pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`)."""
+    pelvis and blend into ``offset`` (the rays' placement) by the window's end (:func:`continuation_ramp`).
+
+    In a window the floor contact places (``anchor.landing``) the carried placement only bridges: it gives way
+    linearly from the anchored frames to the first frame seen after them (at least ``LANDING_RAMP`` frames on),
+    and the gap's frames before that take the rays' placement there, not their own (extrapolated back over
+    the gap from one view, it moved the Sports2D man's hypotheses 8-16 m inside his gap). Likewise, where
+    ``anchor.landing`` is given (a floor), the frames after the last one seen in a window (a gap it ends in) take
+    the rays' placement of that frame and go on with the prior's motion from there, not the rays' own extrapolated
+    over the gap."""
     continued = anchor.joints[..., :1, 0, :] - local[..., :1, 0, :]  # (B, N, 1, 3)
-    ramp = continuation_ramp(anchor.mask, anchor.seen)[:, None, :, None]
+    ramp = continuation_ramp(anchor.mask, anchor.seen)
+    F = ramp.shape[-1]
+    frames = torch.arange(F, dtype=ramp.dtype, device=ramp.device)
+    last_held = (anchor.mask.sum(-1, keepdim=True) - 1).clamp(min=0)  # (B, 1)
+    if anchor.seen is not None and anchor.landing is not None:  # grounded: after the last frame seen, its placement
+        last_seen = torch.where((anchor.seen > 0) & (frames > last_held), frames, -1.0).amax(-1, keepdim=True)
+        at_last = offset.gather(2, last_seen.clamp(min=0).long()[:, None, :, None].expand(-1, offset.shape[1], 1, 3))
+        trailing = (last_seen >= 0) & (frames > last_seen)
+        offset = torch.where(trailing[:, None, :, None], at_last, offset)
+    if anchor.landing is not None and anchor.seen is not None:
+        back = torch.where((anchor.seen > 0) & (frames > last_held), frames, float(F - 1)).amin(-1, keepdim=True)
+        end = torch.maximum(back, last_held + LANDING_RAMP)
+        bridge = ((end - frames) / (end - last_held).clamp(min=1)).clamp(0, 1)
+        landing = anchor.landing[:, None]
+        ramp = torch.where(landing, bridge, ramp)
+        at_back = offset.gather(2, back.long()[:, None, :, None].expand(-1, offset.shape[1], 1, 3))  # (B, N, 1, 3)
+        offset = torch.where((landing & (frames < back))[:, None, :, None], at_back, offset)
+    ramp = ramp[:, None, :, None]
     return ramp * continued + (1 - ramp) * offset
 
 

@@ -136,9 +136,8 @@ class WindowSettings:
     overlap: int = setting(16, "Frames shared by consecutive windows.", option=True)
     anchor_weight: float = setting(100.0, "Weight holding a window's overlap on the window before.")
     max_gap: float = setting(
-        1.0,
-        "Seconds a person may go unseen and still be lifted through as one motion (the prior fills the gap; "
-        "experimental over 1 s).",
+        5.0,
+        "Seconds a person may go unseen and still be lifted through as one motion (the prior fills the gap).",
         option=True,
     )
 

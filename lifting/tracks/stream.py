@@ -20,11 +20,11 @@ import torch
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.prior.model import PriorBundle
-from platypose.lifting.sampling.placement import Anchor
+from platypose.lifting.sampling.placement import Anchor, landing
 from platypose.lifting.sampling.sampler import SampleResult, cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights
-from platypose.lifting.tracks.roots import presence
+from platypose.lifting.tracks.roots import presence, seen_frames
 from platypose.lifting.tracks.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
 
 CHUNK_FRAMES = 1024  # input frames per chunk at most: a long stretch nobody is in does not fill memory
@@ -342,10 +342,10 @@ class _WindowRunner:
         if windows[0][2] is not None:
             joints = torch.as_tensor(np.concatenate([a[0] for _, _, a in windows]), dtype=dtype, device=device)
             mask = torch.as_tensor(np.stack([a[1] for _, _, a in windows]), dtype=dtype, device=device)
-            seen = torch.as_tensor(
-                (np.nan_to_num(kp[..., 2]) > 0).any(axis=(0, -1)), dtype=dtype, device=device
-            )  # (B, F): frames with keypoints
-            held = Anchor(joints, mask, self.settings.anchor_weight, seen)
+            seen = torch.as_tensor(seen_frames(kp, 1).T, dtype=dtype, device=device)  # (B, F): frames with keypoints
+            before = np.concatenate([seen_frames(self._keypoints(s, w - 1), 1).T * (w > 1) for s, w, _ in windows])
+            before = torch.as_tensor(before, dtype=dtype, device=device)  # the same in the windows before them
+            held = Anchor(joints, mask, self.settings.anchor_weight, seen, landing(mask, seen, before))
         return sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
 
 

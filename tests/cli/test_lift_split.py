@@ -111,7 +111,7 @@ def test_persons_keep_their_hypotheses_through_a_crossing_at_a_seam(data_dir, ti
     crossing = int(np.nanargmin(np.abs(centre[:, 0] - centre[:, 1])))
     assert 100 < crossing < 130
     camera = load_calibration(data_dir / DEMO / "Calib_demo.toml").camera("demo")
-    windows, config = WindowSettings(), SamplerConfig(samples=4, seed=3)
+    windows, config = WindowSettings(max_gap=1.0), SamplerConfig(samples=4, seed=3)
     absent = ~presence(keypoints, times, windows.max_gap)
     pool = InProcess()
     split = SplitLifter(pool, PriorSettings(path=prior_file), float(times[crossing] - times[0]), tmp_path, str)
@@ -140,7 +140,7 @@ def lift_settings_for(data_dir, prior_file, out: Path) -> RunSettings:
     """Settings of a split lift of the demo (3 s pieces), 4 hypotheses, npz only."""
     from platypose.pipeline import take_settings
 
-    take = take_settings(sampler=SamplerConfig(samples=4, seed=3), windows=WindowSettings())
+    take = take_settings(sampler=SamplerConfig(samples=4, seed=3), windows=WindowSettings(max_gap=1.0))
     return RunSettings(
         out=out, cams=data_dir / DEMO / "Calib_demo.toml", prior=PriorSettings(path=Path(prior_file)),
         detect=DetectOptions(threads=1), take=take, formats=("npz",), quiet=True, split_seconds=3.0,
@@ -239,10 +239,11 @@ def test_on_ray_a_piece_whose_worker_dies_is_run_again(tmp_path):
         (["--split-seconds=-3", "--jobs", "2"], "--split-seconds -3: give a length in seconds above 0"),
         (["--split-seconds", "nan", "--jobs", "2"], "--split-seconds nan: give a length in seconds above 0"),
         (["--split-seconds", "1e308", "--jobs", "2"], "--split-seconds 1e+308: give at most 86400 seconds (a day)"),
-        (["--split-seconds", "1.5", "--jobs", "2"], "--split-seconds 1.5: shorter than the 2 s two neighbouring"),
+        (["--split-seconds", "1.5", "--max-gap", "1", "--jobs", "2"], "--split-seconds 1.5: shorter than the 2 s two"),
+        (["--split-seconds", "3", "--jobs", "2"], "--split-seconds 3: shorter than the 10 s two neighbouring"),
         (["--split-seconds", "3", "--max-gap", "2", "--jobs", "2"], "shorter than the 4 s two neighbouring"),
-        (["--split-seconds", "3"], "--split-seconds: the pieces run in parallel; add --jobs N (N >= 2) or --executor"),
-        (["--split-seconds", "3", "--executor", "ray", "--collect"], "--split-seconds: not with --collect"),
+        (["--split-seconds", "10"], "--split-seconds: the pieces run in parallel; add --jobs N (N >= 2) or --executor"),
+        (["--split-seconds", "10", "--executor", "ray", "--collect"], "--split-seconds: not with --collect"),
     ],
 )
 def test_bad_split_values_are_one_line(run_cli, data_dir, tmp_path, extra, message):

@@ -26,7 +26,7 @@ CASES: list[Case] = []
 case = registry(CASES)
 
 K = ["--fps", "20", "--image-size", "1920x1080", "--samples", "2", "--threads", "1", "-q", "--formats", "npz"]
-SPLIT = ["--floor", "none", "--split-seconds", "2", "--jobs", "2"]
+SPLIT = ["--floor", "none", "--split-seconds", "2", "--max-gap", "1", "--jobs", "2"]
 
 
 def lift_k(w: Path, *extra) -> list:

@@ -74,3 +74,42 @@ def test_a_variable_rate_sampling_of_a_path_gives_the_same_path():
     sparse_path = smooth_path(values[kept], np.full(len(kept), 0.01), lam, mu, np.diff(kept).astype(float))
     uneven = smooth_path(values[kept], np.full(len(kept), 0.01), lam, mu)  # spacing ignored
     assert np.abs(sparse_path - full[kept]).max() < 0.25 * np.abs(uneven - full[kept]).max()
+
+
+def test_a_person_who_drops_from_a_roof_while_unseen_lands_on_the_floor(data_dir):
+    """The Sports2D man (a real lift, calibrated): on a roof 2 m up, unseen for 1.5 s while he jumps down, then on the
+    floor. Carried across the gap, his depth after it stayed where the roof put it: scaled 0.62 about the camera, he
+    stood 0.5 m above the floor. After the gap the floor contact decides: his stance ankles are back on the floor
+    (within 5 cm of it or of their height standing on it), the roof frames keep their depth, the gap only bridges (no pelvis step over 0.5 m), images unchanged."""
+    from platypose.detectors.cache import read_detections
+    from platypose.detectors.keypoints import to_our_joints
+    from platypose.detectors.tracking import track_detections
+    from platypose.lifting.calibration import load_calibration
+    from platypose.lifting.checks.plausibility import standing_heights
+    from platypose.lifting.floor import ANKLE_HEIGHT, CALIBRATED_FLOOR
+
+    demo = data_dir / "video/sports2d-demo"
+    camera = load_calibration(demo / "Calib_demo.toml").cameras[0]
+    _, detections, indices = read_detections(demo / "movenet-detections.npz")
+    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
+    seen = (np.nan_to_num(tracks.keypoints[:, 0, :, 2]) > 0).sum(-1)[:226]  # joints seen per frame, the man
+    man = np.load(data_dir.parent / "tests/data/lifts/sports2d_demo_medians.npy")[0, :226].astype(np.float64)
+    man[168:] = camera.center + 0.62 * (man[168:] - camera.center)  # held near by the placement carried over
+    weights = np.linspace(0.0, 1.0, 47)[1:-1, None, None]
+    man[123:168] = (1 - weights) * man[122] + weights * man[168]  # the gap, present and filled
+    hypotheses = np.stack([camera.center + s * (man - camera.center) for s in (1.0, 1.04, 0.96)])[None]
+    hypotheses = hypotheses.astype(np.float32)
+    before = hypotheses.copy()
+    steady_person(hypotheses, 0, camera, 30.0, CALIBRATED_FLOOR, seen)
+
+    def landed(h: np.ndarray) -> np.ndarray:
+        lower = np.min(h[0, :, :, [3, 6], 2], axis=0).astype(np.float64)  # (N, T) lower ankle's height
+        return np.median(standing_heights(lower, 30.0)[:, 195:], axis=1)
+
+    assert (landed(before) > ANKLE_HEIGHT + 0.4).all(), landed(before)
+    assert ((landed(hypotheses) > -0.05) & (landed(hypotheses) < ANKLE_HEIGHT + 0.05)).all(), landed(hypotheses)
+    roof = np.linalg.norm(hypotheses[0, :, :110, 0] - before[0, :, :110, 0], axis=-1)
+    assert np.median(roof) < 0.1, np.median(roof)  # the roof stays (its depth smoothed)
+    steps = np.linalg.norm(np.diff(hypotheses[0, :, :, 0], axis=1), axis=-1)
+    assert steps.max() < 0.5, steps.max()
+    assert np.allclose(project(hypotheses, camera), project(before, camera), atol=0.05)

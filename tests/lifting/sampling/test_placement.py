@@ -5,7 +5,16 @@ import numpy as np
 import torch
 
 from platypose.lifting.offline.camera_rigs import ring_cameras
-from platypose.lifting.sampling.placement import DEPTH_RANGE, continuation_ramp, limit_depth, typical_size
+from platypose.lifting.sampling.placement import (
+    DEPTH_RANGE,
+    LANDING_RAMP,
+    Anchor,
+    continuation_ramp,
+    continued_offset,
+    limit_depth,
+    reappearing,
+    typical_size,
+)
 from platypose.lifting.skeleton import SIZE_BONES, TYPICAL_BONE_LENGTHS, bone_lengths
 
 
@@ -56,6 +65,15 @@ def test_a_window_inside_a_gap_carries_the_track_on():
     assert (continuation_ramp(mask, seen) == 1).all()
 
 
+def test_a_person_reappears_in_a_window_only_after_a_gap_that_began_before_it():
+    """The floor contact places the windows a person comes back in after a gap (the Sports2D man, carried across his
+    1.5 s gap, stood 0.6 m above the floor): back after 5 unseen frames right after the anchor; not after 1 (a
+    missed detection); not when seen before the gap in the window (its rays place it across); not when never back."""
+    mask, seen = _rows([[0, 1, *range(7, 12)], [0, 1, *range(3, 12)], [0, 1, 2, 3, 9, 10, 11], [0, 1]])
+    assert reappearing(mask, seen, min_gap=3).tolist() == [True, False, False, False]
+    assert not reappearing(mask, None).any()
+
+
 def test_depth_limit_keeps_every_root_in_front_and_near_the_others():
     """One view: roots too far, too near, beside or behind the camera come back within DEPTH_RANGE of the median
     depth, and never far sideways (a root just behind the camera was once thrown kilometres away)."""
@@ -89,3 +107,31 @@ def test_size_prior_scales_each_hypothesis_to_its_own_factor(heldout_window):
     same = typical_size(poses)[0].numpy()  # no factors: one scale for the window keeps relative sizes
     ratio = bone_lengths(same[1]).sum(-1) / bone_lengths(same[0]).sum(-1)
     assert np.allclose(ratio, 1.3)
+
+
+def test_a_window_the_floor_contact_places_bridges_the_gap_to_where_the_person_is_seen_again():
+    """After a gap right after the anchor (frames 2-14 unseen, seen from 15): the carried placement gives way
+    linearly to the rays' placement at the first frame seen, and the gap's frames take the rays' placement there,
+    not their own (extrapolated back over the gap from one view, it moved the Sports2D man's hypotheses 8-16 m in
+    his gap). A window the person is seen in throughout leaves the carried placement within ``LANDING_RAMP`` frames."""
+    mask, seen = _rows([[0, 1, *range(15, 24)], list(range(24))], frames=24)
+    anchor = Anchor(torch.zeros(2, 1, 24, 17, 3), mask, seen=seen, landing=torch.tensor([True, True]))
+    frames = torch.arange(24.0)
+    offset = frames[None, None, :, None].expand(2, 1, 24, 3)  # the rays' placement: the frame's number
+    placed = continued_offset(offset, torch.zeros(2, 1, 24, 17, 3), anchor)[:, 0, :, 0]
+    bridge = torch.where(frames < 15, 15 * ((frames - 1) / 14).clamp(min=0), frames)
+    torch.testing.assert_close(placed[0], bridge)
+    short = ((1 + LANDING_RAMP - frames) / LANDING_RAMP).clamp(0, 1)
+    torch.testing.assert_close(placed[1], (1 - short) * torch.where(frames < 2, 2.0, frames))
+
+
+def test_a_window_that_ends_in_a_gap_goes_on_from_where_the_person_was_last_seen():
+    """Seen on frames 2-6 after the anchor, unseen from 7 to the window's end, on a floor: those frames take the rays'
+    placement of frame 6 (the prior's motion goes on from there), not the rays' own extrapolated over the gap."""
+    mask, seen = _rows([[0, 1, 2, 3, 4, 5, 6]])
+    anchor = Anchor(torch.zeros(1, 1, 12, 17, 3), mask, seen=seen, landing=torch.tensor([False]))  # a floor
+    frames = torch.arange(12.0)
+    offset = frames[None, None, :, None].expand(1, 1, 12, 3)  # the rays' placement: the frame's number
+    placed = continued_offset(offset, torch.zeros(1, 1, 12, 17, 3), anchor)[0, 0, :, 0]
+    ramp = continuation_ramp(mask, seen)[0]
+    torch.testing.assert_close(placed, (1 - ramp) * frames.clamp(max=6.0))
