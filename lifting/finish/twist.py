@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from platypose.lifting.finish.rigid_shape import BODY_JOINTS
+from platypose.lifting.rotations import rotvec_matrices
 from platypose.lifting.skeleton import JOINT_INDEX
 
 TWIST_DEG = 60.0  # largest heading difference between pelvis and thorax kept as it is
@@ -44,10 +45,7 @@ def wrapped(angle: np.ndarray) -> np.ndarray:
 
 def about_vertical(angle: np.ndarray) -> np.ndarray:
     """Rotations ``(..., 3, 3)`` by ``angle`` ``(...)`` radians about world Z."""
-    c, s = np.cos(angle), np.sin(angle)
-    out = np.zeros(np.shape(angle) + (3, 3))
-    out[..., 0, 0], out[..., 0, 1], out[..., 1, 0], out[..., 1, 1], out[..., 2, 2] = c, -s, s, c, 1.0
-    return out
+    return rotvec_matrices(np.multiply.outer(angle, [0.0, 0.0, 1.0]))
 
 
 def untwisted(turns: np.ndarray) -> np.ndarray:

@@ -147,8 +147,8 @@ def reprojection_report(
     off = [
         (cam, value) for cam, value in zip(cameras, report.values()) if value > REPROJECTION_WARNING_SHARE * cam.width
     ]
-    judged = [value for value in report.values() if np.isfinite(value)]
-    if len(off) >= 2 and len(off) == len(judged):  # no view fits: the calibration, not a view, is wrong
+    seeing = [value for value in report.values() if np.isfinite(value)]  # views that see someone
+    if len(off) >= 2 and len(off) == len(seeing):  # no view fits: the calibration, not a view, is wrong
         low, high = min(v for _, v in off), max(v for _, v in off)
         shares = [value / cam.width for cam, value in off]
         share = (
