@@ -30,7 +30,9 @@ class Prior:
     def load(path: str | Path | None = None, device: str = "cpu", runtime: str = "auto") -> PriorBundle:
         """The prior at ``path`` (None: the shipped one) on ``device`` (cpu, cuda, auto), its network run by
         ``runtime`` (auto, float32, bfloat16, onnx)."""
-        return PriorSettings(path, device, runtime).load()
+        from platypose.lifting.prior.runtime import load_settings
+
+        return load_settings(PriorSettings(path, device, runtime))
 
 
 def load_result(path: str | Path) -> LiftResult:

@@ -241,7 +241,7 @@ def bench(
     from platypose.lifting.errors import InputError
     from platypose.lifting.files.atomic import write_text_atomic
     from platypose.lifting.prior.model import DEFAULT_PRIOR
-    from platypose.lifting.prior.runtime import resolve_runtime
+    from platypose.lifting.prior.runtime import load_settings, resolve_runtime
 
     def say(message: str) -> None:
         if not quiet:
@@ -254,7 +254,7 @@ def bench(
     persons_count(persons)  # InputError for a value --persons does not take
     threads = threads_for(threads)
     torch.set_num_threads(threads)
-    prior = prior_settings.load(threads)
+    prior = load_settings(prior_settings, threads)
     if end_to_end and prior.device.type != "cpu":
         raise InputError(
             f"--device {prior_settings.device}: the end-to-end clip is lifted on the CPU only (add --no-end-to-end)"

@@ -82,6 +82,7 @@ def evaluate_command(
     from platypose.lifting.motion_io import load_motion_paths
     from platypose.lifting.offline.camera_rigs import ring_cameras
     from platypose.lifting.offline.evaluation import evaluate, floor_height, format_header
+    from platypose.lifting.prior.runtime import load_settings
     from platypose.lifting.timebase import resample
 
     if views is not None and views < 1:
@@ -98,7 +99,7 @@ def evaluate_command(
     samples_list = int_list(samples, "--samples")
     plane = floor_plane(floor)
     config = replace(sampler, floor=plane)
-    bundle = prior.load()
+    bundle = load_settings(prior)
     if max(frames_list) > bundle.config.max_frames:
         raise InputError(f"--frames: the prior handles at most {bundle.config.max_frames} frames")
     if cams is not None:

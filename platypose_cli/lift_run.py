@@ -72,8 +72,10 @@ _PRIORS: dict[PriorSettings, object] = {}
 
 def _prior(settings: PriorSettings):
     """The prior of ``settings``, loaded once per process."""
+    from platypose.lifting.prior.runtime import load_settings
+
     if settings not in _PRIORS:
-        _PRIORS[settings] = settings.load()
+        _PRIORS[settings] = load_settings(settings)
     return _PRIORS[settings]
 
 

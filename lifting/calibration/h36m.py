@@ -19,9 +19,16 @@ from typing import Any
 
 import numpy as np
 
-from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.defaults import complete_camera
 from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.calibration.validate import (
+    as_array,
+    as_rotation,
+    as_size,
+    check_cameras,
+    check_intrinsics,
+    read_json,
+)
 from platypose.lifting.errors import InputError
 
 INTRINSIC_FIELDS = ("id", "center", "focal_length", "radial_distortion", "tangential_distortion", "res_w", "res_h")
@@ -69,12 +76,12 @@ def _intrinsics(entry: Any, source: str, index: int) -> tuple[str, tuple[int, in
     if not isinstance(entry, dict) or any(k not in entry for k in INTRINSIC_FIELDS):
         raise InputError(f"{source}: intrinsics entry {index} needs fields {', '.join(INTRINSIC_FIELDS)}")
     name = str(entry["id"])
-    f = validate.as_array(entry["focal_length"], (2,), source, f"camera {name} focal_length")
-    c = validate.as_array(entry["center"], (2,), source, f"camera {name} center")
-    k = validate.as_array(entry["radial_distortion"], (3,), source, f"camera {name} radial_distortion")
-    p = validate.as_array(entry["tangential_distortion"], (2,), source, f"camera {name} tangential_distortion")
-    size = validate.as_size([entry["res_h"], entry["res_w"]], source, f"camera {name} res_h/res_w")
-    K = validate.check_intrinsics([[f[0], 0, c[0]], [0, f[1], c[1]], [0, 0, 1]], source, f"camera {name} focal/center")
+    f = as_array(entry["focal_length"], (2,), source, f"camera {name} focal_length")
+    c = as_array(entry["center"], (2,), source, f"camera {name} center")
+    k = as_array(entry["radial_distortion"], (3,), source, f"camera {name} radial_distortion")
+    p = as_array(entry["tangential_distortion"], (2,), source, f"camera {name} tangential_distortion")
+    size = as_size([entry["res_h"], entry["res_w"]], source, f"camera {name} res_h/res_w")
+    K = check_intrinsics([[f[0], 0, c[0]], [0, f[1], c[1]], [0, 0, 1]], source, f"camera {name} focal/center")
     p_cv, error_px = fit_opencv_tangential(p, K, size)
     return name, size, K, np.array([k[0], k[1], p_cv[0], p_cv[1], k[2]]), error_px
 
@@ -87,10 +94,10 @@ def _extrinsics(entry: Any, source: str, name: str) -> tuple[np.ndarray, np.ndar
     if centre_key not in entry or ("orientation" not in entry and "R" not in entry):
         raise InputError(f"{source}: extrinsics of camera {name} need orientation (or R) and translation (or T)")
     if "orientation" in entry:
-        R = quaternion_matrix(validate.as_array(entry["orientation"], (4,), source, f"camera {name} orientation")).T
+        R = quaternion_matrix(as_array(entry["orientation"], (4,), source, f"camera {name} orientation")).T
     else:
-        R = validate.as_rotation(entry["R"], source, f"camera {name} R")
-    centre = validate.as_array(entry[centre_key], (3,), source, f"camera {name} {centre_key}")
+        R = as_rotation(entry["R"], source, f"camera {name} R")
+    centre = as_array(entry[centre_key], (3,), source, f"camera {name} {centre_key}")
     return R, -R @ centre
 
 
@@ -120,7 +127,7 @@ def _subject_extrinsics(data: dict, source: str, subject: str | None, count: int
 def read_h36m(path: Path, subject: str | None = None) -> Calibration:
     """Read a Human3.6M camera JSON for one subject's extrinsics (the only one if ``subject`` is None)."""
     source = str(path)
-    data = validate.read_json(path)
+    data = read_json(path)
     if not is_h36m(data):
         raise InputError(f"{source}: not a Human3.6M camera file (no intrinsics list)")
     subject, extrinsics = _subject_extrinsics(data, source, subject, len(data["intrinsics"]))
@@ -136,4 +143,4 @@ def read_h36m(path: Path, subject: str | None = None) -> Calibration:
         meta["conversions"].append(
             f"camera {name}: Human3.6M tangential distortion fitted as OpenCV p1 p2 (max difference {error_px:.3f} px)"
         )
-    return Calibration(cameras=validate.check_cameras(cameras, source), meta=meta)
+    return Calibration(cameras=check_cameras(cameras, source), meta=meta)

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.defaults import SIZE_FROM_CENTRE_NOTE, complete_camera, size_from_principal_point
 from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.calibration.validate import as_size, check_cameras, check_intrinsics, read_calibration_bytes
 from platypose.lifting.errors import InputError
 
 
@@ -33,8 +33,8 @@ def parse_line(line: str, source: str) -> tuple[str | None, np.ndarray, tuple[in
     if len(tokens) not in (4, 6) or not all(_is_number(t) for t in tokens):
         raise InputError(f"{source}: expected '[name] fx fy cx cy [width height]', got {line.strip()!r}")
     fx, fy, cx, cy = (float(t) for t in tokens[:4])
-    K = validate.check_intrinsics([[fx, 0, cx], [0, fy, cy], [0, 0, 1]], source, f"intrinsics {line.strip()!r}")
-    size = validate.as_size([tokens[5], tokens[4]], source, "width height") if len(tokens) == 6 else None
+    K = check_intrinsics([[fx, 0, cx], [0, fy, cy], [0, 0, 1]], source, f"intrinsics {line.strip()!r}")
+    size = as_size([tokens[5], tokens[4]], source, "width height") if len(tokens) == 6 else None
     return name, K, size
 
 
@@ -42,7 +42,7 @@ def read_intrinsics(path: Path) -> Calibration:
     """Read an intrinsics-only text file."""
     source = str(path)
     try:
-        text = validate.read_calibration_bytes(path).decode("utf-8")
+        text = read_calibration_bytes(path).decode("utf-8")
     except UnicodeDecodeError:
         raise InputError(f"{source}: not a text file") from None
     lines = [ln.split("#", 1)[0] for ln in text.splitlines()]
@@ -58,4 +58,4 @@ def read_intrinsics(path: Path) -> Calibration:
         camera, notes = complete_camera(name, size, K, None, None, None)
         cameras.append(camera)
         meta["assumptions"].extend(notes)
-    return Calibration(cameras=validate.check_cameras(cameras, source), meta=meta)
+    return Calibration(cameras=check_cameras(cameras, source), meta=meta)

@@ -6,8 +6,17 @@ import json
 from pathlib import Path
 from typing import Any
 
-from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.calibration.validate import (
+    as_array,
+    as_distortion,
+    as_rotation,
+    as_size,
+    check_camera_count,
+    check_cameras,
+    check_intrinsics,
+    read_json,
+)
 from platypose.lifting.calibration.world import unit_scale, up_vector
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
@@ -36,14 +45,14 @@ def camera_from_dict(entry: Any, source: str, index: int) -> Camera:
     if "R" in entry and "rvec" in entry:
         raise InputError(f"{source}: {where} gives both R and rvec; keep one")
     where = f"camera {entry['name']!r}"
-    offset = validate.as_array(entry.get("time_offset_s", 0.0), (1,), source, f"{where} time_offset_s")[0]
+    offset = as_array(entry.get("time_offset_s", 0.0), (1,), source, f"{where} time_offset_s")[0]
     return Camera(
         name=str(entry["name"]),
-        size=validate.as_size(entry["size"], source, f"{where} size"),
-        K=validate.check_intrinsics(entry["K"], source, f"{where} K"),
-        dist=validate.as_distortion(entry.get("dist", []), source, f"{where} dist"),
-        R=validate.as_rotation(entry["R"] if "R" in entry else entry["rvec"], source, f"{where} R/rvec"),
-        t=validate.as_array(entry["t"], (3,), source, f"{where} t"),
+        size=as_size(entry["size"], source, f"{where} size"),
+        K=check_intrinsics(entry["K"], source, f"{where} K"),
+        dist=as_distortion(entry.get("dist", []), source, f"{where} dist"),
+        R=as_rotation(entry["R"] if "R" in entry else entry["rvec"], source, f"{where} R/rvec"),
+        t=as_array(entry["t"], (3,), source, f"{where} t"),
         time_offset_s=float(offset),
     )
 
@@ -63,8 +72,8 @@ def calibration_from_dict(data: Any, source: str) -> Calibration:
     up_vector(data["world_up"], source)
     if not isinstance(data["cameras"], list):
         raise InputError(f"{source}: cameras must be a list")
-    validate.check_camera_count(len(data["cameras"]), source)
-    cameras = validate.check_cameras([camera_from_dict(c, source, i) for i, c in enumerate(data["cameras"])], source)
+    check_camera_count(len(data["cameras"]), source)
+    cameras = check_cameras([camera_from_dict(c, source, i) for i, c in enumerate(data["cameras"])], source)
     stored = data.get("meta", {})
     if not isinstance(stored, dict):
         raise InputError(f"{source}: meta must be a JSON object")
@@ -101,7 +110,7 @@ def calibration_to_dict(calibration: Calibration) -> dict[str, Any]:
 
 def read_native(path: Path) -> Calibration:
     """Read a native ``calib.json``."""
-    return calibration_from_dict(validate.read_json(path), str(path))
+    return calibration_from_dict(read_json(path), str(path))
 
 
 def write_native(path: Path, calibration: Calibration) -> None:

@@ -13,9 +13,16 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.defaults import SIZE_FROM_CENTRE_NOTE, complete_camera, size_from_principal_point
 from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.calibration.validate import (
+    as_array,
+    as_distortion,
+    as_rotation,
+    as_size,
+    check_cameras,
+    check_intrinsics,
+)
 from platypose.lifting.errors import InputError
 
 INTRI, EXTRI = "intri.yml", "extri.yml"
@@ -58,7 +65,7 @@ def _size(
 ) -> tuple[tuple[int, int], bool]:
     """(height, width) from the file, else from the principal point; the flag says it was assumed."""
     if height is not None and width is not None:
-        return validate.as_size([height, width], str(path), what), False
+        return as_size([height, width], str(path), what), False
     return size_from_principal_point(K), True
 
 
@@ -93,10 +100,10 @@ def read_easymocap(path: Path) -> Calibration:
         K_raw = _matrix(intri, f"K_{name}", intri_path)
         if K_raw is None:
             raise InputError(f"{intri_path}: missing K_{name}")
-        K = validate.check_intrinsics(K_raw, str(intri_path), f"K_{name}")
+        K = check_intrinsics(K_raw, str(intri_path), f"K_{name}")
         dist_raw = _matrix(intri, f"dist_{name}", intri_path)
         dist_raw = _matrix(intri, f"D_{name}", intri_path) if dist_raw is None else dist_raw
-        dist = validate.as_distortion([] if dist_raw is None else dist_raw, str(intri_path), f"dist_{name}")
+        dist = as_distortion([] if dist_raw is None else dist_raw, str(intri_path), f"dist_{name}")
         size, assumed = _size(_real(intri, f"H_{name}"), _real(intri, f"W_{name}"), K, intri_path, f"camera {name}")
         if assumed:
             meta["assumptions"].append(f"camera {name}: {SIZE_FROM_CENTRE_NOTE}")
@@ -104,7 +111,7 @@ def read_easymocap(path: Path) -> Calibration:
         camera, notes = complete_camera(name, size, K, dist, R, t)
         cameras.append(camera)
         meta["assumptions"].extend(notes)
-    return Calibration(cameras=validate.check_cameras(cameras, source), meta=meta)
+    return Calibration(cameras=check_cameras(cameras, source), meta=meta)
 
 
 def _easymocap_extrinsics(extri: cv2.FileStorage, path: Path, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -114,9 +121,7 @@ def _easymocap_extrinsics(extri: cv2.FileStorage, path: Path, name: str) -> tupl
     T = _matrix(extri, f"T_{name}", path)
     if rot is None or T is None:
         raise InputError(f"{path}: camera {name} needs Rot_{name} (or R_{name}) and T_{name}")
-    return validate.as_rotation(rot, str(path), f"rotation of {name}"), validate.as_array(
-        T, (3,), str(path), f"T_{name}"
-    )
+    return as_rotation(rot, str(path), f"rotation of {name}"), as_array(T, (3,), str(path), f"T_{name}")
 
 
 def read_opencv_single(path: Path) -> Calibration:
@@ -125,9 +130,9 @@ def read_opencv_single(path: Path) -> Calibration:
     K_raw = _matrix(fs, "camera_matrix", path)
     if K_raw is None:
         raise InputError(f"{path}: no camera_matrix (nor EasyMocap names) found")
-    K = validate.check_intrinsics(K_raw, str(path), "camera_matrix")
+    K = check_intrinsics(K_raw, str(path), "camera_matrix")
     dist_raw = _matrix(fs, "distortion_coefficients", path)
-    dist = validate.as_distortion([] if dist_raw is None else dist_raw, str(path), "distortion_coefficients")
+    dist = as_distortion([] if dist_raw is None else dist_raw, str(path), "distortion_coefficients")
     size, assumed = _size(_real(fs, "image_height"), _real(fs, "image_width"), K, path, "image size")
     meta = new_meta("opencv-yml", str(path), "z", "m")
     if assumed:

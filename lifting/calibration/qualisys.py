@@ -19,9 +19,16 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.defaults import complete_camera
 from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.calibration.validate import (
+    as_array,
+    as_rotation,
+    as_size,
+    check_cameras,
+    check_intrinsics,
+    read_xml,
+)
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 
@@ -54,7 +61,7 @@ def _numbers(element: ET.Element | None, keys: tuple[str, ...], source: str, whe
         values = np.array([float(element.attrib[k]) for k in keys])
     except ValueError:
         raise InputError(f"{source}: {where} has a non-numeric value") from None
-    return validate.as_array(values, (len(keys),), source, where)
+    return as_array(values, (len(keys),), source, where)
 
 
 def _camera(element: ET.Element, source: str) -> Camera:
@@ -82,14 +89,14 @@ def _camera(element: ET.Element, source: str) -> Camera:
         source,
         f"{where} intrinsic",
     )
-    K = validate.check_intrinsics([[fu, 0.0, cu - left], [0.0, fv, cv - top], [0.0, 0.0, 1.0]], source, where)
+    K = check_intrinsics([[fu, 0.0, cu - left], [0.0, fv, cv - top], [0.0, 0.0, 1.0]], source, where)
     transform = element.find("transform")
     centre_mm = _numbers(transform, ("x", "y", "z"), source, f"{where} transform")
-    rows = validate.as_rotation(
+    rows = as_rotation(
         _numbers(transform, ROTATION_KEYS, source, f"{where} transform").reshape(3, 3), source, f"{where} transform"
     )
     R = FLIP_YZ @ rows
-    size = validate.as_size([height, width], source, f"{where} fov_video")
+    size = as_size([height, width], source, f"{where} fov_video")
     camera, _ = complete_camera(name, size, K, np.array([k1, k2, p1, p2, k3]), R, -R @ centre_mm)
     return camera
 
@@ -97,7 +104,7 @@ def _camera(element: ET.Element, source: str) -> Camera:
 def read_qualisys(path: Path) -> Calibration:
     """Read every active video camera of a Qualisys ``.qca.txt``; millimetres, Z up as QTM's lab frame."""
     source = str(path)
-    root = validate.read_xml(path, "Qualisys")
+    root = read_xml(path, "Qualisys")
     if root.tag != "calibration" or root.find("cameras") is None:
         raise InputError(f"{source}: not a Qualisys calibration (no <calibration><cameras>)")
     meta = new_meta("qualisys-qca", source, "z", "mm")
@@ -113,4 +120,4 @@ def read_qualisys(path: Path) -> Calibration:
             meta["assumptions"].append(f"camera {name}: marker camera ({model}), skipped")
             continue
         cameras.append(_camera(element, source))
-    return Calibration(cameras=validate.check_cameras(cameras, source), meta=meta)
+    return Calibration(cameras=check_cameras(cameras, source), meta=meta)

@@ -24,10 +24,19 @@ from typing import Any
 import cv2
 import numpy as np
 
-from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.defaults import complete_camera
 from platypose.lifting.calibration.model import Calibration, new_meta
 from platypose.lifting.calibration.plausible import detect_units, detect_up
+from platypose.lifting.calibration.validate import (
+    as_array,
+    as_distortion,
+    as_rotation,
+    as_size,
+    check_camera_count,
+    check_cameras,
+    check_intrinsics,
+    read_calibration_bytes,
+)
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.atomic import write_text_atomic
@@ -48,14 +57,14 @@ def _table_camera(table: dict[str, Any], name: str, source: str) -> tuple[Camera
         raise InputError(f"{source}: {where} uses the fisheye model, which platypose does not support")
     if "size" not in table:
         raise InputError(f"{source}: {where} is missing size")
-    width, height = validate.as_size(table["size"], source, f"{where} size")
-    K = validate.check_intrinsics(table["matrix"], source, f"{where} matrix") if "matrix" in table else None
-    dist = validate.as_distortion(table.get("distortions", []), source, f"{where} distortions")
+    width, height = as_size(table["size"], source, f"{where} size")
+    K = check_intrinsics(table["matrix"], source, f"{where} matrix") if "matrix" in table else None
+    dist = as_distortion(table.get("distortions", []), source, f"{where} distortions")
     if ("rotation" in table) != ("translation" in table):
         raise InputError(f"{source}: {where} has only one of rotation and translation")
     has_extrinsics = "rotation" in table
-    R = validate.as_rotation(table["rotation"], source, f"{where} rotation") if has_extrinsics else None
-    t = validate.as_array(table["translation"], (3,), source, f"{where} translation") if has_extrinsics else None
+    R = as_rotation(table["rotation"], source, f"{where} rotation") if has_extrinsics else None
+    t = as_array(table["translation"], (3,), source, f"{where} translation") if has_extrinsics else None
     return complete_camera(name, (height, width), K, dist, R, t)
 
 
@@ -81,7 +90,7 @@ def read_toml(path: Path) -> Calibration:
     """Read every camera of a calibration ``.toml``, detecting units and up axis from the cameras."""
     source = str(path)
     try:
-        data = tomllib.loads(validate.read_calibration_bytes(path).decode("utf-8"))
+        data = tomllib.loads(read_calibration_bytes(path).decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError) as err:
         raise InputError(f"{source}: not valid TOML ({err})") from None
     layout = _layout(data)
@@ -91,13 +100,13 @@ def read_toml(path: Path) -> Calibration:
         tables = [
             (str(t.get("name", key)), t) for key, t in data.items() if isinstance(t, dict) and CAMERA_KEYS & set(t)
         ]
-    validate.check_camera_count(len(tables), source)
+    check_camera_count(len(tables), source)
     cameras, notes = [], []
     for name, table in tables:
         camera, camera_notes = _table_camera(table, name, source)
         cameras.append(camera)
         notes.extend(camera_notes)
-    cameras = validate.check_cameras(cameras, source)
+    cameras = check_cameras(cameras, source)
     units, units_note = detect_units(cameras)
     up, up_note = detect_up(cameras)
     meta = new_meta(f"{layout}-toml", source, up, units)

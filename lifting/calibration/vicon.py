@@ -26,10 +26,17 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.lifting.calibration import validate
 from platypose.lifting.calibration.defaults import complete_camera
 from platypose.lifting.calibration.h36m import quaternion_matrix
 from platypose.lifting.calibration.model import Calibration, new_meta
+from platypose.lifting.calibration.validate import (
+    as_array,
+    as_size,
+    check_cameras,
+    check_distortion,
+    check_intrinsics,
+    read_xml,
+)
 from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 
@@ -60,7 +67,7 @@ def _numbers(text: str | None, count: int, source: str, where: str) -> np.ndarra
         values = [float(v) for v in text.split()]
     except ValueError:
         raise InputError(f"{source}: {where} has a non-numeric value") from None
-    return validate.as_array(values, (count,), source, where)
+    return as_array(values, (count,), source, where)
 
 
 def vicon_correction(recorded: np.ndarray, radial: np.ndarray) -> np.ndarray:
@@ -118,17 +125,17 @@ def vicon_camera(element: ET.Element, source: str) -> tuple[Camera, np.ndarray]:
     if skew != 0.0:
         raise InputError(f"{source}: {where} has SKEW {skew:g}; only zero skew is supported")
     width, height = _numbers(element.attrib.get("SENSOR_SIZE"), 2, source, f"{where} SENSOR_SIZE")
-    size = validate.as_size([height, width], source, f"{where} SENSOR_SIZE")
+    size = as_size([height, width], source, f"{where} SENSOR_SIZE")
     focal = _numbers(key.get("FOCAL_LENGTH"), 1, source, f"{where} FOCAL_LENGTH")[0]
     cx, cy = _numbers(key.get("PRINCIPAL_POINT"), 2, source, f"{where} PRINCIPAL_POINT")
-    K = validate.check_intrinsics([[focal, 0.0, cx], [0.0, focal, cy], [0.0, 0.0, 1.0]], source, where)
+    K = check_intrinsics([[focal, 0.0, cx], [0.0, focal, cy], [0.0, 0.0, 1.0]], source, where)
     model, _, values = (key.get("VICON_RADIAL2") or "").partition(" ")
     if model != DISTORTION_MODEL:
         raise InputError(f"{source}: {where} has no VICON_RADIAL2 {DISTORTION_MODEL} distortion (the supported model)")
     radial = _numbers(values, 5, source, f"{where} VICON_RADIAL2")
     check_radial(radial, size, source, where)
     k, errors_px = fit_opencv_radial(radial, K, size)
-    validate.check_distortion(k, source, f"{where} VICON_RADIAL2 (as OpenCV k1 k2 k3)")
+    check_distortion(k, source, f"{where} VICON_RADIAL2 (as OpenCV k1 k2 k3)")
     quaternion = _numbers(key.get("ORIENTATION"), 4, source, f"{where} ORIENTATION")
     if abs(np.linalg.norm(quaternion) - 1.0) > 1e-3:
         raise InputError(f"{source}: {where} ORIENTATION is not a unit quaternion")
@@ -141,7 +148,7 @@ def vicon_camera(element: ET.Element, source: str) -> tuple[Camera, np.ndarray]:
 def read_vicon(path: Path) -> Calibration:
     """Read every video camera of a Vicon ``.xcp``; millimetres, Z up as Vicon's lab frame."""
     source = str(path)
-    root = validate.read_xml(path, "Vicon")
+    root = read_xml(path, "Vicon")
     if root.tag != "Cameras":
         raise InputError(f"{source}: not a Vicon calibration (no <Cameras> root element)")
     meta = new_meta("vicon-xcp", source, "z", "mm")
@@ -160,4 +167,4 @@ def read_vicon(path: Path) -> Calibration:
         meta["assumptions"].append(f"marker cameras skipped: {', '.join(skipped)}")
     if not cameras:
         raise InputError(f"{source}: no video camera (TYPE ..._VIDEO) in this Vicon calibration")
-    return Calibration(cameras=validate.check_cameras(cameras, source), meta=meta)
+    return Calibration(cameras=check_cameras(cameras, source), meta=meta)

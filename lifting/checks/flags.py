@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from platypose.lifting.checks.body import HINGE_SPEED_DEG_S
-from platypose.lifting.checks.plausibility import ON_FLOOR, SPREAD, UNDER_FLOOR
+from platypose.lifting.checks.thresholds import ON_FLOOR, SPREAD, UNDER_FLOOR
 
 
 def _frames(frames: list[int], shown: int = 8) -> str:

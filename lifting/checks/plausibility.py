@@ -37,19 +37,14 @@ import numpy as np
 
 from platypose.lifting.camera import Camera
 from platypose.lifting.checks.body import angles_out_of_range, bone_lengths_out_of_range, hinge_jumps
+from platypose.lifting.checks.flags import flag_text
+from platypose.lifting.checks.thresholds import MIN_LEVEL, SLIDE, SPREAD, SUPPORT_STEP, UNDER_FLOOR, UNDER_SHARE
 from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
 
-UNDER_FLOOR = 0.03  # metres below the floor
-UNDER_SHARE = 0.01  # share of hypothesis-frames
-SLIDE = 0.02  # metres per frame
-SPREAD = 1.0  # metres
 STANCE_BAND = 0.05  # metres above a hypothesis's standing height
 MIN_STANCE = 0.1  # seconds: an ankle in the band for less time is passing through it (running contact: 0.2-0.3 s)
 SUPPORT_WINDOW = 1.0  # seconds either side of a frame over which its standing height is taken
 STANDING_QUANTILE = 10  # percentile of the lower ankle's height there: its standing height (a jump's flight is higher)
-SUPPORT_STEP = 0.15  # metres: the support changes level where it moves this far from the level's running mean
-MIN_LEVEL = 0.5  # seconds: a level held shorter is not reported (steps, landings)
-ON_FLOOR = SUPPORT_STEP  # metres: a level nearer the floor than a change of level (a stair) is the floor
 
 MIN_DEPTH = 0.1  # metres in front of a camera's centre: a person seen by it is farther
 BEHIND_SHARE = 0.05  # of the camera-frames seeing a person
@@ -238,8 +233,6 @@ def plausibility(
     same frames; given their ``median`` ``(P, T, 17, 3)``, with its :func:`body_plausibility` too, and with the
     ``cameras`` too, its :func:`camera_depths` (flagged ``behind camera``). Each report ends with its ``flag_text``
     (:func:`lifting.checks.flags.flag_text`)."""
-    from platypose.lifting.checks.flags import flag_text
-
     by_camera = (np.nan_to_num(keypoints[..., 2]) > 0).sum(axis=-1) >= 4  # (C, T, P) cameras seeing 4+ joints
     seen = by_camera.sum(axis=0)  # (T, P)
     P, T = hypotheses.shape[0], hypotheses.shape[2]

@@ -24,7 +24,7 @@ from torch import nn
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.prior.model import MotionPrior, PriorBundle, load_prior
-from platypose.lifting.settings import DEVICES, RUNTIMES
+from platypose.lifting.settings import DEVICES, RUNTIMES, PriorSettings
 
 BFLOAT16_GAIN = 1.5  # auto picks bfloat16 when its matrix products are at least this many times faster
 
@@ -165,3 +165,8 @@ def load_for_runtime(
     """Load a prior (default: the shipped one) onto ``device`` (cpu, cuda, auto) with its network run by ``runtime``."""
     prior, _ = load_prior(path, resolve_device(device))
     return with_runtime(prior, runtime, threads)
+
+
+def load_settings(settings: PriorSettings, threads: int | None = None) -> PriorBundle:
+    """The prior ``settings`` name, ready to sample (:func:`load_for_runtime`)."""
+    return load_for_runtime(settings.path, settings.device, settings.runtime, threads)

@@ -163,7 +163,7 @@ class WindowSettings:
 
 @dataclass(frozen=True)
 class PriorSettings:
-    """Which prior, on which device, run by which runtime (:meth:`load` loads it)."""
+    """Which prior, on which device, run by which runtime (:func:`platypose.lifting.prior.runtime.load_settings` loads it)."""
 
     path: Path | None = setting(None, "Motion prior checkpoint (default: the shipped one).", option=True)
     device: str = setting("cpu", "Sampler device: cpu, cuda or auto (cuda when available).", option=True)
@@ -181,12 +181,6 @@ class PriorSettings:
                 (self.runtime in RUNTIMES, "runtime", choose("runtime", self.runtime, RUNTIMES)),
             ]
         )
-
-    def load(self, threads: int | None = None):
-        """The prior ready to sample (:func:`platypose.lifting.prior.runtime.load_for_runtime`)."""
-        from platypose.lifting.prior.runtime import load_for_runtime
-
-        return load_for_runtime(self.path, self.device, self.runtime, threads)
 
 
 @dataclass(frozen=True)
