@@ -21,13 +21,13 @@ prior's (an adult of typical size).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from platypose.lifting.calibration.defaults import NO_EXTRINSICS_NOTE
 from platypose.lifting.camera import Camera
-from platypose.lifting.errors import InputError
+from platypose.lifting.settings.choices import FloorChoice, GivenPlane, check_plane, read_floor
 
 ANKLE_HEIGHT = 0.1  # metres: an ankle keypoint above the floor, foot flat (bundled mocap 0.07-0.11, shoes add more)
 ANKLES = (3, 6)  # right and left ankle (lifting.skeleton order)
@@ -36,19 +36,17 @@ LEVEL_PRIOR = 1e-3  # weight of a pitch of 10 degrees against the capped log dro
 STANDS_ELSEWHERE = np.log(1.3)  # a stance ankle dropping 30 % more or less than the floor level stands elsewhere
 SHARED = 0.2  # share of the stance ankles that the floor's level must hold
 MIN_DROP = 0.05  # metres: a stance ankle must be this far below the camera to count
-MAX_FLOOR_TILT_DEG = 45.0  # a given floor steeper than this is a wall or upside down
-MIN_UP_COSINE = float(np.cos(np.radians(MAX_FLOOR_TILT_DEG)))
-MAX_FLOOR_DISTANCE_M = 1000.0
-FLOOR_SPECS = "auto, none, z=H (a height) or nx,ny,nz,d (a plane n.x + d = 0, n up)"
 
 
 @dataclass(frozen=True)
 class Floor:
-    """The plane ``normal . x + offset = 0`` (``normal`` unit, up), and where it came from."""
+    """The plane ``normal . x + offset = 0`` (``normal`` unit, up), where it came from, and what its estimate found
+    (``found``: the camera's height and pitch above it and the stance points used; empty for a floor given)."""
 
     normal: tuple[float, float, float]
     offset: float
     source: str
+    found: dict = field(default_factory=dict, compare=False)
 
     def height(self, points: np.ndarray) -> np.ndarray:
         """Heights above the floor of points ``(..., 3)``, ``(...)``."""
@@ -60,57 +58,58 @@ class Floor:
         return (*self.normal, self.offset)
 
     def as_dict(self) -> dict:
-        """Plain dict for JSON: normal, offset (m), source."""
-        return {"normal": list(self.normal), "offset_m": self.offset, "source": self.source}
+        """The floor's entry in a result's ``meta``, plain for JSON: normal, offset (m), source, and what its
+        estimate found."""
+        return {"normal": list(self.normal), "offset_m": self.offset, "source": self.source, **self.found}
+
+
+@dataclass(frozen=True)
+class FloorToEstimate:
+    """The floor of a one-camera take, not known before its lift: estimated under a quick lift
+    (:func:`platypose.lifting.tracks.quick_floor.quick_floor`). ``height_only``: the camera's roll and pitch are
+    known (the scene's lines), so only the floor's height is estimated."""
+
+    height_only: bool = False
 
 
 def plane_floor(nx: float, ny: float, nz: float, d: float, source: str) -> Floor:
     """The floor ``n . x + d = 0`` with ``n`` scaled to unit length; ValueError for a zero normal."""
+    check_plane(nx, ny, nz, d)
     normal = np.array([nx, ny, nz], dtype=np.float64)
     length = float(np.linalg.norm(normal))
-    if not np.isfinite(length) or length < 1e-9 or not np.isfinite(d):
-        raise ValueError(f"floor plane {nx},{ny},{nz},{d}: the normal must be finite and non-zero")
     return Floor(tuple(float(v) for v in normal / length), float(d) / length, source)
 
 
+def given_floor(choice: FloorChoice) -> Floor | str | None:
+    """The Floor of a :class:`~platypose.lifting.settings.choices.GivenPlane` (source "given"), "auto" and None as
+    they are."""
+    if isinstance(choice, GivenPlane):
+        return plane_floor(choice.nx, choice.ny, choice.nz, choice.d, "given")
+    return choice
+
+
 def parse_floor(text: str) -> Floor | str | None:
-    """A floor specification: "auto" (returned as is), "none" (None), "z=H" or "nx,ny,nz,d"; InputError otherwise."""
-    spec = text.strip().lower()
-    if spec in ("auto", "none"):
-        return None if spec == "none" else "auto"
-    try:
-        values = [0.0, 0.0, 1.0, -float(spec[2:])] if spec.startswith("z=") else [float(v) for v in spec.split(",")]
-        if len(values) == 4:
-            floor = plane_floor(*values, "given")
-            if floor.normal[2] < MIN_UP_COSINE or not abs(floor.offset) <= MAX_FLOOR_DISTANCE_M:
-                raise ValueError(
-                    f"a floor's normal points up (within {MAX_FLOOR_TILT_DEG:g} degrees of +z, the world's up) "
-                    f"and it lies within {MAX_FLOOR_DISTANCE_M:g} m of the origin"
-                )
-            return floor
-    except ValueError as err:
-        raise InputError(f"floor {text!r}: {err}; use {FLOOR_SPECS}", option="floor") from None
-    raise InputError(f"floor {text!r}: not understood; use {FLOOR_SPECS}", option="floor")
+    """A floor specification (:func:`~platypose.lifting.settings.choices.read_floor`): "auto" (returned as is),
+    "none" (None), "z=H" or "nx,ny,nz,d" (a Floor); InputError otherwise."""
+    return given_floor(read_floor(text))
 
 
 CALIBRATED_FLOOR = Floor((0.0, 0.0, 1.0), 0.0, "calibration")
-ESTIMATE = "estimate"
-ESTIMATE_HEIGHT = "estimate height"  # the camera's roll and pitch are known (the scene's lines): only the height
-ESTIMATES = (ESTIMATE, ESTIMATE_HEIGHT)
 
 
-def floor_for_lift(choice: Floor | str | None, calibration_meta: dict | None) -> Floor | str | None:
-    """The floor a lift uses for the user's ``choice`` (:func:`parse_floor` of ``--floor``, kept by
-    ``TakeSettings.floor_choice``): a given plane as it is, None for none, and for "auto" the calibration's z = 0
-    when its cameras are placed in a world (``calibration_meta`` of a file whose extrinsics were all given), else
-    ``ESTIMATE`` (no calibration, or cameras at the default pose). The Floor returned is the one object the take's
-    sampler and finishing use (``platypose.pipeline.lift_take``), so its source is the user's choice."""
+def floor_for_lift(choice: FloorChoice, calibration_meta: dict | None) -> Floor | FloorToEstimate | None:
+    """The floor a lift uses for the user's ``choice`` (:func:`~platypose.lifting.settings.choices.read_floor` of
+    ``--floor``, kept by ``TakeSettings.floor_choice``): a given plane as a Floor, None for none, and for "auto" the
+    calibration's z = 0 when its cameras are placed in a world (``calibration_meta`` of a file whose extrinsics were
+    all given), else :class:`FloorToEstimate` (no calibration, or cameras at the default pose). The Floor returned
+    is the one object the take's sampler and finishing use (``platypose.pipeline.lift_take``), so its source is the
+    user's choice."""
     if choice != "auto":
-        return choice
+        return given_floor(choice)
     if calibration_meta is None:
-        return ESTIMATE
+        return FloorToEstimate()
     assumptions = " ".join(calibration_meta.get("assumptions", []))
-    return ESTIMATE if NO_EXTRINSICS_NOTE in assumptions else CALIBRATED_FLOOR
+    return FloorToEstimate() if NO_EXTRINSICS_NOTE in assumptions else CALIBRATED_FLOOR
 
 
 def stance_points(joints: np.ndarray, fps: float, seen: np.ndarray | None = None) -> list[np.ndarray]:
@@ -135,9 +134,10 @@ def stance_points(joints: np.ndarray, fps: float, seen: np.ndarray | None = None
 
 def estimate_floor(
     joints: np.ndarray, camera: Camera, fps: float, seen: np.ndarray | None = None, pitch_range_deg: float = 30.0
-) -> tuple[Floor, dict] | None:
+) -> Floor | None:
     """The floor under median motions ``(P, T, 17, 3)`` lifted with the level default ``camera`` (see the module),
-    and what was found: camera height above it (m), pitch (degrees, positive looking down), stance points used.
+    with what was found (``Floor.found``): camera height above it (m), pitch (degrees, positive looking down), stance
+    points used.
     ``seen`` ``(P, T)``: the frames whose ankles the camera saw (the others' rays are the prior's guess).
 
     None when fewer than 10 stance ankles are found below the camera.
@@ -169,8 +169,8 @@ def estimate_floor(
     floor = Floor(tuple(float(v) for v in normal), float(offset), "estimated")
     camera_height = float(floor.height(center))
     down_pitch = float(np.degrees(np.arcsin(np.clip(camera.R[2] @ -np.asarray(normal), -1, 1))))
-    info = {"camera_height_m": camera_height, "camera_pitch_deg": down_pitch, "stance_points": int(len(drops))}
-    return floor, info
+    found = {"camera_height_m": camera_height, "camera_pitch_deg": down_pitch, "stance_points": int(len(drops))}
+    return replace(floor, found=found)
 
 
 def _lowest_shared_height(heights: np.ndarray, share: float, band: float = 0.05) -> float:
@@ -186,17 +186,12 @@ def _lowest_shared_height(heights: np.ndarray, share: float, band: float = 0.05)
 
 def floor_under(
     median: np.ndarray, camera: Camera, fps: float, keypoints: np.ndarray, level_known: bool = False
-) -> tuple[Floor | None, dict | None]:
+) -> Floor | None:
     """The floor estimated under the median motions ``(P, T, 17, 3)`` lifted with one default ``camera``, where
-    it saw both ankles (``keypoints`` ``(T, P, 17, 3)``), and its ``meta`` entry (the floor with the camera's
-    height and pitch above it); None, None when too few stance ankles are found. ``level_known``: the camera's
-    roll and pitch in its z-up world are known (the scene's lines), so the floor is level there and only its
-    height is estimated."""
+    it saw both ankles (``keypoints`` ``(T, P, 17, 3)``), with the camera's height and pitch above it; None when
+    too few stance ankles are found. ``level_known``: the camera's roll and pitch in its z-up world are known (the
+    scene's lines), so the floor is level there and only its height is estimated."""
     seen = (np.nan_to_num(keypoints[..., list(ANKLES), 2]) > 0).all(axis=-1).T  # (P, T)
-    found = estimate_floor(
+    return estimate_floor(
         np.asarray(median, dtype=np.float64), camera, fps, seen, pitch_range_deg=0.0 if level_known else 30.0
     )
-    if found is None:
-        return None, None
-    floor, info = found
-    return floor, {**floor.as_dict(), **info}

@@ -121,12 +121,12 @@ def lift(
         "windows": asdict(take.windows),
     }
     return run_take(
-        [(view_name(s), s) for s in sources],
-        calibration,
-        take,
-        ViewReader(detect),
-        load_prior,
-        _Log(say),
+        views=[(view_name(s), s) for s in sources],
+        calibration=calibration,
+        settings=take,
+        read=ViewReader(detect),
+        prior=load_prior,
+        log=_Log(say),
         what=", ".join(map(str, sources)),
         described=_described(cams),
         arguments=arguments,

@@ -33,13 +33,13 @@ from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import CODEC_BLOCK, SIZE_TOLERANCE, Camera, codec_padded
 from platypose.lifting.errors import InputError
 from platypose.lifting.finish.steps import finish_take
-from platypose.lifting.floor import ESTIMATE, ESTIMATE_HEIGHT, ESTIMATES, Floor
+from platypose.lifting.floor import Floor, FloorToEstimate
 from platypose.lifting.job_log import JobLog
 from platypose.lifting.prior.model import PriorBundle
-from platypose.lifting.settings import SamplerConfig, TakeSettings, WindowSettings
+from platypose.lifting.settings import TakeSettings
+from platypose.lifting.take import Take
 from platypose.lifting.tracks.persons import lift_persons
 from platypose.lifting.tracks.quick_floor import quick_floor
-from platypose.lifting.tracks.roots import presence
 
 if TYPE_CHECKING:
     from platypose.lifting.calibration.scene.view_camera import AssumedCamera
@@ -55,7 +55,7 @@ def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
 def run_take(
     views: Sequence[tuple[str, Path]],
     calibration: Calibration | None,
-    take: TakeSettings,
+    settings: TakeSettings,
     read: Reader,
     prior: Callable[[], PriorBundle],
     log: JobLog,
@@ -69,7 +69,7 @@ def run_take(
     lifter: Callable | None = None,
 ) -> LiftResult:
     """The LiftResult of the take seen by ``views`` (name, source) under ``calibration`` (None: one view, a default
-    camera), lifted as ``take`` says with the prior ``prior()`` gives (called once the inputs are read and checked).
+    camera), lifted as ``settings`` say with the prior ``prior()`` gives (called once the inputs are read and checked).
 
     ``what`` names the take in errors, ``described`` the calibration (its file), ``cams_option`` the option a
     missing calibration is asked for by (``--cams`` in the command). ``arguments`` go into ``meta``
@@ -91,7 +91,7 @@ def run_take(
             size = _video_size(source)
             if size is not None:
                 check_image_size(camera, size, str(source), JobLog())  # raises for a mismatch; small ones warn later
-    floor = floor_for_lift(take.floor_choice, None if calibration is None else calibration.meta)
+    floor = floor_for_lift(settings.floor_choice, None if calibration is None else calibration.meta)
     started = time.perf_counter()
     tracks = [_read_view(read, name, source, log) for name, source in views]
     timings = {"keypoints_s": time.perf_counter() - started}
@@ -101,39 +101,40 @@ def run_take(
         started = time.perf_counter()
         assumed = _assumed_camera(names[0], sources[0], tracks[0])
         timings["scene_camera_s"] = time.perf_counter() - started
-        if assumed is not None and assumed.level_known and floor == ESTIMATE:
-            floor = ESTIMATE_HEIGHT
-    cameras = view_cameras(cameras, sizes, names, [str(s) for s in sources], what, log, cams_option, assumed)
-    synced = synchronise(
-        take.sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
+        if assumed is not None and assumed.level_known and isinstance(floor, FloorToEstimate):
+            floor = FloorToEstimate(height_only=True)
+    cameras = view_cameras(
+        cameras, sizes, names, [str(s) for s in sources], what, log, calibration_word=cams_option, assumed=assumed
     )
-    keypoints, times, track_ids = take_keypoints(tracks, synced.cameras, take.persons, what)
+    synced = synchronise(
+        settings.sync, [t.keypoints for t in tracks], [t.frame_times for t in tracks], cameras, log, log.warning
+    )
+    keypoints, times, track_ids = take_keypoints(tracks, synced.cameras, settings.persons, what)
     everyone = None  # an estimated floor comes from everyone in the take, not only from the persons chosen
-    if floor in ESTIMATES and len(synced.cameras) == 1 and take.persons != "all":
-        everyone = take_keypoints(tracks, synced.cameras, "all", what)[0]
+    if isinstance(floor, FloorToEstimate) and len(synced.cameras) == 1 and settings.persons != "all":
+        everyone = take_keypoints(tracks, synced.cameras, "all", what)
     swapped = disagreeing_views(keypoints, [c.name for c in synced.cameras])
     if swapped:
         log.warning(swapped)
-    chosen = describe_choice(take.persons, [int(t) for t in track_ids])
+    chosen = describe_choice(settings.persons, [int(t) for t in track_ids])
     log(f"{keypoints.shape[0]} view(s), {len(times)} frames, {len(track_ids)} person(s) ({chosen})")
-    roots = _roots(keypoints, times, synced.cameras, take, log)
+    roots = _roots(keypoints, times, synced.cameras, settings, log)
+    lifted = {"sampler": settings.sampler, "windows": settings.windows}
+    take = Take.on_clock(keypoints, times, track_ids, synced.cameras, roots, **lifted)
+    if everyone is not None:  # solved: a known root path belongs to a chosen person only
+        others, _, others_ids = everyone
+        everyone = Take.on_clock(others, times, others_ids, synced.cameras, [None] * others.shape[2], **lifted)
     bundle = prior()
     started = time.perf_counter()
     result = lift_take(
         bundle,
-        keypoints,
-        times,
-        track_ids,
-        synced.cameras,
-        roots,
-        take.sampler,
-        take.windows,
-        arrays,
-        progress,
-        log,
-        floor,
-        everyone,
-        lifter or lift_persons,
+        take,
+        floor=floor,
+        everyone=everyone,
+        arrays=arrays,
+        progress=progress,
+        log=log,
+        lifter=lifter or lift_persons,
     )
     timings["lift_s"] = time.perf_counter() - started
     meta = {
@@ -144,7 +145,7 @@ def run_take(
         "persons": chosen,
         "sync": synced.record(),
         **({} if assumed is None else {"camera": assumed.record}),
-        "root": root_kinds(roots, take.root_trajectory is not None),
+        "root": root_kinds(roots, settings.root_trajectory is not None),
         "timings": timings,
         "warnings": log.warnings,
     }
@@ -182,6 +183,7 @@ def view_cameras(
     sources: Sequence[str],
     what: str,
     log: JobLog,
+    *,
     calibration_word: str = "cams",
     assumed: AssumedCamera | None = None,
 ) -> list[Camera]:
@@ -248,68 +250,53 @@ def check_image_size(camera: Camera, image_size: tuple[int, int], source: str, l
 
 def lift_take(
     prior: PriorBundle,
-    keypoints: np.ndarray,
-    times: np.ndarray,
-    track_ids: np.ndarray,
-    cameras: Sequence[Camera],
-    roots: Sequence[np.ndarray | None],
-    sampler: SamplerConfig,
-    windows: WindowSettings,
+    take: Take,
+    *,
+    floor: Floor | FloorToEstimate | None = None,
+    everyone: Take | None = None,
     arrays: Callable[[tuple[int, ...], str], object] = numpy_arrays,
     progress: Callable[[list[int] | str, int, int], None] | None = None,
     log: JobLog | None = None,
-    floor: Floor | str | None = None,
-    everyone: np.ndarray | None = None,
     lifter: Callable = lift_persons,
 ) -> LiftResult:
-    """The LiftResult of a take: keypoints (C, T, P, 17, 3) on ``times`` (T,) of persons ``track_ids`` (P,),
-    seen by ``cameras``, each person's root path known (T, 3) or None (solved per hypothesis).
+    """The LiftResult of ``take`` (:class:`~platypose.lifting.take.Take`: keypoints (C, T, P, 17, 3) on one clock,
+    its persons, cameras, root paths, presence, and the sampler's and windows' settings).
 
     ``arrays(shape, name)`` makes the result's long arrays (default: in memory; the CLI's are files).
     ``progress(group, done, total)`` counts the windows lifted of each group of persons (``group``: their indices,
     or :data:`~platypose.lifting.tracks.quick_floor.QUICK_LIFT` for the windows of the floor's quick lift).
     ``floor`` (:func:`platypose.lifting.floor.floor_for_lift`): a Floor grounds every hypothesis inside the
-    sampler (its plane replaces ``sampler.floor``) and is the floor finishing keeps them on; ``ESTIMATE`` (one
-    camera) first estimates it under a quick ungrounded lift (:func:`quick_floor`) and grounds on it, or lifts
-    without a floor where too few standing ankles are found (``ESTIMATE_HEIGHT``: the same, the floor level in
-    the camera's world, whose roll and pitch are the scene's: only its height estimated); None: no floor.
-    ``everyone`` (1, T, P', 17, 3): the keypoints of everyone in the take when ``keypoints`` hold only the persons
-    chosen, so the estimated floor does not depend on whom the user chose. The result's ``meta`` holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per
-    person, :mod:`platypose.lifting.checks.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones`` (per person,
-    :func:`platypose.lifting.finish.rigid.rigid_person`: every hypothesis and the median get one length per bone over
-    the clip); the caller adds its own. ``lifter`` lifts the persons (:func:`lift_persons`, or the same spread over
-    pieces: ``platypose.cli.split_join.SplitLifter``). With an estimated floor every output is moved into the estimated world
-    (:mod:`platypose.lifting.finish.world`: z = 0 the floor, z up, the camera at its estimated height and pitch), which
-    ``meta["floor"]["frame"]`` says.
+    sampler (its plane replaces ``take.sampler.floor``) and is the floor finishing keeps them on;
+    :class:`~platypose.lifting.floor.FloorToEstimate` (one camera) first estimates it under a quick ungrounded lift
+    (:func:`quick_floor`) and grounds on it, or lifts without a floor where too few standing ankles are found
+    (``height_only``: the floor level in the camera's world, whose roll and pitch are the scene's: only its height
+    estimated); None: no floor. ``everyone``: the take of everyone in it (root paths solved) when ``take`` holds
+    only the persons chosen, so the estimated floor does not depend on whom the user chose. The result's ``meta``
+    holds ``prior_sha256``, ``reprojection_px`` (per view), ``floor``, ``plausibility`` (per person,
+    :mod:`platypose.lifting.checks.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones``
+    (per person, :func:`platypose.lifting.finish.rigid.rigid_person`: every hypothesis and the median get one length
+    per bone over the clip); the caller adds its own. ``lifter`` lifts the persons (:func:`lift_persons`, or the same
+    spread over pieces: ``platypose.cli.split_join.SplitLifter``). With an estimated floor every output is moved into
+    the estimated world (:mod:`platypose.lifting.finish.world`: z = 0 the floor, z up, the camera at its estimated
+    height and pitch), which ``meta["floor"]["frame"]`` says.
     """
     log = log if log is not None else JobLog()
-    fps = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else prior.fps
-    absent = ~presence(keypoints, times, windows.max_gap)  # (P, T): unseen up to windows.max_gap is lifted through
-    floor_meta = None
-    if floor in ESTIMATES:
-        level = floor == ESTIMATE_HEIGHT
-        if everyone is None:
-            floor, floor_meta = quick_floor(
-                prior, keypoints, times, absent, cameras, roots, sampler, windows, fps, log, progress, lifter, level
-            )
-        else:
-            missing = ~presence(everyone, times, windows.max_gap)
-            others = [None] * everyone.shape[2]  # solved: a known root path belongs to a chosen person only
-            floor, floor_meta = quick_floor(
-                prior, everyone, times, missing, cameras, others, sampler, windows, fps, log, progress, lifter, level
-            )
-    if isinstance(floor, Floor):
-        sampler = replace(sampler, floor=floor.plane)
-        floor_meta = floor_meta or floor.as_dict()
+    fps = take.frame_rate(prior.fps)
+    if isinstance(floor, FloorToEstimate):
+        floor = quick_floor(
+            prior, everyone or take, log=log, progress=progress, lifter=lifter, height_only=floor.height_only
+        )
+    if floor is not None:
+        take = replace(take, sampler=replace(take.sampler, floor=floor.plane))
         log(f"floor ({floor.source}): {' '.join(f'{v:g}' for v in floor.plane)} (n . x + d = 0), grounding on")
     started = time.perf_counter()
-    (P, T), N = absent.shape, sampler.samples
+    (P, T), N = take.absent.shape, take.sampler.samples
     hypotheses = arrays((P, N, T, 17, 3), "hypotheses")
     median = arrays((P, T, 17, 3), "median")
     energy = arrays((P, N, T), "energy")
-    lifter(prior, keypoints, times, cameras, roots, absent, sampler, windows, hypotheses, median, energy, progress)
+    lifter(prior=prior, take=take, hypotheses=hypotheses, median=median, energy=energy, progress=progress)
     log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
-    finished = finish_take(hypotheses, median, keypoints, times, track_ids, cameras, roots, fps, floor, floor_meta, log)
+    finished = finish_take(take, hypotheses=hypotheses, median=median, fps=fps, floor=floor, log=log)
     meta = {
         "prior_sha256": prior.checksum,
         "reprojection_px": finished.reprojection_px,
@@ -321,10 +308,10 @@ def lift_take(
     return LiftResult(
         hypotheses=hypotheses,
         median=median,
-        keypoints2d=np.moveaxis(keypoints, 2, 1),
-        frame_times=times,
+        keypoints2d=np.moveaxis(take.keypoints, 2, 1),
+        frame_times=take.times,
         fps=fps,
-        track_ids=track_ids,
+        track_ids=take.track_ids,
         cameras=finished.cameras,
         energy=energy,
         meta=meta,
@@ -356,14 +343,14 @@ def _read_view(read: Reader, name: str, source: Path, log: JobLog) -> PoseTrack2
     return tracks
 
 
-def _roots(keypoints, times, cameras, take: TakeSettings, log: JobLog) -> list:
-    """Per person: the pelvis path of ``take.root_trajectory`` (T, 3), a triangulated one, or None (solved)."""
+def _roots(keypoints, times, cameras, settings: TakeSettings, log: JobLog) -> list:
+    """Per person: the pelvis path of ``settings.root_trajectory`` (T, 3), a triangulated one, or None (solved)."""
     from platypose.lifting.tracks.persons import root_paths
 
     given = None
-    if take.root_trajectory is not None:
+    if settings.root_trajectory is not None:
         from platypose.detectors.root_file import read_root_trajectory
 
-        log(f"root trajectory from {take.root_trajectory}")
-        given = list(read_root_trajectory(take.root_trajectory, times, keypoints.shape[2]))
-    return root_paths(keypoints, times, cameras, take.root, given, say=log)
+        log(f"root trajectory from {settings.root_trajectory}")
+        given = list(read_root_trajectory(settings.root_trajectory, times, keypoints.shape[2]))
+    return root_paths(keypoints, times, cameras, settings.root, given, say=log)

@@ -130,7 +130,16 @@ def lift_clip(
         if done % 5 == 0 or done == total:
             say(f"  {done}/{total} windows lifted ({phase})")
 
-    result = run_take([("bench", video)], None, take, read, load_prior, JobLog(), what=str(video), progress=progress)
+    result = run_take(
+        views=[("bench", video)],
+        calibration=None,
+        settings=take,
+        read=read,
+        prior=load_prior,
+        log=JobLog(),
+        what=str(video),
+        progress=progress,
+    )
     lift_cpu_s = time.process_time() - seen.lift_cpu_started
     at["finishing"] = clock()
     keypoints = np.moveaxis(np.asarray(result.keypoints2d), 1, 2)  # (C, T, P, 17, 3)

@@ -93,11 +93,11 @@ def demo(
         sampler,
         WindowSettings(),
         "npz,csv,bvh,rrd",
-        "largest",
-        "auto",
-        None,
-        quiet,
-        arguments,
+        persons="largest",
+        root="auto",
+        root_file=None,
+        quiet=quiet,
+        arguments=arguments,
     )
     entries = run_batch([job], settings, 1, False, lambda m: None if quiet else typer.echo(m, err=True))
     if entries[0]["status"] == "ok":

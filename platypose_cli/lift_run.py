@@ -100,12 +100,12 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path, pieces
     bars = GroupBars(settings.quiet)
     try:
         result = run_take(
-            [(v.name, v.source) for v in job.views],
-            calibration,
-            settings.take,
-            read,
-            lambda: _prior(settings.prior),
-            log,
+            views=[(v.name, v.source) for v in job.views],
+            calibration=calibration,
+            settings=settings.take,
+            read=read,
+            prior=lambda: _prior(settings.prior),
+            log=log,
             what=job.input,
             described=str(settings.cams),
             cams_option="--cams",

@@ -124,12 +124,13 @@ class SplitLifter:
     def __init__(self, pool, prior, split_s: float, folder: Path, log) -> None:
         self.pool, self.prior, self.split_s, self.folder, self.log = pool, prior, split_s, folder, log
 
-    def __call__(
-        self, prior, keypoints, times, cameras, roots, absent, config, windows, hypotheses, median, energy,
-        progress=None,
-    ) -> None:  # fmt: skip
-        """As ``lift_persons``: ``keypoints`` (C, T, P, 17, 3) lifted into ``hypotheses`` (P, N, T, 17, 3), ``median``
-        (P, T, 17, 3) and ``energy`` (P, N, T), NaN where ``absent`` (P, T)."""
+    def __call__(self, prior, take, hypotheses, median, energy, progress=None) -> None:
+        """As ``lift_persons``: ``take`` (a Take: keypoints (C, T, P, 17, 3)) lifted into ``hypotheses``
+        (P, N, T, 17, 3), ``median`` (P, T, 17, 3) and ``energy`` (P, N, T), NaN where its persons are ``absent``."""
+        from platypose.lifting.take import Take
+
+        keypoints, times, cameras, roots, absent = take.keypoints, take.times, take.cameras, take.roots, take.absent
+        sampler, windows = take.sampler, take.windows
         margin = margin_seconds(windows.max_gap)
         pieces = plan_pieces(times, self.split_s, margin)
         make_piece_folder(self.folder)
@@ -139,18 +140,18 @@ class SplitLifter:
             """Piece n's persons present, its file, and the task that lifts it."""
             t = pieces[n].lifted
             who = [p for p in range(absent.shape[0]) if not absent[p, t].all()]
-            inputs = {
+            piece = {
                 "keypoints": np.ascontiguousarray(keypoints[:, t][:, :, who]),
                 "times": np.asarray(times[t]),
+                "track_ids": np.asarray(take.track_ids)[who],
                 "cameras": list(cameras),
                 "roots": [None if roots[p] is None else np.asarray(roots[p][t]) for p in who],
-                "absent": np.ascontiguousarray(absent[who][:, t]),
-                "config": config,
-                "windows": windows,
             }
-            key = _digest(prior.checksum, self.prior, *(inputs[k] for k in ("keypoints", "times", "absent")),
-                          inputs["roots"], inputs["cameras"], config, windows)  # fmt: skip
+            key = _digest(prior.checksum, self.prior, piece["keypoints"], piece["times"],
+                          np.ascontiguousarray(absent[who][:, t]), piece["roots"], piece["cameras"], sampler, windows)  # fmt: skip
             path = self.folder / f"lift.{key}.npz"
+            # the piece's own presence: a gap at its edge is not lifted through (its other end lies outside)
+            inputs = Take.on_clock(**piece, sampler=sampler, windows=windows)
             return who, path, (lift_piece, (self.prior, inputs, str(path)))
 
         def name(n: int) -> str:
@@ -192,13 +193,13 @@ class SplitLifter:
                 return np.zeros((0, 0, 0, 17, 3), np.float32), np.zeros((0, 0, 0), np.float32)
             present = ~absent[who][:, pieces[n].lifted]
             try:
-                return read_lift_piece(path, present, config.samples)
+                return read_lift_piece(path, present, sampler.samples)
             except ValueError as err:
                 self._drop(plan, path, f"piece {name(n)}: {path}: {err}")
             self.pool.run([task(n)[2]], [name(n)], lambda i: plan.record(path), say=self.log)
-            return read_lift_piece(path, present, config.samples)
+            return read_lift_piece(path, present, sampler.samples)
 
-        join_pieces(pieces, persons, load, times, absent, margin, hypotheses, median, energy)
+        join_pieces(pieces, persons, load, times, absent, margin, hypotheses=hypotheses, median=median, energy=energy)
 
     def _drop(self, plan: PiecePlan, path: Path, why: str) -> None:
         """Remove a damaged piece file and its line in the plan, warning ``why``."""
@@ -226,7 +227,7 @@ def _over(frames: slice, piece_lifted: slice, who, h, e, P: int, N: int) -> tupl
     return hyp, en
 
 
-def join_pieces(pieces, persons, load, times, absent, margin, hypotheses, median, energy) -> None:
+def join_pieces(pieces, persons, load, times, absent, margin, *, hypotheses, median, energy) -> None:
     """Write the pieces' results (``load(n)``: piece n's hypotheses and energy; persons ``persons``) into the take's
     arrays in frame order: each
     piece's hypotheses reordered to continue the piece before (over the frames both lifted), cross-faded around

@@ -76,25 +76,22 @@ def detect_piece(video: str, detect, start: int, stamp: int | None, count: int |
     return time.perf_counter() - started
 
 
-def lift_piece(prior_settings, inputs: dict, path: str) -> float:
-    """Lift one stretch of a take (:func:`platypose.lifting.tracks.persons.lift_persons` on ``inputs``: keypoints, times,
-    cameras, roots, absent, config, windows) with the prior of ``prior_settings``; save its hypotheses and energy
-    (float32, NaN where absent) atomically at ``path``. The seconds it took (the prior loaded, once per process)."""
+def lift_piece(prior_settings, take, path: str) -> float:
+    """Lift one stretch of a take (:func:`platypose.lifting.tracks.persons.lift_persons` on ``take``, a Take) with the
+    prior of ``prior_settings``; save its hypotheses and energy (float32, NaN where absent) atomically at ``path``.
+    The seconds it took (the prior loaded, once per process)."""
     from platypose.cli.lift_run import _prior
     from platypose.lifting.files.atomic import atomic_open
     from platypose.lifting.tracks.persons import lift_persons
 
-    P, t = inputs["absent"].shape
-    N = inputs["config"].samples
+    P, t = take.absent.shape
+    N = take.sampler.samples
     hypotheses = np.empty((P, N, t, 17, 3), np.float32)
     energy = np.empty((P, N, t), np.float32)
     median = np.empty((P, t, 17, 3), np.float32)
     prior = _prior(prior_settings)
     started = time.perf_counter()
-    lift_persons(
-        prior, inputs["keypoints"], inputs["times"], inputs["cameras"], inputs["roots"],
-        inputs["absent"], inputs["config"], inputs["windows"], hypotheses, median, energy,
-    )  # fmt: skip
+    lift_persons(prior=prior, take=take, hypotheses=hypotheses, median=median, energy=energy)
     with atomic_open(path) as stream:
         np.savez(stream, hypotheses=hypotheses, energy=energy)
     return time.perf_counter() - started

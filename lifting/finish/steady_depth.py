@@ -84,6 +84,7 @@ def steady_scales(
     lower_ankle: np.ndarray,
     camera: Camera,
     fps: float,
+    *,
     trusted: np.ndarray | None = None,
     times: np.ndarray | None = None,
     unseen: np.ndarray | None = None,
@@ -175,6 +176,7 @@ def steady_person(
     fps: float,
     floor: Floor | None,
     seen: np.ndarray,
+    *,
     times: np.ndarray | None = None,
     chunk: int = 1024,
 ) -> float:
@@ -191,7 +193,16 @@ def steady_person(
     unseen = np.asarray(seen) < MIN_SEEN_JOINTS
     camera_height = float(height(camera.center))
     lower = height(ankles).min(axis=-1)
-    scales = steady_scales(pelvis, lower, camera, fps, trusted_frames(seen, fps), times, unseen, camera_height)
+    scales = steady_scales(
+        pelvis,
+        lower,
+        camera,
+        fps,
+        trusted=trusted_frames(seen, fps),
+        times=times,
+        unseen=unseen,
+        camera_height=camera_height,
+    )
     centre = camera.center
     moved = 0.0
     for start in range(0, T, chunk):

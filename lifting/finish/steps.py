@@ -3,7 +3,8 @@
 1. one grounded view: each solved root's depth steadied along its ray (:mod:`platypose.lifting.finish.steady_depth`);
 2. bodies: one shape per hypothesis over the clip, one depth branch per limb, knees, elbows and head within
    the limits a body holds (:func:`platypose.lifting.finish.rigid.rigid_person`);
-3. the median motion's reprojection against the keypoints, per view (:func:`report_reprojection`);
+3. the median motion's reprojection against the keypoints, per view
+   (:func:`platypose.lifting.finish.reprojection.report_reprojection`);
 4. plausibility of each person (:mod:`platypose.lifting.checks.plausibility`), said in one line each, with the
    first gap after which the body the keypoints give is not the one before it (:mod:`platypose.lifting.checks.gap_size`,
    measured before the bodies are made one);
@@ -15,7 +16,6 @@ The arrays are changed in place; what the result's ``meta`` keeps is returned.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,12 +24,13 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.checks.flags import flag_text, person_lines
 from platypose.lifting.checks.gap_size import body_sizes, size_after_gap
 from platypose.lifting.checks.plausibility import plausibility
+from platypose.lifting.finish.reprojection import report_reprojection
 from platypose.lifting.finish.rigid import rigid_person
 from platypose.lifting.finish.steady_depth import steady_person
 from platypose.lifting.finish.world import level_on_floor
 from platypose.lifting.floor import Floor
 from platypose.lifting.job_log import JobLog
-from platypose.lifting.tracks.persons import reprojection_report
+from platypose.lifting.take import Take
 
 
 @dataclass(frozen=True)
@@ -45,27 +46,16 @@ class FinishedTake:
     rigid_bones: dict[str, dict]
 
 
-def finish_take(
-    hypotheses,
-    median,
-    keypoints: np.ndarray,
-    times: np.ndarray,
-    track_ids: np.ndarray,
-    cameras: Sequence[Camera],
-    roots: Sequence[np.ndarray | None],
-    fps: float,
-    floor: Floor | None,
-    floor_meta: dict | None,
-    log: JobLog,
-) -> FinishedTake:
-    """Finish the sampled ``hypotheses`` (P, N, T, 17, 3) and ``median`` (P, T, 17, 3) of persons ``track_ids`` seen
-    as ``keypoints`` (C, T, P, 17, 3) on ``times`` by ``cameras``, with their root paths ``roots`` (None: solved per
-    hypothesis), on ``floor``, the one the sampler grounded them on (``floor_meta`` its meta entry; None: no floor).
-    Each step is logged."""
+def finish_take(take: Take, *, hypotheses, median, fps: float, floor: Floor | None, log: JobLog) -> FinishedTake:
+    """Finish the sampled ``hypotheses`` (P, N, T, 17, 3) and ``median`` (P, T, 17, 3) of ``take`` (its persons
+    ``track_ids`` seen as ``keypoints`` (C, T, P, 17, 3) on ``times`` at ``fps`` by ``cameras``, their root paths
+    ``roots``: None solved per hypothesis) on ``floor``, the one the sampler grounded them on, with its meta (None:
+    no floor). Each step is logged."""
+    keypoints, track_ids, cameras = take.keypoints, take.track_ids, list(take.cameras)
     if len(cameras) == 1 and floor is not None:  # one grounded view: steady each solved root's depth
-        for p, track in ((p, t) for p, t in enumerate(track_ids) if roots[p] is None):
+        for p, track in ((p, t) for p, t in enumerate(track_ids) if take.roots[p] is None):
             seen = (np.nan_to_num(keypoints[0, :, p, :, 2]) > 0).sum(axis=-1)  # joints seen per frame
-            moved = steady_person(hypotheses, p, cameras[0], fps, floor, seen, times)
+            moved = steady_person(hypotheses, p, cameras[0], fps, floor, seen, times=take.times)
             log(f"person {track}: depth steadied, pelvis moved along its ray by up to {moved:.2f} m")
     gaps = {}  # person: the first gap after which their body is not the one before it (said once)
     for p in range(len(track_ids)):
@@ -89,21 +79,9 @@ def finish_take(
             person["flag_text"] = flag_text(person)
     for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
         log(line)
-    if floor_meta and floor_meta["source"] == "estimated":  # outputs in the estimated world: z = 0 the floor, z up
-        camera, floor_meta = level_on_floor(floor, floor_meta, cameras[0], (hypotheses, median))
+    floor_meta = None if floor is None else floor.as_dict()
+    if floor is not None and floor.source == "estimated":  # outputs in the estimated world: z = 0 the floor, z up
+        camera, floor_meta = level_on_floor(floor, cameras[0], (hypotheses, median))
         cameras = [camera]
         log(f"outputs in the {floor_meta['frame']}")
     return FinishedTake(tuple(cameras), floor_meta, report, persons, rigid)
-
-
-def report_reprojection(median, keypoints: np.ndarray, cameras: Sequence[Camera], log: JobLog) -> dict[str, float]:
-    """:func:`platypose.lifting.tracks.persons.reprojection_report` logged: one line of per-view pixels, then its warnings."""
-    report, warnings = reprojection_report(median, keypoints, cameras)
-    if report:
-        log(
-            "median motion against the keypoints (median px per view): "
-            + ", ".join(f"{name} {value:.1f}" for name, value in report.items())
-        )
-    for warning in warnings:
-        log.warning(warning)
-    return report

@@ -74,13 +74,12 @@ def world_note(height_m: float, pitch_deg: float) -> str:
     )
 
 
-def level_on_floor(floor: Floor, floor_meta: dict, camera: Camera, arrays) -> tuple[Camera, dict]:
-    """Move ``arrays`` (each ``(..., T, 17, 3)``, in place) and the one ``camera`` into the estimated world of
+def level_on_floor(floor: Floor, camera: Camera, arrays) -> tuple[Camera, dict]:
+    """Move ``arrays`` (each ``(..., T, 17, 3)``, in place) and the one ``camera`` into the world of the estimated
     ``floor``; the moved camera and the floor's ``meta`` entry there: the floor z = 0 (``FLOOR``), the camera's
-    estimated height and pitch as estimated, and ``frame`` (:func:`world_note`)."""
+    height and pitch as the estimate found them (``floor.found``), and ``frame`` (:func:`world_note`)."""
     move = floor_world(floor, camera)
     for array in arrays:
         move_frames(array, move)
-    kept = {k: v for k, v in floor_meta.items() if k not in ("normal", "offset_m", "source")}
-    note = world_note(floor_meta["camera_height_m"], floor_meta["camera_pitch_deg"])
-    return move.camera(camera), {**FLOOR.as_dict(), **kept, "frame": note}
+    note = world_note(floor.found["camera_height_m"], floor.found["camera_pitch_deg"])
+    return move.camera(camera), {**FLOOR.as_dict(), **floor.found, "frame": note}

@@ -44,6 +44,7 @@ class GuidedProblem:
         obs: Observations,
         rays: RayConstraints | None,
         config: SamplerConfig,
+        *,
         root_trajectory: torch.Tensor | None = None,
         anchor: Anchor | None = None,
         size_factors: torch.Tensor | None = None,

@@ -68,6 +68,7 @@ def sample(
     rays: RayConstraints | None,
     config: SamplerConfig,
     frames: int,
+    *,
     root_trajectory: torch.Tensor | None = None,
     anchor: Anchor | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -101,7 +102,18 @@ def sample(
     raw = obs  # the reported energy is against the keypoints as given
     views = views_for(obs.cameras)
     obs, rays = views.prepare(obs, rays, config)
-    problem = GuidedProblem(prior, obs, rays, config, root_trajectory, anchor, sizes, views, support, choices)
+    problem = GuidedProblem(
+        prior,
+        obs,
+        rays,
+        config,
+        root_trajectory=root_trajectory,
+        anchor=anchor,
+        size_factors=sizes,
+        views=views,
+        stance_heights=support,
+        floor_choices=choices,
+    )
     x_t = schedule.add_noise(torch.zeros_like(noise), int(steps[0]), noise)
     x0 = x_t
     before: tuple[torch.Tensor, int] | None = None  # the previous guided prediction and its step (dpm2m)

@@ -8,13 +8,10 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from platypose.lifting.errors import InputError
+from platypose.lifting.settings.choices import FloorChoice, check_sync, read_floor
 from platypose.lifting.settings.fields import check_types, choose, require, setting
-
-if TYPE_CHECKING:
-    from platypose.lifting.floor import Floor
 
 ROBUST_LOSSES = ("l2", "geman-mcclure")
 STEP_RULES = ("backtrack", "paper")
@@ -225,21 +222,19 @@ class TakeSettings:
             object.__setattr__(self, name, value)
         check_types(self)  # the persons choice itself is the detectors' (platypose.pipeline.take_settings)
         require([(self.root in ROOT_MODES, "root", f"root must be one of {', '.join(ROOT_MODES)}, got {self.root!r}")])
-        from platypose.lifting.floor import parse_floor
-        from platypose.lifting.sync.choice import check_choice
-
-        object.__setattr__(self, "_floor_choice", parse_floor(self.floor))  # parsed once, here
+        object.__setattr__(self, "_floor_choice", read_floor(self.floor))  # parsed once, here
         if isinstance(self.sync, Mapping):
             object.__setattr__(self, "sync", dict(self.sync))
         elif not isinstance(self.sync, str):
             raise InputError(f"sync must be auto, none, an offsets file or a mapping, got {self.sync!r}", option="sync")
-        check_choice(self.sync)
+        check_sync(self.sync)
         for name, cls in (("sampler", SamplerConfig), ("windows", WindowSettings)):
             if not isinstance(getattr(self, name), cls):
                 raise InputError(f"{name} must be a {cls.__name__}, got {getattr(self, name)!r}", option=name)
 
     @property
-    def floor_choice(self) -> Floor | str | None:
-        """The floor ``floor`` names, as :func:`platypose.lifting.floor.parse_floor` read it when these settings were
-        made: a Floor (source "given"), "auto" or None."""
+    def floor_choice(self) -> FloorChoice:
+        """The floor ``floor`` names, as :func:`platypose.lifting.settings.choices.read_floor` read it when these
+        settings were made: a plane given, "auto" or None (:func:`platypose.lifting.floor.floor_for_lift` makes it
+        the lift's floor)."""
         return self._floor_choice

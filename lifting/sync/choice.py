@@ -24,13 +24,13 @@ import numpy as np
 from platypose.lifting.calibration.matching import match_views
 from platypose.lifting.camera import MAX_TIME_OFFSET_S, Camera
 from platypose.lifting.errors import InputError
+from platypose.lifting.settings.choices import SyncChoice
 
 LOW_CONFIDENCE = 0.2  # below this an estimated offset is not applied
 HIGH_CONFIDENCE = 0.5  # an offset over LARGE_SHARE of the clip is applied only from this confidence up
 LARGE_SHARE = 0.1  # of the shortest clip's duration
 SHORT_CLIP_S = 1.5  # estimates from less motion than this can be frames off
 MAX_OFFSET_S = MAX_TIME_OFFSET_S  # larger offsets are not a clock difference of one take (as in a calibration)
-SyncChoice = str | Path | Mapping[str, float]
 
 
 @dataclass(frozen=True)
@@ -47,14 +47,6 @@ class Synced:
         if self.confidence is not None:
             data["confidence"] = {c.name: round(float(v), 3) for c, v in zip(self.cameras, self.confidence)}
         return data
-
-
-def check_choice(choice: SyncChoice) -> None:
-    """InputError unless ``choice`` is auto, none, an existing offsets file or a mapping of names to seconds."""
-    if isinstance(choice, Mapping) or choice in ("auto", "none"):
-        return
-    if not Path(choice).is_file():
-        raise InputError(f"{choice}: offsets file not found (sync takes auto, none or an offsets .json)")
 
 
 def offsets_by_name(offsets: object, camera_names: Sequence[str], where: str) -> list[float]:

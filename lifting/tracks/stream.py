@@ -80,10 +80,12 @@ def lift_stream(
     cameras: Sequence[Camera],
     keypoints: np.ndarray,
     frame_times: np.ndarray,
-    config: SamplerConfig,
-    settings: WindowSettings = WindowSettings(),
+    sampler: SamplerConfig,
+    windows: WindowSettings = WindowSettings(),
+    *,
     root_trajectory: np.ndarray | None = None,
     progress: Callable[[int, int], None] | None = None,
+    present: np.ndarray | None = None,
 ) -> Iterator[LiftChunk]:
     """Lift P persons' keypoints ``(C, T, P, 17, 3)`` seen by ``cameras`` at ``frame_times`` ``(T,)``, in chunks.
 
@@ -93,24 +95,27 @@ def lift_stream(
     same time go through the network together (:func:`next_round`). Chunks come in frame
     order as soon as no later window can change their frames, so memory holds a few windows
     whatever the length. ``root_trajectory`` (P, T, 3), if known, fixes each person's pelvis
-    path. ``progress(done, total)`` counts windows (over all persons).
+    path. ``progress(done, total)`` counts windows (over all persons). ``present`` ``(P, T)``: where each person is
+    present, as the caller computed it (:func:`platypose.lifting.tracks.roots.presence` under ``windows.max_gap``);
+    None: computed here.
     """
     frame_times = np.asarray(frame_times, dtype=np.float64)
     clock = prior_clock(frame_times, prior.fps)
-    length = min(settings.window, prior.config.max_frames)
-    spans = person_spans(keypoints, frame_times, clock, length, min(settings.overlap, length // 2), settings.max_gap)
+    length = min(windows.window, prior.config.max_frames)
+    overlap = min(windows.overlap, length // 2)
+    spans = person_spans(keypoints, frame_times, clock, length, overlap, windows.max_gap, present=present)
     per_window = KeypointWindows(keypoints, frame_times, clock)
     roots = None
     if root_trajectory is not None:
         roots = np.moveaxis(interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock), 1, 0)  # (P, T', 3)
     total = sum(span.plan.count for span in spans)
-    runner = _WindowRunner(prior, list(cameras), per_window, roots, config, settings, progress, total)
+    runner = _WindowRunner(prior, list(cameras), per_window, roots, sampler, windows, progress=progress, total=total)
     stitchers = [StreamingStitch(s.plan, clock[s.first : s.first + s.plan.total], frame_times[s.frames]) for s in spans]
-    gather = _PersonFrames(keypoints.shape[2], config.samples, len(frame_times), spans)
+    gather = _PersonFrames(keypoints.shape[2], sampler.samples, len(frame_times), spans)
     done = [0] * len(spans)  # windows sampled per span
     previous: list[np.ndarray | None] = [None] * len(spans)  # each span's last window, (1, N, F, 17, 3)
     while True:
-        batch = next_round(spans, done, length - min(settings.overlap, length // 2))
+        batch = next_round(spans, done, length - overlap)
         if not batch:
             break
         items = [(s, int(done[s]), continuation_anchor(previous[s], spans[s].plan) if done[s] else None) for s in batch]
@@ -148,15 +153,18 @@ def person_spans(
     length: int,
     overlap: int,
     max_gap: float = WindowSettings.max_gap,
+    *,
+    present: np.ndarray | None = None,
 ) -> list[Span]:
     """The spans where each person of keypoints ``(C, T, P, 17, 3)`` is present (:func:`lifting.tracks.roots.presence`:
     seen, or unseen for at most ``max_gap`` seconds between seen frames), person by person in time order, each
     planned in windows of ``length`` prior frames sharing ``overlap``.
 
     A span covers the prior frames from the last one at or before its first input frame to the first one at or
-    after its last, so every input frame of the span lies between two of them.
+    after its last, so every input frame of the span lies between two of them. ``present`` ``(P, T)``: the presence
+    the caller computed from the same keypoints, times and ``max_gap`` (None: computed here).
     """
-    present = presence(keypoints, frame_times, max_gap)  # (P, T)
+    present = presence(keypoints, frame_times, max_gap) if present is None else present  # (P, T)
     spans = []
     for person in range(present.shape[0]):
         edges = np.diff(np.concatenate([[0], present[person].astype(np.int8), [0]]))
@@ -184,13 +192,18 @@ def lift_tracks(
     cameras: Sequence[Camera],
     keypoints: np.ndarray,
     frame_times: np.ndarray,
-    config: SamplerConfig,
-    settings: WindowSettings = WindowSettings(),
+    sampler: SamplerConfig,
+    windows: WindowSettings = WindowSettings(),
+    *,
     root_trajectory: np.ndarray | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> LiftOutput:
     """:func:`lift_stream` gathered into whole arrays (for short inputs and tests)."""
-    chunks = list(lift_stream(prior, cameras, keypoints, frame_times, config, settings, root_trajectory, progress))
+    chunks = list(
+        lift_stream(
+            prior, cameras, keypoints, frame_times, sampler, windows, root_trajectory=root_trajectory, progress=progress
+        )
+    )
     return LiftOutput(
         hypotheses=np.concatenate([c.hypotheses for c in chunks], axis=2),
         energy=np.concatenate([c.energy for c in chunks], axis=2),
@@ -295,9 +308,9 @@ class StreamingStitch:
 class _WindowRunner:
     """Samples a round of windows (one per span), those of equal length and continuation state in one batch."""
 
-    def __init__(self, prior, cameras, per_window, roots, config, settings, progress, total: int) -> None:
+    def __init__(self, prior, cameras, per_window, roots, sampler, windows, *, progress, total: int) -> None:
         self.prior, self.cameras, self.per_window, self.roots = prior, cameras, per_window, roots
-        self.config, self.settings, self.progress, self.total = config, settings, progress, total
+        self.sampler, self.windows, self.progress, self.total = sampler, windows, progress, total
         self.done = 0
 
     def run(self, spans: Sequence[Span], items: list) -> list[SampleResult]:
@@ -345,8 +358,10 @@ class _WindowRunner:
             seen = torch.as_tensor(seen_frames(kp, 1).T, dtype=dtype, device=device)  # (B, F): frames with keypoints
             before = np.concatenate([seen_frames(self._keypoints(s, w - 1), 1).T * (w > 1) for s, w, _ in windows])
             before = torch.as_tensor(before, dtype=dtype, device=device)  # the same in the windows before them
-            held = Anchor(joints, mask, self.settings.anchor_weight, seen, landing(mask, seen, before))
-        return sample(self.prior, obs, None if root is not None else rays, self.config, F, root, held)
+            held = Anchor(joints, mask, self.windows.anchor_weight, seen, landing(mask, seen, before))
+        return sample(
+            self.prior, obs, None if root is not None else rays, self.sampler, F, root_trajectory=root, anchor=held
+        )
 
 
 def only_viewer(keypoints: np.ndarray) -> int | None:

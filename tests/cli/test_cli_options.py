@@ -157,11 +157,11 @@ def test_lift_always_writes_the_npz(tmp_path):
         SamplerConfig(),
         WindowSettings(),
         "trc,angles,report",
-        "all",
-        "auto",
-        None,
-        True,
-        {},
+        persons="all",
+        root="auto",
+        root_file=None,
+        quiet=True,
+        arguments={},
     )
     assert settings.formats == ("npz", "trc", "angles", "report")
 

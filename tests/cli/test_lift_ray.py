@@ -140,7 +140,18 @@ def ray_settings(prior_file: str, out: Path):
     prior, sampler = PriorSettings(Path(prior_file)), SamplerConfig(samples=4, seed=3)
     detect, formats = DetectOptions(threads=1), "npz,csv,bvh,rrd"
     return lift_settings(
-        out, None, prior, detect, sampler, WindowSettings(), formats, "largest", "auto", None, True, {}
+        out,
+        None,
+        prior,
+        detect,
+        sampler,
+        WindowSettings(),
+        formats,
+        persons="largest",
+        root="auto",
+        root_file=None,
+        quiet=True,
+        arguments={},
     )
 
 

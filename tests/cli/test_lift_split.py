@@ -97,8 +97,8 @@ def test_persons_keep_their_hypotheses_through_a_crossing_at_a_seam(data_dir, ti
     from platypose.cli.split_join import SplitLifter
     from platypose.lifting.calibration import load_calibration
     from platypose.lifting.camera import project
+    from platypose.lifting.take import Take
     from platypose.lifting.tracks.persons import lift_persons
-    from platypose.lifting.tracks.roots import presence
 
     walker = real_tracks(data_dir).keypoints[:, 1]
     times = real_tracks(data_dir).frame_times
@@ -112,7 +112,8 @@ def test_persons_keep_their_hypotheses_through_a_crossing_at_a_seam(data_dir, ti
     assert 100 < crossing < 130
     camera = load_calibration(data_dir / DEMO / "Calib_demo.toml").camera("demo")
     windows, config = WindowSettings(max_gap=1.0), SamplerConfig(samples=4, seed=3)
-    absent = ~presence(keypoints, times, windows.max_gap)
+    take = Take.on_clock(keypoints, times, np.arange(2), [camera], [None, None], sampler=config, windows=windows)
+    absent = take.absent
     pool = InProcess()
     split = SplitLifter(pool, PriorSettings(path=prior_file), float(times[crossing] - times[0]), tmp_path, str)
     medians = {}
@@ -120,8 +121,7 @@ def test_persons_keep_their_hypotheses_through_a_crossing_at_a_seam(data_dir, ti
         hypotheses = np.empty((2, 4, len(times), 17, 3), np.float32)
         medians[name] = np.empty((2, len(times), 17, 3), np.float32)
         energy = np.empty((2, 4, len(times)), np.float32)
-        lifter(tiny_prior, keypoints, times, [camera], [None, None], absent, config, windows, hypotheses,
-               medians[name], energy)  # fmt: skip
+        lifter(tiny_prior, take, hypotheses=hypotheses, median=medians[name], energy=energy)
         assert np.array_equal(np.isnan(hypotheses).all(axis=(1, 3, 4)), absent)
     assert pool.ran == ["0 (frames 0-144)", "1 (frames 85-229)"]  # one seam, at the crossing
     near = slice(crossing - 15, crossing + 15)

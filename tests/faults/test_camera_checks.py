@@ -38,7 +38,15 @@ def test_a_calibration_of_another_image_size_fails_before_detection(tmp_path: Pa
 
     expected = f"{TAKE / 'cam01.mp4'}: calibration mismatch: calibration says 1280x720 px for camera cam_01, "
     with pytest.raises(InputError, match=re.escape(expected)):
-        run_take(views, load_calibration(path), TakeSettings(), read, lambda: None, JobLog(), what="take")
+        run_take(
+            views=views,
+            calibration=load_calibration(path),
+            settings=TakeSettings(),
+            read=read,
+            prior=lambda: None,
+            log=JobLog(),
+            what="take",
+        )
     assert read_calls == []
 
 

@@ -81,7 +81,7 @@ def test_swapped_cameras_warned_and_views_judged_by_persons_seen_well(take_views
 
     from platypose.detectors.take import take_keypoints
     from platypose.detectors.view_agreement import disagreeing_views
-    from platypose.lifting.tracks.persons import reprojection_report
+    from platypose.lifting.finish.reprojection import reprojection_report
     from platypose.lifting.triangulation import triangulate
 
     cameras, tracks = take_views

@@ -24,9 +24,9 @@ from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.rotations import rotvec_matrices
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.skeleton import bone_lengths
+from platypose.lifting.take import Take
 from platypose.lifting.timebase import resample
 from platypose.lifting.tracks.persons import lift_persons
-from platypose.lifting.tracks.roots import presence
 from platypose.lifting.triangulation import triangulate, view_median_errors
 from platypose.pipeline import lift_take
 
@@ -201,7 +201,8 @@ def test_a_real_lift_is_rigid_and_keeps_its_image(tiny_prior, athlete):
     kp, t = keypoints[:1, :40], times[:40]
     config = SamplerConfig(samples=4, steps=4, skip=1, guidance_iters=2, floor=CALIBRATED_FLOOR.plane)
     settings = WindowSettings(16, 4)
-    result = lift_take(tiny_prior, kp, t, np.array([0]), cameras[:1], [None], config, settings, floor=CALIBRATED_FLOOR)
+    take = Take.on_clock(kp, t, np.array([0]), cameras[:1], [None], sampler=config, windows=settings)
+    result = lift_take(tiny_prior, take, floor=CALIBRATED_FLOOR)
     hyps, median = np.asarray(result.hypotheses[0], np.float64), np.asarray(result.median[0], np.float64)
     for motion in (*hyps, median):
         lengths = bone_lengths(motion)
@@ -210,8 +211,7 @@ def test_a_real_lift_is_rigid_and_keeps_its_image(tiny_prior, athlete):
         assert np.abs(bodies - bodies[0]).max() < 1e-5
     before_h, before_m, energy = np.zeros((1, 4, 40, 17, 3)), np.zeros((1, 40, 17, 3)), np.zeros((1, 4, 40))
     torch.manual_seed(0)
-    absent = ~presence(kp, t)
-    lift_persons(tiny_prior, kp, t, cameras[:1], [None], absent, config, settings, before_h, before_m, energy)
+    lift_persons(tiny_prior, take, hypotheses=before_h, median=before_m, energy=energy)
     stretch = np.abs(bone_lengths(before_h[0]) - np.median(bone_lengths(before_h[0]), axis=1, keepdims=True)).max()
     assert stretch > 0.01  # the sampler's bones do stretch
     moved = np.linalg.norm(project(hyps, cameras[0]) - project(before_h[0], cameras[0]), axis=-1)
@@ -257,17 +257,10 @@ def test_the_bvh_of_a_real_lift_fits_its_median_within_10_mm(athlete, views, tmp
         from platypose.lifting.tracks.persons import root_paths
 
         root = root_paths(keypoints, times, cameras)
-    result = lift_take(
-        prior,
-        keypoints[:views],
-        times,
-        np.array([0]),
-        cameras[:views],
-        root,
-        config,
-        WindowSettings(),
-        floor=CALIBRATED_FLOOR,
+    take = Take.on_clock(
+        keypoints[:views], times, np.array([0]), cameras[:views], root, sampler=config, windows=WindowSettings()
     )
+    result = lift_take(prior, take, floor=CALIBRATED_FLOOR)
     fit = write_bvh(result.median[0], result.fps, tmp_path / "athlete.bvh")
     assert fit.mean_m <= 0.010 and fit.max_m <= 0.040, fit
     assert fit.stretch_m < 1e-4, fit

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from platypose.lifting.calibration.defaults import default_camera
@@ -38,8 +40,8 @@ def test_outputs_are_moved_in_place_chunk_by_chunk_and_the_meta_says_so():
     hypotheses = np.random.default_rng(1).normal(0.0, 1.0, (2, 3, 9, 17, 3)).astype(np.float32)
     median = hypotheses[:, 0].copy()
     expected = floor.height(hypotheses.astype(np.float64))
-    meta = {**floor.as_dict(), "camera_height_m": 2.0, "camera_pitch_deg": 10.0, "stance_points": 40}
-    seen, said = level_on_floor(floor, meta, camera, (hypotheses, median))
+    found = {"camera_height_m": 2.0, "camera_pitch_deg": 10.0, "stance_points": 40}
+    seen, said = level_on_floor(replace(floor, found=found), camera, (hypotheses, median))
     assert np.allclose(hypotheses[..., 2], expected, atol=1e-5) and np.allclose(median, hypotheses[:, 0])
     assert said["normal"] == [0.0, 0.0, 1.0] and said["offset_m"] == 0.0 and said["source"] == "estimated"
     assert said["camera_height_m"] == 2.0 and said["frame"].startswith("estimated world: z = 0 is the estimated floor")

@@ -22,10 +22,11 @@ from platypose.lifting.checks.plausibility import (
     stance_slides,
 )
 from platypose.lifting.errors import InputError
-from platypose.lifting.floor import CALIBRATED_FLOOR, ESTIMATE, estimate_floor, parse_floor
+from platypose.lifting.floor import CALIBRATED_FLOOR, FloorToEstimate, estimate_floor, parse_floor
 from platypose.lifting.sampling.grounding import Grounding, image_still_ankles
 from platypose.lifting.sampling.sampler import cameras_and_rays
 from platypose.lifting.settings import SamplerConfig, WindowSettings
+from platypose.lifting.take import Take
 from platypose.lifting.tracks.stream import lift_tracks
 from platypose.lifting.triangulation import triangulate
 
@@ -236,7 +237,8 @@ def test_floor_is_estimated_from_a_real_one_view_lift(shipped_prior, cameras, at
     camera = default_camera("cam01", *cameras[0].size)
     hypotheses = _lift(shipped_prior, [camera], keypoints[:1], times, None)
     seen = (keypoints[0][..., [3, 6], 2] > 0).all(axis=-1).T  # (P, T): frames whose ankles cam01 saw
-    floor, info = estimate_floor(np.median(hypotheses, axis=1), camera, 1 / np.median(np.diff(times)), seen)
+    floor = estimate_floor(np.median(hypotheses, axis=1), camera, 1 / np.median(np.diff(times)), seen)
+    info = floor.found
     true_height = float(CALIBRATED_FLOOR.height(cameras[0].center))
     true_pitch = float(np.degrees(np.arcsin(cameras[0].R[2] @ [0.0, 0.0, -1.0])))
     assert floor.source == "estimated" and info["stance_points"] >= 50
@@ -257,17 +259,10 @@ def test_sports2d_without_calibration_estimates_the_floor_and_stands_on_it(shipp
     camera = default_camera("demo", *calibrated.size)
     config = SamplerConfig(samples=20)
     track_ids = np.arange(keypoints.shape[2])
-    result = lift_take(
-        shipped_prior,
-        keypoints,
-        times,
-        track_ids,
-        [camera],
-        [None] * len(track_ids),
-        config,
-        WindowSettings(),
-        floor=ESTIMATE,
+    take = Take.on_clock(
+        keypoints, times, track_ids, [camera], [None] * len(track_ids), sampler=config, windows=WindowSettings()
     )
+    result = lift_take(shipped_prior, take, floor=FloorToEstimate())
     floor = result.meta["floor"]
     true_height = float(CALIBRATED_FLOOR.height(calibrated.center))
     true_pitch = float(np.degrees(np.arcsin(calibrated.R[2] @ [0.0, 0.0, -1.0])))

@@ -19,7 +19,7 @@ def _problem(prior, truth, views, root=False, **config):
     pixels = np.stack([project(truth, c) for c in cams])[:, None]
     obs, rays = cameras_and_rays(cams, pixels, np.ones(pixels.shape[:-1]))
     path = torch.as_tensor(truth[None, :, 0], dtype=torch.float32) if root else None
-    problem = GuidedProblem(prior, obs, None if root else rays, SamplerConfig(**config), path)
+    problem = GuidedProblem(prior, obs, None if root else rays, SamplerConfig(**config), root_trajectory=path)
     with torch.inference_mode():
         x0 = prior.model(
             torch.randn(6, len(truth), prior.config.features, generator=torch.Generator().manual_seed(0)), 20

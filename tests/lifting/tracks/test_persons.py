@@ -7,6 +7,7 @@ from platypose.lifting.camera import project
 from platypose.lifting.errors import InputError
 from platypose.lifting.offline.camera_rigs import ring_cameras
 from platypose.lifting.settings import SamplerConfig, WindowSettings
+from platypose.lifting.take import Take
 from platypose.lifting.timebase import resample
 from platypose.lifting.tracks.persons import lift_persons, root_paths
 from platypose.lifting.tracks.roots import presence
@@ -47,19 +48,17 @@ def test_persons_are_lifted_into_plain_arrays_with_nan_where_absent(real_clips, 
     roots = root_paths(keypoints, times, cams)
     calls = []
     config = SamplerConfig(samples=N, steps=4, skip=1, guidance_iters=2)
+    take = Take.on_clock(
+        keypoints, times, np.arange(keypoints.shape[2]), cams, roots, sampler=config, windows=WindowSettings(16, 4)
+    )
+    assert np.array_equal(take.absent, absent)
     lift_persons(
         tiny_prior,
-        keypoints,
-        times,
-        cams,
-        roots,
-        absent,
-        config,
-        WindowSettings(16, 4),
-        hypotheses,
-        median,
-        energy,
-        lambda group, done, total: calls.append((group, done, total)),
+        take,
+        hypotheses=hypotheses,
+        median=median,
+        energy=energy,
+        progress=lambda group, done, total: calls.append((group, done, total)),
     )
     assert np.isnan(hypotheses[:, :, 15:]).all() and np.isnan(energy[:, :, 15:]).all()
     assert np.isfinite(hypotheses[:, :, :15]).all() and np.isfinite(median[:, :15]).all()

@@ -41,7 +41,7 @@ def _whole_clip_reference(prior, camera, keypoints, times, config, settings):
         if previous is not None:
             held, mask = continuation_anchor(previous, plan)
             anchor = Anchor(torch_tensor(held), torch_tensor(np.repeat(mask[None], kp.shape[1], 0)))
-        result = sample(prior, obs, rays, config, plan.length, None, anchor)
+        result = sample(prior, obs, rays, config, plan.length, anchor=anchor)
         previous = result.fitted
         joints.append(np.moveaxis(np.asarray(result.joints, np.float32), 2, 0))  # (F, P, N, 17, 3)
     return np.moveaxis(interpolate(stitch(np.stack(joints), plan), clock, times), 0, 2).astype(np.float32)
@@ -78,9 +78,9 @@ def test_each_person_is_sampled_only_where_present(tiny_prior, sports_demo, monk
     calls: list[tuple[int, int]] = []  # (windows in the batch, frames)
     original = lift_module.sample
 
-    def recording(prior, obs, rays, config, frames, *rest):
+    def recording(prior, obs, rays, sampler, frames, **rest):
         calls.append((obs.keypoints.shape[1], frames))
-        return original(prior, obs, rays, config, frames, *rest)
+        return original(prior, obs, rays, sampler, frames, **rest)
 
     monkeypatch.setattr(lift_module, "sample", recording)
     settings = WindowSettings(window=16, overlap=4, max_gap=1.0)
