@@ -47,3 +47,25 @@ def resample(values: np.ndarray, fps: float, new_fps: float) -> np.ndarray:
         return values.copy()
     times = np.arange(len(values)) / fps
     return interpolate(values, times, resample_times(len(values), fps, new_fps))
+
+
+def resample_keypoints(keypoints: np.ndarray, times: np.ndarray, new_times: np.ndarray) -> np.ndarray:
+    """Keypoints ``(T, ..., 3)`` (x, y, confidence; NaN or confidence 0 = missing) onto ``new_times``.
+
+    A resampled keypoint is missing unless both neighbouring samples are present.
+    """
+    if len(times) == 1:  # every new time takes the one sample
+        zeros = np.zeros(len(new_times), dtype=np.intp)
+        return resample_keypoints_at(np.concatenate([keypoints, keypoints]), zeros, zeros.astype(np.float64))
+    return resample_keypoints_at(keypoints, *interpolation_weights(times, new_times))
+
+
+def resample_keypoints_at(keypoints: np.ndarray, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Keypoints ``(T, ..., 3)`` at samples ``idx`` (T',) blended with ``idx + 1`` by ``w`` (T',): ``(T', ..., 3)``."""
+    present = (np.isfinite(keypoints).all(-1) & (keypoints[..., 2] > 0)).astype(np.float64)
+    filled = np.where(present[..., None] > 0, keypoints, 0.0)
+    values = blend_samples(filled, idx, w)
+    valid = blend_samples(present, idx, w) > 1 - 1e-9
+    values[..., 2] = np.where(valid, values[..., 2], 0.0)
+    values[..., :2] = np.where(valid[..., None], values[..., :2], np.nan)
+    return values

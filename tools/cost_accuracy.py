@@ -8,7 +8,7 @@ and given to each size's MoveNet in turn (alternated, so machine load falls on a
 timed in process CPU time (``time.process_time``: the machine is shared, wall time is noise). Detection
 is per frame and stateless, so stride N is exactly every N-th frame's detections; they are tracked again
 (as ``--stride N`` does) and interpolated onto every frame as lifting resamples a track
-(``lifting.tracks.stream.resample_keypoints``), then compared with the reference on every frame
+(``lifting.timebase.resample_keypoints``), then compared with the reference on every frame
 (``detectors.compare.distances_to_reference``: the reference's main person against the nearest track).
 
 Printed per size and stride: the detector call (median CPU ms), CPU ms per video frame (median decode +
@@ -33,7 +33,7 @@ from platypose.detectors.keypoints import to_our_joints
 from platypose.detectors.sources import read_keypoints
 from platypose.detectors.tracking import persons_to_keep, track_detections
 from platypose.detectors.video import frame_times, iter_frames, video_info
-from platypose.lifting.tracks.stream import resample_keypoints
+from platypose.lifting.timebase import resample_keypoints
 
 REPO = Path(__file__).resolve().parents[1]
 TAKE = REPO / "data" / "video" / "pose2sim-balancing"

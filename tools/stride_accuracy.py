@@ -28,7 +28,7 @@ import numpy as np
 from platypose.detectors.cache import read_detections
 from platypose.detectors.keypoints import to_our_joints
 from platypose.detectors.tracking import track_detections
-from platypose.lifting.tracks.stream import resample_keypoints
+from platypose.lifting.timebase import resample_keypoints
 
 
 def matched_tracks(full: np.ndarray, sub: np.ndarray, every: int) -> dict[int, int]:

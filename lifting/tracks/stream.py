@@ -23,7 +23,7 @@ from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.sampling.placement import Anchor, landing
 from platypose.lifting.sampling.sampler import SampleResult, cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig, WindowSettings
-from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights
+from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights, resample_keypoints_at
 from platypose.lifting.tracks.roots import presence, seen_frames
 from platypose.lifting.tracks.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
 
@@ -51,28 +51,6 @@ def prior_clock(frame_times: np.ndarray, fps: float) -> np.ndarray:
     """Times at the prior's rate spanning ``frame_times``, ``(T',)``."""
     start, end = float(frame_times[0]), float(frame_times[-1])
     return start + np.arange(int(np.floor((end - start) * fps + 1e-6)) + 1) / fps
-
-
-def resample_keypoints(keypoints: np.ndarray, times: np.ndarray, new_times: np.ndarray) -> np.ndarray:
-    """Keypoints ``(T, ..., 3)`` (x, y, confidence; NaN or confidence 0 = missing) onto ``new_times``.
-
-    A resampled keypoint is missing unless both neighbouring samples are present.
-    """
-    if len(times) == 1:  # every new time takes the one sample
-        zeros = np.zeros(len(new_times), dtype=np.intp)
-        return resample_keypoints_at(np.concatenate([keypoints, keypoints]), zeros, zeros.astype(np.float64))
-    return resample_keypoints_at(keypoints, *interpolation_weights(times, new_times))
-
-
-def resample_keypoints_at(keypoints: np.ndarray, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Keypoints ``(T, ..., 3)`` at samples ``idx`` (T',) blended with ``idx + 1`` by ``w`` (T',): ``(T', ..., 3)``."""
-    present = (np.isfinite(keypoints).all(-1) & (keypoints[..., 2] > 0)).astype(np.float64)
-    filled = np.where(present[..., None] > 0, keypoints, 0.0)
-    values = blend_samples(filled, idx, w)
-    valid = blend_samples(present, idx, w) > 1 - 1e-9
-    values[..., 2] = np.where(valid, values[..., 2], 0.0)
-    values[..., :2] = np.where(valid[..., None], values[..., :2], np.nan)
-    return values
 
 
 def lift_stream(
@@ -213,7 +191,7 @@ def lift_tracks(
 class KeypointWindows:
     """Keypoints ``(C, P, F, 17, 3)`` of some persons over F prior frames, resampled when a window is asked for.
 
-    The same numbers as resampling the whole track with :func:`resample_keypoints` and
+    The same numbers as resampling the whole track with :func:`platypose.lifting.timebase.resample_keypoints` and
     cutting it into windows (NaN past the end), without a resampled copy of a long track.
     """
 

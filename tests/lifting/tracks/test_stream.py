@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from platypose.lifting.settings import SamplerConfig, WindowSettings
-from platypose.lifting.timebase import interpolate
+from platypose.lifting.timebase import interpolate, resample_keypoints
 from platypose.lifting.tracks import stream as lift_module
-from platypose.lifting.tracks.stream import KeypointWindows, lift_stream, lift_tracks, prior_clock, resample_keypoints
+from platypose.lifting.tracks.stream import KeypointWindows, lift_stream, lift_tracks, prior_clock
 from platypose.lifting.tracks.windows import cut, plan_windows, stitch
 
 TAKE = "video/pose2sim-balancing"

@@ -6,10 +6,10 @@ import pytest
 from platypose.lifting.sampling.placement import Anchor
 from platypose.lifting.sampling.sampler import cameras_and_rays, sample
 from platypose.lifting.settings import SamplerConfig, WindowSettings
-from platypose.lifting.timebase import interpolate
+from platypose.lifting.timebase import interpolate, resample_keypoints
 from platypose.lifting.tracks import stream as lift_module
 from platypose.lifting.tracks.roots import presence
-from platypose.lifting.tracks.stream import lift_stream, lift_tracks, person_spans, prior_clock, resample_keypoints
+from platypose.lifting.tracks.stream import lift_stream, lift_tracks, person_spans, prior_clock
 from platypose.lifting.tracks.windows import continuation_anchor, cut, plan_windows, stitch
 
 
