@@ -28,10 +28,8 @@ import numpy as np
 from platypose.lifting.calibration.defaults import NO_EXTRINSICS_NOTE
 from platypose.lifting.camera import Camera
 from platypose.lifting.settings.choices import FloorChoice, GivenPlane, check_plane, read_floor
+from platypose.lifting.stance import ANKLE_HEIGHT, ANKLES, STANCE_SPEED, lower_ankles
 
-ANKLE_HEIGHT = 0.1  # metres: an ankle keypoint above the floor, foot flat (bundled mocap 0.07-0.11, shoes add more)
-ANKLES = (3, 6)  # right and left ankle (lifting.skeleton order)
-STANCE_SPEED = 1.5  # m/s: the lower ankle, slower than this, is taken as standing (one view's depth jitter included)
 LEVEL_PRIOR = 1e-3  # weight of a pitch of 10 degrees against the capped log drops' variance (one view: often flat)
 STANDS_ELSEWHERE = np.log(1.3)  # a stance ankle dropping 30 % more or less than the floor level stands elsewhere
 SHARED = 0.2  # share of the stance ankles that the floor's level must hold
@@ -113,16 +111,16 @@ def floor_for_lift(choice: FloorChoice, calibration_meta: dict | None) -> Floor 
 
 
 def stance_points(joints: np.ndarray, fps: float, seen: np.ndarray | None = None) -> list[np.ndarray]:
-    """Stance ankles ``(M_p, 3)`` of each person's motion ``(P, T, 17, 3)``: per frame the lower ankle (along world
-    z), if it moves slower than ``STANCE_SPEED``; frames with missing joints, or not ``seen`` ``(P, T)``, are
-    skipped."""
+    """Stance ankles ``(M_p, 3)`` of each person's motion ``(P, T, 17, 3)``: per frame the lower ankle along world
+    z (:func:`platypose.lifting.stance.lower_ankles`, the right one on a tie), if it moves slower than
+    ``STANCE_SPEED``; frames with missing joints, or not ``seen`` ``(P, T)``, are skipped."""
     points = []
     for p, person in enumerate(joints):
         ankles = person[:, list(ANKLES)]  # (T, 2, 3)
         if len(ankles) < 2:
             continue
         speed = np.linalg.norm(np.gradient(ankles, axis=0), axis=-1) * fps  # (T, 2)
-        lower = np.nanargmin(np.where(np.isfinite(ankles[..., 2]), ankles[..., 2], np.inf), axis=1)
+        lower = np.argmax(lower_ankles(ankles[..., 2]), axis=1)
         frames = np.arange(len(ankles))
         chosen, chosen_speed = ankles[frames, lower], speed[frames, lower]
         keep = np.isfinite(chosen).all(-1) & (chosen_speed < STANCE_SPEED)

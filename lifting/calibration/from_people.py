@@ -29,7 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from platypose.lifting.calibration.pose_above_floor import rotation
-from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES
+from platypose.lifting.stance import ANKLE_HEIGHT, ANKLES
 
 BODY = (0, 8, 9, 10)  # pelvis, thorax, neck, head (lifting.skeleton order), above the point stood on
 # their heights as fractions of stature (Drillis & Contini; the head centre at the ears, the neck 30 % of the way

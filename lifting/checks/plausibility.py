@@ -5,10 +5,10 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
 
 - ``under floor``: more than ``UNDER_SHARE`` of hypothesis-frames have their lowest ankle more than
   ``UNDER_FLOOR`` below the floor;
-- ``sliding``: stance ankles (each hypothesis's lower ankle within ``STANCE_BAND`` of its own standing
-  height at that time, for at least ``MIN_STANCE`` on end, in two consecutive frames) move along the floor by
-  more than ``SLIDE`` per frame (median). A foot that is low for less than ``MIN_STANCE`` is taking off, landing
-  or swinging past, as in hops, jumping jacks and running, not standing;
+- ``sliding``: stance ankles (:func:`platypose.lifting.stance.stance_ankles`: each hypothesis's lower ankle within
+  ``STANCE_BAND`` of its own standing height at that time, for at least ``MIN_STANCE`` on end, in two consecutive
+  frames) move along the floor by more than ``SLIDE`` per frame (median). A foot that is low for less than
+  ``MIN_STANCE`` is taking off, landing or swinging past, as in hops, jumping jacks and running, not standing;
 - ``spread``: the hypotheses' pelvises lie more than ``SPREAD`` from their median (90 % of them, median
   over frames);
 - ``bone lengths`` and ``joint angles``: the median motion's limb bones outside human lengths, its joints outside
@@ -22,8 +22,9 @@ person's hypotheses stay implausible, so a user knows which persons not to trust
 Being seen by fewer than two cameras in most frames present is not a flag but the report's ``one_view``. The report's
 ``flag_text`` says every flag with its figure in one sentence (:func:`lifting.checks.flags.flag_text`).
 
-Not everyone stands on the floor: a hypothesis's standing height at a time (:func:`standing_heights`) is the low
-``STANDING_QUANTILE`` of its lower ankle within ``SUPPORT_WINDOW`` either side, and the person's support
+Not everyone stands on the floor: a hypothesis's standing height at a time
+(:func:`platypose.lifting.stance.standing_heights`) is the low ``STANDING_QUANTILE`` of its lower ankle within
+``SUPPORT_WINDOW`` either side, and the person's support
 (:func:`support_levels`: the median hypothesis's standing height less ``ANKLE_HEIGHT``, in levels) says where
 they stand: on the floor, on a roof or a platform, or below the floor (a lower floor than the calibration's z = 0,
 which several views can measure).
@@ -39,80 +40,27 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.checks.body import angles_out_of_range, bone_lengths_out_of_range, hinge_jumps
 from platypose.lifting.checks.flags import flag_text
 from platypose.lifting.checks.thresholds import MIN_LEVEL, SLIDE, SPREAD, SUPPORT_STEP, UNDER_FLOOR, UNDER_SHARE
-from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
-
-STANCE_BAND = 0.05  # metres above a hypothesis's standing height
-MIN_STANCE = 0.1  # seconds: an ankle in the band for less time is passing through it (running contact: 0.2-0.3 s)
-SUPPORT_WINDOW = 1.0  # seconds either side of a frame over which its standing height is taken
-STANDING_QUANTILE = 10  # percentile of the lower ankle's height there: its standing height (a jump's flight is higher)
+from platypose.lifting.floor import Floor
+from platypose.lifting.stance import ANKLE_HEIGHT, ANKLES, WORLD_UP, ankle_heights, stance_ankles, standing_heights
 
 MIN_DEPTH = 0.1  # metres in front of a camera's centre: a person seen by it is farther
 BEHIND_SHARE = 0.05  # of the camera-frames seeing a person
 
 CHUNK = 1024  # frames read at a time
-HYPOTHESES_AT_ONCE = 64  # hypotheses whose standing heights are found at a time
-UP = Floor((0.0, 0.0, 1.0), 0.0, "world")  # heights along world z when no floor is known
 
 
 def lowest_ankle(hypotheses: np.ndarray, floor: Floor | None) -> np.ndarray:
     """Height of the lower ankle above the floor (or world z = 0), ``(..., T)`` for joints ``(..., T, 17, 3)``."""
-    return (floor or UP).height(hypotheses[..., list(ANKLES), :]).min(axis=-1)
-
-
-def standing_heights(lower: np.ndarray, fps: float) -> np.ndarray:
-    """Standing heights ``(N, T)`` of lower-ankle heights ``(N, T)`` (NaN where absent): at each frame the low
-    ``STANDING_QUANTILE`` (an order statistic) over the frames within ``SUPPORT_WINDOW`` either side (a support
-    that changes, as a person jumping off a roof, is followed; a jump's flight is not standing)."""
-    half = max(1, round(SUPPORT_WINDOW * fps))
-    lower = np.asarray(lower, dtype=np.float64)
-    heights = np.full_like(lower, np.nan)
-    for first in range(0, len(lower), HYPOTHESES_AT_ONCE):  # the windows' copy stays small
-        rows = np.pad(lower[first : first + HYPOTHESES_AT_ONCE], ((0, 0), (half, half)), constant_values=np.nan)
-        windows = np.lib.stride_tricks.sliding_window_view(rows, 2 * half + 1, axis=-1)  # (n, T, 2 half + 1)
-        known = np.isfinite(windows)
-        ordered = np.sort(np.where(known, windows, np.inf), axis=-1)
-        count = known.sum(axis=-1)
-        rank = np.floor(STANDING_QUANTILE / 100 * (count - 1)).clip(min=0).astype(np.intp)
-        low = np.take_along_axis(ordered, rank[..., None], axis=-1)[..., 0]
-        heights[first : first + HYPOTHESES_AT_ONCE] = np.where(count > 0, low, np.nan)
-    return np.where(np.isfinite(lower), heights, np.nan)
-
-
-def stance_ankles(
-    hypotheses: np.ndarray, floor: Floor | None, fps: float = 30.0, min_stance: float = MIN_STANCE
-) -> np.ndarray:
-    """Which ankles stand, ``(N, T, 2)`` (right, left) for joints ``(N, T, 17, 3)`` at ``fps``: a hypothesis's lower
-    ankle while within ``STANCE_BAND`` of its standing height at that time (:func:`standing_heights`), for at least
-    ``min_stance`` seconds on end (0: any frame)."""
-    height = (floor or UP).height(hypotheses[..., list(ANKLES), :])  # (N, T, 2)
-    lower = np.fmin(height[..., 0], height[..., 1])  # (N, T)
-    standing = standing_heights(lower, fps)[..., None]  # (N, T, 1)
-    low = (height == lower[..., None]) & (height < standing + STANCE_BAND)
-    return lasting(low, max(1, round(min_stance * fps)))
-
-
-def lasting(flags: np.ndarray, frames: int) -> np.ndarray:
-    """``flags`` ``(N, T, K)`` kept only within runs (along T) of at least ``frames`` true frames on end."""
-    T = flags.shape[1]
-    if frames <= 1:
-        return flags
-    if T < frames:
-        return np.zeros_like(flags)
-    count = np.cumsum(np.pad(flags, ((0, 0), (1, 0), (0, 0))).astype(np.int64), axis=1)  # (N, T + 1, K)
-    full = (count[:, frames:] - count[:, :-frames]) == frames  # (N, T - frames + 1, K): runs starting there
-    starts = np.cumsum(np.pad(full, ((0, 0), (1, 0), (0, 0))).astype(np.int64), axis=1)
-    t = np.arange(T)
-    first, last = np.clip(t - frames + 1, 0, T - frames + 1), np.clip(t + 1, 0, T - frames + 1)
-    return (starts[:, last] - starts[:, first]) > 0  # a full run starts within frames - 1 before t, or at t
+    return ankle_heights(hypotheses, floor).min(axis=-1)
 
 
 def stance_slides(hypotheses: np.ndarray, floor: Floor | None, fps: float = 30.0) -> np.ndarray:
     """Moves along the floor (m) of stance ankles between consecutive frames, pooled over hypotheses ``(N, T, 17, 3)``
     at ``fps`` frames per second.
 
-    A move counts when the same ankle stands (:func:`stance_ankles`) in both frames.
+    A move counts when the same ankle stands (:func:`platypose.lifting.stance.stance_ankles`) in both frames.
     """
-    normal = np.asarray((floor or UP).normal)
+    normal = np.asarray(floor.normal if floor is not None else WORLD_UP)
     ankles = hypotheses[..., list(ANKLES), :]  # (N, T, 2, 3)
     if ankles.shape[1] < 2:
         return np.zeros(0)

@@ -53,7 +53,6 @@ import numpy as np
 from platypose.lifting.anatomy.lengths import clamp_to_adult
 from platypose.lifting.anatomy.limits import within_limits
 from platypose.lifting.camera import Camera
-from platypose.lifting.checks.plausibility import stance_ankles
 from platypose.lifting.finish.branches import choose_branches
 from platypose.lifting.finish.hinge_speed import steady_hinges
 from platypose.lifting.finish.measured import measure, steady_shift
@@ -71,6 +70,7 @@ from platypose.lifting.finish.twist import untwisted
 from platypose.lifting.floor import Floor
 from platypose.lifting.rotations import kabsch, rotvec_matrices, skew
 from platypose.lifting.skeleton import BODIES, BONES, bone_lengths, bone_vectors
+from platypose.lifting.stance import stance_ankles
 
 ALONG_RAY = 1e-3  # weight of moving along a view's ray against moving across it (one view: depth nearly free)
 BISECTIONS = 40  # halvings of the multiplier's log-range: far below a micrometre before the exact rescale

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 HOLD_SPREAD = 0.1  # metres: a standing ankle run of the sampler's that stays this near its mean is held at it
-LEGS = ((1, 2, 3), (4, 5, 6))  # (hip, knee, ankle) of the right and left leg: the order of floor.ANKLES
+LEGS = ((1, 2, 3), (4, 5, 6))  # (hip, knee, ankle) of the right and left leg: the order of stance.ANKLES
 MIN_BEND_DEG = 10.0  # a standing knee is bent at least this much (a heel strike's is 5-10 degrees)
 
 

@@ -12,7 +12,7 @@ camera's optical axis) is smoothed over the person's whole track, gaps included:
 over the track's frames from first to last present (absent frames have no data term, so the path crosses a gap
 continuously from where it was, and the hypotheses keep their own paths: those whose depth the gap leaves open
 spread as they did). ``w_t`` is 1 where the hypothesis's lower ankle stands (within ``STANDING_BAND`` of its
-standing height there, :func:`lifting.checks.plausibility.standing_heights`: on the floor, a roof or a step; a grounded
+standing height there, :func:`lifting.stance.standing_heights`: on the floor, a roof or a step; a grounded
 foot fixes depth) and the frame is trusted (:func:`trusted_frames`: most joints seen, not a blip),
 ``AIRBORNE_WEIGHT`` elsewhere, and ``lam``
 and ``mu`` (a prior on the root's speed and acceleration along the ray) pass changes slower than ``CUTOFF_HZ`` where
@@ -28,9 +28,9 @@ from scipy import sparse
 from scipy.sparse.linalg import spsolve
 
 from platypose.lifting.camera import Camera
-from platypose.lifting.checks.plausibility import standing_heights
-from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES, Floor
+from platypose.lifting.floor import Floor
 from platypose.lifting.sampling.placement import SIZE_LIMITS
+from platypose.lifting.stance import ANKLE_HEIGHT, ANKLES, lower_height, standing_heights
 from platypose.lifting.tracks.roots import MIN_SEEN_JOINTS
 
 CUTOFF_HZ = 3.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
@@ -192,7 +192,7 @@ def steady_person(
     height = (lambda x: floor.height(x)) if floor is not None else (lambda x: x[..., 2])
     unseen = np.asarray(seen) < MIN_SEEN_JOINTS
     camera_height = float(height(camera.center))
-    lower = height(ankles).min(axis=-1)
+    lower = lower_height(height(ankles))
     scales = steady_scales(
         pelvis,
         lower,

@@ -21,8 +21,8 @@ Given a floor ``n . x + d = 0`` (world metres, ``n`` up; :mod:`lifting.floor`):
   their stance height, ``contact_weight``) and sliding (a stance ankle's distance along the floor from
   where it stands over its run of stance frames, ``slide_weight``). Several cameras apart measure the feet
   themselves (an ankle rolls over its stance; pinning it cost 4-view accuracy). Stance is detected from
-  each hypothesis itself (:meth:`Grounding.stance`): its lower ankle, slower than ``STANCE_SPEED`` or
-  still in the image. Sliding holds stance ankles wherever they stand (a roof too); contact pulls only
+  each hypothesis itself (:meth:`Grounding.stance`, the rule of :mod:`lifting.stance` on tensors): its lower ankle,
+  slower than ``STANCE_SPEED`` or still in the image. Sliding holds stance ankles wherever they stand (a roof too); contact pulls only
   those within ``CONTACT_BAND`` of their stance height on the floor. One view's depth smoothing after
   guidance leaves stance ankles where guidance held them and sinks no joint under the floor
   (:meth:`Grounding.pushed_below_floor`).
@@ -34,12 +34,11 @@ import math
 
 import torch
 
-from platypose.lifting.floor import ANKLE_HEIGHT, ANKLES
 from platypose.lifting.sampling.energy import Observations
 from platypose.lifting.sampling.linalg import SYMMETRIC_PAIRS
 from platypose.lifting.sampling.placement import SIZE_LIMITS
+from platypose.lifting.stance import ANKLE_HEIGHT, ANKLES, STANCE_SPEED
 
-STANCE_SPEED = 1.5  # m/s: a lower ankle slower than this stands (jitter and sliding included; a swing is faster)
 TYPICAL_EXTENT = 1.7  # metres: the diagonal of an adult's keypoints' box, standing (scales image speeds to m/s)
 MIN_RAY_ANGLE = 5.0  # degrees: cameras whose rays to a joint meet at less than this measure it as one view does
 CONTACT_BAND = 0.1  # metres: a stance ankle this far from ANKLE_HEIGHT is not standing on the floor

@@ -85,8 +85,8 @@ def test_a_person_who_drops_from_a_roof_while_unseen_lands_on_the_floor(data_dir
     from platypose.detectors.keypoints import to_our_joints
     from platypose.detectors.tracking import track_detections
     from platypose.lifting.calibration import load_calibration
-    from platypose.lifting.checks.plausibility import standing_heights
-    from platypose.lifting.floor import ANKLE_HEIGHT, CALIBRATED_FLOOR
+    from platypose.lifting.floor import CALIBRATED_FLOOR
+    from platypose.lifting.stance import ANKLE_HEIGHT, standing_heights
 
     demo = data_dir / "video/sports2d-demo"
     camera = load_calibration(demo / "Calib_demo.toml").cameras[0]

@@ -14,18 +14,13 @@ from platypose.detectors.openpose import read_openpose_folder
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.checks.flags import person_lines
-from platypose.lifting.checks.plausibility import (
-    lasting,
-    lowest_ankle,
-    plausibility,
-    stance_ankles,
-    stance_slides,
-)
+from platypose.lifting.checks.plausibility import lowest_ankle, plausibility, stance_slides
 from platypose.lifting.errors import InputError
 from platypose.lifting.floor import CALIBRATED_FLOOR, FloorToEstimate, estimate_floor, parse_floor
 from platypose.lifting.sampling.grounding import Grounding, image_still_ankles
 from platypose.lifting.sampling.sampler import cameras_and_rays
 from platypose.lifting.settings import SamplerConfig, WindowSettings
+from platypose.lifting.stance import lasting, stance_ankles
 from platypose.lifting.take import Take
 from platypose.lifting.tracks.stream import lift_tracks
 from platypose.lifting.triangulation import triangulate
