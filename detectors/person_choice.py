@@ -8,70 +8,18 @@
   the person a user clicked on in a video player; a point outside the first view's image is refused.
 
 A plain number (``1``) is refused: it read as "the N largest" beside ids that read as "the track with that id", and
-picked another person than the one meant. Numbers are ASCII digits only (``str.isdigit`` takes ``²``).
+picked another person than the one meant. The choice is read, in pure Python, by
+:func:`platypose.lifting.settings.choices.parse_persons` when a ``TakeSettings`` is made; here it picks the tracks.
 """
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
 from platypose.lifting.errors import InputError
+from platypose.lifting.settings.choices import parse_persons
 
 MIN_JOINTS = 4  # joints seen for a track to count as seen in a frame
-CHOICES = (
-    "'all', 'largest', 'largest:N' (the N largest), ids such as id:0,2 or 0,2 (one id: id:2 or 2,) or a pixel @X,Y"
-)
-_NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?", re.ASCII)
-
-
-def _whole(text: str) -> int:
-    """A whole number written in ASCII digits; ValueError otherwise (``int`` takes ``'٣'`` and ``'1_0'``)."""
-    text = text.strip()
-    if not (text.isascii() and text.isdigit()):
-        raise ValueError(text)
-    return int(text)
-
-
-def _pixel(text: str) -> float:
-    """A finite number written in ASCII (``float`` takes other scripts' digits, ``'1_0'`` and ``'inf'``)."""
-    text = text.strip()
-    if not _NUMBER.fullmatch(text):
-        raise ValueError(text)
-    return float(text)
-
-
-def parse_persons(text: str) -> tuple[str, object]:
-    """``("all", None)``, ``("count", N)`` (largest: 1), ``("ids", [id, ...])`` or ``("point", (x, y))``;
-    InputError naming the option otherwise, and for a plain number (a count or an id: it says both)."""
-    spec = text.strip()
-    if spec == "all":
-        return "all", None
-    if spec == "largest":
-        return "count", 1
-    if spec.isascii() and spec.isdigit():
-        raise InputError(
-            f"persons {spec}: a plain number is ambiguous; write largest:{spec} for the {spec} largest person(s) "
-            f"or id:{spec} for the track p{spec}",
-            option="persons",
-        )
-    try:
-        if spec.startswith("largest:"):
-            count = _whole(spec.removeprefix("largest:"))
-            if count > 0:
-                return "count", count
-        elif spec.startswith("@"):
-            x, y = (_pixel(v) for v in spec[1:].split(","))
-            if np.isfinite([x, y]).all():
-                return "point", (x, y)
-        elif spec.startswith("id:") or "," in spec:
-            ids = [_whole(v) for v in spec.removeprefix("id:").split(",") if v.strip()]
-            if ids:
-                return "ids", sorted(set(ids))
-    except ValueError:
-        pass
-    raise InputError(f"persons must be {CHOICES}, got {text!r}", option="persons")
 
 
 def describe_choice(text: str, track_ids: list[int]) -> str:

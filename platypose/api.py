@@ -19,7 +19,7 @@ from platypose.lifting.camera import Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.job_log import JobLog
 from platypose.lifting.prior.model import PriorBundle
-from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, WindowSettings
+from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, TakeSettings, WindowSettings
 
 
 class Prior:
@@ -91,10 +91,10 @@ def lift(
     """
     from platypose.detectors.sources import view_name
     from platypose.detectors.view_reader import ViewReader
-    from platypose.pipeline import run_take, take_settings
+    from platypose.pipeline import run_take
 
     sources = _sources(views)
-    take = take_settings(
+    take = TakeSettings(
         persons=persons,
         root=root,
         root_trajectory=_path("root_trajectory", root_trajectory, optional=True),

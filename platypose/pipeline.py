@@ -152,17 +152,6 @@ def run_take(
     return replace(result, meta=meta)
 
 
-def take_settings(**values: object) -> TakeSettings:
-    """:class:`TakeSettings` from ``values`` (natural Python values or the command's strings), with the persons
-    choice checked as the detectors read it: the one check of a take's settings the command and the API both make
-    before any work (InputError naming the field)."""
-    from platypose.detectors.tracking import persons_count
-
-    take = TakeSettings(**values)
-    persons_count(take.persons)
-    return take
-
-
 def match_cameras(calibration: Calibration, names: Sequence[str], what: str, against: str) -> list[Camera]:
     """The camera of ``calibration`` (read from ``against``) matching each view name of ``names``; InputError
     (calibration mismatch, naming ``what``) when a view has none."""

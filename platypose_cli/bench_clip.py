@@ -95,12 +95,12 @@ def lift_clip(
     """
     from platypose.detectors.view_reader import ViewReader
     from platypose.lifting.job_log import JobLog
-    from platypose.lifting.settings import DetectOptions, SamplerConfig
+    from platypose.lifting.settings import DetectOptions, SamplerConfig, TakeSettings
     from platypose.lifting.tracks.quick_floor import QUICK_LIFT
     from platypose.lifting.tracks.roots import presence
-    from platypose.pipeline import run_take, take_settings
+    from platypose.pipeline import run_take
 
-    take = take_settings(persons=persons, sampler=SamplerConfig(samples=samples))
+    take = TakeSettings(persons=persons, sampler=SamplerConfig(samples=samples))
     reader = ViewReader(DetectOptions(threads=threads), progress=lambda source, total: _said(100, "detected", say))
     began = time.perf_counter()
     at: dict[str, float] = {}  # when each step was last seen at work, seconds from the start

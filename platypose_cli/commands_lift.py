@@ -54,9 +54,9 @@ def lift_settings(
     from platypose.exporters.export import parse_formats
     from platypose.lifting.files.atomic import check_writable
     from platypose.lifting.prior.runtime import resolve_device
-    from platypose.pipeline import take_settings
+    from platypose.lifting.settings import TakeSettings
 
-    take = take_settings(
+    take = TakeSettings(
         persons=persons, root=root, root_trajectory=root_file, floor=floor, sync=sync, sampler=sampler, windows=windows
     )
     resolve_device(prior.device)

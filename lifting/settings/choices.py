@@ -1,10 +1,14 @@
-"""The take's ``--floor`` and ``--sync`` choices read in pure Python, so that settings are checked before anything
-heavy is imported (no numpy, torch or cv2): what they ask for takes effect later, in :mod:`platypose.lifting.floor`
-(:func:`~platypose.lifting.floor.floor_for_lift`) and :mod:`platypose.lifting.sync.choice`."""
+"""The take's ``--persons``, ``--floor`` and ``--sync`` choices read in pure Python, so that settings are checked
+before anything heavy is imported (no numpy, torch or cv2): what they ask for takes effect later, in
+:mod:`platypose.detectors.person_choice` (the tracks picked), :mod:`platypose.lifting.floor`
+(:func:`~platypose.lifting.floor.floor_for_lift`) and :mod:`platypose.lifting.sync.choice`.
+
+Numbers of ``--persons`` are ASCII digits only (``str.isdigit`` takes ``²``)."""
 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -69,3 +73,57 @@ def check_sync(choice: SyncChoice) -> None:
         return
     if not Path(choice).is_file():
         raise InputError(f"{choice}: offsets file not found (sync takes auto, none or an offsets .json)")
+
+
+PERSONS_CHOICES = (
+    "'all', 'largest', 'largest:N' (the N largest), ids such as id:0,2 or 0,2 (one id: id:2 or 2,) or a pixel @X,Y"
+)
+_NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?", re.ASCII)
+
+
+def _whole(text: str) -> int:
+    """A whole number written in ASCII digits; ValueError otherwise (``int`` takes ``'٣'`` and ``'1_0'``)."""
+    text = text.strip()
+    if not (text.isascii() and text.isdigit()):
+        raise ValueError(text)
+    return int(text)
+
+
+def _pixel(text: str) -> float:
+    """A finite number written in ASCII (``float`` takes other scripts' digits, ``'1_0'`` and ``'inf'``)."""
+    text = text.strip()
+    if not _NUMBER.fullmatch(text):
+        raise ValueError(text)
+    return float(text)
+
+
+def parse_persons(text: str) -> tuple[str, object]:
+    """``("all", None)``, ``("count", N)`` (largest: 1), ``("ids", [id, ...])`` or ``("point", (x, y))``;
+    InputError naming the option otherwise, and for a plain number (a count or an id: it says both)."""
+    spec = text.strip()
+    if spec == "all":
+        return "all", None
+    if spec == "largest":
+        return "count", 1
+    if spec.isascii() and spec.isdigit():
+        raise InputError(
+            f"persons {spec}: a plain number is ambiguous; write largest:{spec} for the {spec} largest person(s) "
+            f"or id:{spec} for the track p{spec}",
+            option="persons",
+        )
+    try:
+        if spec.startswith("largest:"):
+            count = _whole(spec.removeprefix("largest:"))
+            if count > 0:
+                return "count", count
+        elif spec.startswith("@"):
+            x, y = (_pixel(v) for v in spec[1:].split(","))
+            if math.isfinite(x) and math.isfinite(y):
+                return "point", (x, y)
+        elif spec.startswith("id:") or "," in spec:
+            ids = [_whole(v) for v in spec.removeprefix("id:").split(",") if v.strip()]
+            if ids:
+                return "ids", sorted(set(ids))
+    except ValueError:
+        pass
+    raise InputError(f"persons must be {PERSONS_CHOICES}, got {text!r}", option="persons")

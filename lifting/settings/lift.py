@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from platypose.lifting.errors import InputError
-from platypose.lifting.settings.choices import FloorChoice, check_sync, read_floor
+from platypose.lifting.settings.choices import FloorChoice, check_sync, parse_persons, read_floor
 from platypose.lifting.settings.fields import check_types, choose, require, setting
 
 ROBUST_LOSSES = ("l2", "geman-mcclure")
@@ -220,7 +220,7 @@ class TakeSettings:
         sync = "none" if sync is None else str(sync) if isinstance(sync, os.PathLike) else sync
         for name, value in (("persons", persons), ("floor", floor), ("sync", sync)):
             object.__setattr__(self, name, value)
-        check_types(self)  # the persons choice itself is the detectors' (platypose.pipeline.take_settings)
+        check_types(self)
         require([(self.root in ROOT_MODES, "root", f"root must be one of {', '.join(ROOT_MODES)}, got {self.root!r}")])
         object.__setattr__(self, "_floor_choice", read_floor(self.floor))  # parsed once, here
         if isinstance(self.sync, Mapping):
@@ -231,6 +231,7 @@ class TakeSettings:
         for name, cls in (("sampler", SamplerConfig), ("windows", WindowSettings)):
             if not isinstance(getattr(self, name), cls):
                 raise InputError(f"{name} must be a {cls.__name__}, got {getattr(self, name)!r}", option=name)
+        parse_persons(self.persons)  # InputError for a choice the detectors cannot read
 
     @property
     def floor_choice(self) -> FloorChoice:

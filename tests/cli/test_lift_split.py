@@ -20,7 +20,7 @@ from platypose.cli.lift_jobs import discover_jobs
 from platypose.cli.lift_run import RunSettings, run_job
 from platypose.cli.split_pieces import PIECES, LocalPieces, SplitExecutor
 from platypose.lifting.job_log import JobLog
-from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, WindowSettings
+from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, TakeSettings, WindowSettings
 
 DEMO = "video/sports2d-demo"
 
@@ -138,9 +138,7 @@ def test_persons_keep_their_hypotheses_through_a_crossing_at_a_seam(data_dir, ti
 
 def lift_settings_for(data_dir, prior_file, out: Path) -> RunSettings:
     """Settings of a split lift of the demo (3 s pieces), 4 hypotheses, npz only."""
-    from platypose.pipeline import take_settings
-
-    take = take_settings(sampler=SamplerConfig(samples=4, seed=3), windows=WindowSettings(max_gap=1.0))
+    take = TakeSettings(sampler=SamplerConfig(samples=4, seed=3), windows=WindowSettings(max_gap=1.0))
     return RunSettings(
         out=out, cams=data_dir / DEMO / "Calib_demo.toml", prior=PriorSettings(path=Path(prior_file)),
         detect=DetectOptions(threads=1), take=take, formats=("npz",), quiet=True, split_seconds=3.0,

@@ -19,7 +19,6 @@ from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.calibration import load_calibration, save_calibration
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings import TakeSettings
-from platypose.pipeline import take_settings
 
 CALIB = Path(__file__).resolve().parents[2] / "data/video/pose2sim-balancing/calib_pose2sim.toml"
 
@@ -33,7 +32,7 @@ def test_persons_takes_ascii_digits_only(text: str) -> None:
 
 def test_api_persons_superscript_is_an_input_error() -> None:
     with pytest.raises(InputError, match=r"persons must be .* got '²'"):
-        take_settings(persons="²")
+        TakeSettings(persons="²")
 
 
 @pytest.mark.parametrize("text", ["²", "99999", "٣"])

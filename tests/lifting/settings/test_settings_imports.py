@@ -1,5 +1,6 @@
 """Settings are read in pure Python: importing them and making a take's settings (persons, a floor plane, a sync
-choice) loads none of numpy, torch or cv2, so a command checks its options before anything heavy is imported."""
+choice), each choice checked, loads none of numpy, torch or cv2, so a command checks its options before anything
+heavy is imported."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ HEAVY = ("numpy", "torch", "cv2")
 PROBE = f"""
 import json, sys
 from platypose.lifting.settings import TakeSettings
-take = TakeSettings(persons=2, floor=(0.0, 0.1, 1.0, -0.5), sync="auto", root="solve")
+take = TakeSettings(persons="@10,20.5", floor=(0.0, 0.1, 1.0, -0.5), sync="auto", root="solve")
 print(json.dumps({{"loaded": [m for m in {HEAVY!r} if m in sys.modules], "choice": repr(take.floor_choice)}}))
 """
 
@@ -42,3 +43,11 @@ def test_the_floor_is_read_as_the_user_gave_it_and_made_a_floor_where_it_takes_e
         TakeSettings(floor="1,0,0.5,0")
     with pytest.raises(InputError, match="offsets file not found"):
         TakeSettings(sync="no-such-offsets.json")
+
+
+def test_take_settings_check_the_persons_choice():
+    assert TakeSettings(persons=2).persons == "largest:2"
+    for bad in ("1", "largest:0", "@1,inf", "everyone"):
+        with pytest.raises(InputError, match="persons") as err:
+            TakeSettings(persons=bad)
+        assert err.value.option == "persons"
