@@ -183,13 +183,13 @@ def _lowest_shared_height(heights: np.ndarray, share: float, band: float = 0.05)
 
 
 def floor_under(
-    median: np.ndarray, camera: Camera, fps: float, keypoints: np.ndarray, level_known: bool = False
+    median: np.ndarray, camera: Camera, fps: float, keypoints: np.ndarray, height_only: bool = False
 ) -> Floor | None:
     """The floor estimated under the median motions ``(P, T, 17, 3)`` lifted with one default ``camera``, where
     it saw both ankles (``keypoints`` ``(T, P, 17, 3)``), with the camera's height and pitch above it; None when
-    too few stance ankles are found. ``level_known``: the camera's roll and pitch in its z-up world are known (the
+    too few stance ankles are found. ``height_only``: the camera's roll and pitch in its z-up world are known (the
     scene's lines), so the floor is level there and only its height is estimated."""
     seen = (np.nan_to_num(keypoints[..., list(ANKLES), 2]) > 0).all(axis=-1).T  # (P, T)
     return estimate_floor(
-        np.asarray(median, dtype=np.float64), camera, fps, seen, pitch_range_deg=0.0 if level_known else 30.0
+        np.asarray(median, dtype=np.float64), camera, fps, seen, pitch_range_deg=0.0 if height_only else 30.0
     )

@@ -79,9 +79,9 @@ def finish_take(take: Take, *, hypotheses, median, fps: float, floor: Floor | No
             person["flag_text"] = flag_text(person)
     for line in person_lines(persons, track_ids):  # said once: the console shows them from the result
         log(line)
-    floor_meta = None if floor is None else floor.as_dict()
+    floor_entry = None if floor is None else floor.as_dict()
     if floor is not None and floor.source == "estimated":  # outputs in the estimated world: z = 0 the floor, z up
-        camera, floor_meta = level_on_floor(floor, cameras[0], (hypotheses, median))
+        camera, floor_entry = level_on_floor(floor, cameras[0], (hypotheses, median))
         cameras = [camera]
-        log(f"outputs in the {floor_meta['frame']}")
-    return FinishedTake(tuple(cameras), floor_meta, report, persons, rigid)
+        log(f"outputs in the {floor_entry['frame']}")
+    return FinishedTake(tuple(cameras), floor_entry, report, persons, rigid)
