@@ -10,8 +10,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from platypose.cli.app import app
-from platypose.cli.options import int_list, settings_options
+from platypose.cli.terminal.options import int_list, settings_options
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.atomic import write_text_atomic
 
@@ -35,7 +34,6 @@ def floor_plane(text: str) -> tuple[float, float, float, float] | None:
     return plane
 
 
-@app.command("eval")
 @settings_options("prior")
 @settings_options("sampler", exclude=("samples",))  # --samples: a list, one table row each
 def evaluate_command(
@@ -174,7 +172,6 @@ def evaluate_command(
         write_text_atomic(json_out, json.dumps(payload, indent=2))
 
 
-@app.command("calibrate-prior")
 def calibrate_prior(
     data: list[Path] = typer.Argument(..., help="Motion files or folders holding the prior's validation clips."),
     prior_path: Path = typer.Option(None, "--prior", help="Prior to calibrate (default: the shipped one)."),

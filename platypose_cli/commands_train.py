@@ -5,20 +5,19 @@ from __future__ import annotations
 import json
 import sys
 import time
-from dataclasses import fields, replace
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 
 import typer
 
-from platypose.cli.app import app
-from platypose.cli.options import field_option, settings_options
+from platypose.cli.terminal.options import settings_options
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings import DistilConfig, PriorArchitecture, TrainConfig
 
 
-@app.command("train")
 @settings_options("train", parameter="optimisation", given_only=True)
 @settings_options("distil", only=("calls",))
+@settings_options("architecture", panel=None, in_place=True)
 def train(
     data: list[Path] = typer.Argument(
         ..., help="Motion files or folders (BVH, ASF/AMC, npy, DeepMimic, npz, C3D), or one motion pack (--pack)."
@@ -33,12 +32,7 @@ def train(
     precision: str = typer.Option(
         "auto", help="Forward passes in float32 or bfloat16 (autocast); auto: bfloat16 on cuda, float32 on cpu."
     ),
-    layers: int = field_option(PriorArchitecture, "layers"),
-    width: int = field_option(PriorArchitecture, "width"),
-    heads: int = field_option(PriorArchitecture, "heads"),
-    ff_width: int = field_option(PriorArchitecture, "ff_width"),
-    max_frames: int = field_option(PriorArchitecture, "max_frames"),
-    fps: float = field_option(PriorArchitecture, "fps"),
+    architecture: PriorArchitecture = None,
     resume: bool = typer.Option(False, "--resume", help="Continue from the checkpoint at --out."),
     threads: int = typer.Option(0, help="Torch threads (0: torch's default)."),
     log_file: Path = typer.Option(None, help="Also append JSON lines of losses here."),
@@ -69,9 +63,7 @@ def train(
     from platypose.lifting.settings import SamplerConfig
 
     try:
-        prior_config = PriorConfig(
-            layers=layers, width=width, heads=heads, ff_width=ff_width, max_frames=max_frames, fps=fps
-        )
+        prior_config = PriorConfig(**asdict(architecture))
     except ValueError as err:
         raise InputError(f"train: {err}") from None
     config = TrainConfig(**optimisation)
@@ -93,9 +85,12 @@ def train(
     if pack is not None:
         check_writable(pack)
         motions = load_motion_paths(data)
-        frames = write_pack(motions, pack, fps)
+        frames = write_pack(motions, pack, architecture.fps)
         if not quiet:
-            typer.echo(f"packed {len(motions)} clips, {frames / fps / 60:.1f} min at {fps:g} fps into {pack}", err=True)
+            typer.echo(
+                f"packed {len(motions)} clips, {frames / architecture.fps / 60:.1f} min at {architecture.fps:g} fps into {pack}",
+                err=True,
+            )
         return
     torch_device = resolve_device(device)
     bfloat16 = precision == "bfloat16" or (precision == "auto" and torch_device.type == "cuda")
@@ -163,7 +158,6 @@ def train(
         typer.echo(f"wrote {out} after {(time.time() - began) / 60:.1f} min", err=True)
 
 
-@app.command("prior-info")
 def prior_info(prior: Path = typer.Argument(None, help="Checkpoint (default: the shipped prior).")) -> None:
     """Print a prior's size, frame rate, training data and the licence of every clip."""
     from dataclasses import asdict
