@@ -210,6 +210,7 @@ def report_lines(report: dict) -> list[str]:
 @settings_options("prior", parameter="prior_settings")
 @settings_options("sampler", exclude=("steps", "skip"), defaults={"samples": 200})  # --steps: network calls
 def bench(
+    *,
     frames: int = typer.Option(64, "--frames", help="Frames per window."),
     steps: int = typer.Option(8, "--steps", help="Diffusion steps run (network calls; 2 more are kept and skipped)."),
     repeats: int = typer.Option(3, "--repeats", help="Timed runs after one warm-up; the median run is reported."),

@@ -102,6 +102,7 @@ def _warn(message: str) -> None:
 
 @calib_app.command("check")
 def check(
+    *,
     calib: Path = typer.Argument(..., help="Calibration file in any supported format."),
     videos: list[Path] = typer.Argument(None, help="Videos, matched to cameras by name; their sizes are compared."),
     keypoints: Path = typer.Option(

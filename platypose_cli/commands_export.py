@@ -77,6 +77,7 @@ def info(path: Path = typer.Argument(..., help="A platypose result file (OUT/<na
 
 
 def export_command(
+    *,
     path: Path = typer.Argument(..., help="A platypose result file (.npz), the source of truth."),
     formats: str = typer.Option(
         "csv,bvh,rrd",

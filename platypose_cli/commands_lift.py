@@ -150,6 +150,7 @@ def _own_folders(jobs: list, out: Path) -> list:
 @settings_options("windows")
 @settings_options("detect", exclude=LIFT_LEAVES, panel="Input", short=True, in_place=True)
 def lift(
+    *,
     inputs: list[str] = typer.Argument(
         None,
         help="Videos, several views of one take (matched to --cams by name), folders (each video or sub-folder of "
