@@ -9,7 +9,7 @@ class InputError(ValueError):
     The CLI prints it without a traceback and exits with code 2. When the problem is one
     parameter's value, ``option`` holds that parameter's name as the message spells it
     (``"persons"``, ``"detector_format"``): the library never names command-line flags, and
-    the CLI puts its flag in that place (:func:`platypose.cli.options.cli_message`).
+    the CLI puts its flag in that place (:func:`platypose.cli.terminal.options.cli_message`).
     """
 
     def __init__(self, message: str, option: str | None = None) -> None:

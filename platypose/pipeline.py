@@ -265,7 +265,7 @@ def lift_take(
     :mod:`platypose.lifting.checks.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones``
     (per person, :func:`platypose.lifting.finish.rigid.rigid_person`: every hypothesis and the median get one length
     per bone over the clip); the caller adds its own. ``lifter`` lifts the persons (:func:`lift_persons`, or the same
-    spread over pieces: ``platypose.cli.split_join.SplitLifter``). With an estimated floor every output is moved into
+    spread over pieces: ``platypose.cli.runs.split.SplitLifter``). With an estimated floor every output is moved into
     the estimated world (:mod:`platypose.lifting.finish.world`: z = 0 the floor, z up, the camera at its estimated
     height and pitch), which ``meta["floor"]["frame"]`` says.
     """

@@ -1,4 +1,4 @@
-"""The typer application: one sub-command module each, wired here."""
+"""The typer application: the commands, plain functions of the ``commands_*`` modules, registered here."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ import sys
 import typer
 
 from platypose import __version__
-from platypose.cli.safe_names import printable
+from platypose.cli.terminal.brief_help import brief_help
+from platypose.cli.terminal.safe_names import printable
 from platypose.lifting.errors import InputError
 
 app = typer.Typer(
@@ -50,19 +51,38 @@ def _root(
     """Calibrated multi-hypothesis 3D human motion from videos."""
 
 
-def _register() -> None:
-    """Import the sub-command modules, each of which adds its commands to ``app``."""
-    # Sub-command modules register themselves on import; keep this list sorted.
-    import platypose.cli.commands_bench
-    import platypose.cli.commands_calib
-    import platypose.cli.commands_demo
-    import platypose.cli.commands_detect
-    import platypose.cli.commands_eval
-    import platypose.cli.commands_export
-    import platypose.cli.commands_info
-    import platypose.cli.commands_lift
-    import platypose.cli.commands_motion
-    import platypose.cli.commands_train  # noqa: F401
+def register_commands() -> None:
+    """Add every command to ``app``, in the order ``--help`` lists them (once: a second call adds nothing). Each is
+    a plain function of its ``commands_*`` module (imported here only: they do not import the app), its options
+    read when it runs, so ``platypose --help`` loads no torch."""
+    if app.registered_commands:
+        return
+    from platypose.cli import (
+        commands_bench,
+        commands_calib,
+        commands_demo,
+        commands_detect,
+        commands_doctor,
+        commands_eval,
+        commands_export,
+        commands_lift,
+        commands_motion,
+        commands_train,
+    )
+
+    app.command("bench")(commands_bench.bench)
+    app.command("demo")(commands_demo.demo)
+    app.command("detect")(commands_detect.detect)
+    app.command("eval")(commands_eval.evaluate_command)
+    app.command("calibrate-prior")(commands_eval.calibrate_prior)
+    app.command("info")(commands_export.info)
+    app.command("export")(commands_export.export_command)
+    app.command("doctor")(commands_doctor.doctor)
+    app.command("lift", cls=brief_help(commands_lift.LIFT_SHOWN))(commands_lift.lift)
+    app.command("train")(commands_train.train)
+    app.command("prior-info")(commands_train.prior_info)
+    app.add_typer(commands_calib.calib_app, name="calib")
+    app.add_typer(commands_motion.motion_app, name="motion")
 
 
 def quiet_native_logs() -> None:
@@ -75,21 +95,16 @@ def quiet_native_logs() -> None:
 def main() -> None:
     """Console entry point: user errors and unreadable or unwritable files become one line on stderr, exit code 2."""
     quiet_native_logs()
-    _register()
+    register_commands()
     try:
         app()
     except InputError as err:
-        from platypose.cli.options import cli_message
+        from platypose.cli.terminal.options import cli_message
 
         typer.echo(printable(f"error: {cli_message(err)}"), err=True)
         sys.exit(2)
     except OSError as err:  # a file that cannot be read or written: full disk, read-only folder, name too long
+        from platypose.cli.terminal.console import describe_os_error
+
         typer.echo(printable(f"error: {describe_os_error(err)}"), err=True)
         sys.exit(2)
-
-
-def describe_os_error(err: OSError) -> str:
-    """One line for an OSError: the file(s) it names and the system's reason."""
-    names = [str(n) for n in (err.filename, err.filename2) if n is not None]
-    reason = err.strerror or str(err)
-    return f"{' -> '.join(names)}: {reason}" if names else reason

@@ -12,8 +12,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from platypose.cli.app import app
-from platypose.cli.options import settings_options
+from platypose.cli.terminal.options import settings_options
 from platypose.data import VIDEO_DIR
 
 if TYPE_CHECKING:
@@ -103,7 +102,7 @@ def check_video_to_loop(video: Path) -> None:
 def clip_section(prior, video: Path, seconds: float, threads: int | None, say, persons: str = "largest") -> dict:
     """Loop ``video`` into a ``seconds`` long 30 fps clip, detect it and lift the ``persons`` it selects (largest,
     all or a count); the ``end_to_end`` part of the report."""
-    from platypose.cli.bench_clip import lift_clip, loop_video
+    from platypose.cli.runs.bench_clip import lift_clip, loop_video
 
     frames = max(1, round(seconds * CLIP_FPS))
     with tempfile.TemporaryDirectory(prefix="platypose-bench-") as folder:
@@ -137,7 +136,7 @@ def clip_section(prior, video: Path, seconds: float, threads: int | None, say, p
 def end_to_end_section(prior, video: Path, seconds: float, threads: int | None, say, persons: str) -> dict:
     """:func:`clip_section` (run first: its peak memory is its own) with SIGTERM handled as Ctrl-C, so either removes
     the temporary clip on the way out (exit 130)."""
-    from platypose.cli.interrupts import terminate_as_interrupt
+    from platypose.cli.runs.workers import terminate_as_interrupt
 
     try:
         with terminate_as_interrupt():
@@ -208,10 +207,10 @@ def report_lines(report: dict) -> list[str]:
     return lines
 
 
-@app.command("bench")
 @settings_options("prior", parameter="prior_settings")
 @settings_options("sampler", exclude=("steps", "skip"), defaults={"samples": 200})  # --steps: network calls
 def bench(
+    *,
     frames: int = typer.Option(64, "--frames", help="Frames per window."),
     steps: int = typer.Option(8, "--steps", help="Diffusion steps run (network calls; 2 more are kept and skipped)."),
     repeats: int = typer.Option(3, "--repeats", help="Timed runs after one warm-up; the median run is reported."),
@@ -235,8 +234,8 @@ def bench(
     """Time the guided sampler and a whole single-view clip on this machine (docs/bench.md)."""
     import torch
 
-    from platypose.cli.bench_clip import peak_rss_mb
-    from platypose.cli.threads import threads_for
+    from platypose.cli.runs.bench_clip import peak_rss_mb
+    from platypose.cli.runs.workers import threads_for
     from platypose.detectors.tracking import persons_count
     from platypose.lifting.errors import InputError
     from platypose.lifting.files.atomic import write_text_atomic

@@ -6,12 +6,10 @@ from pathlib import Path
 
 import typer
 
-from platypose.cli.app import app
-from platypose.cli.options import field_option
+from platypose.cli.terminal.options import field_option
 from platypose.lifting.settings import TakeSettings
 
 calib_app = typer.Typer(help="Convert camera calibrations to calib.json and check them.", no_args_is_help=True)
-app.add_typer(calib_app, name="calib")
 
 WORLD_UP_HELP = "Up axis of the file's world (x, y, z, -x, -y, -z); default: what the file states or z."
 UNITS_HELP = "Length unit of the file: m, cm, mm, or metres per unit (e.g. a 0.04 board square)."
@@ -104,6 +102,7 @@ def _warn(message: str) -> None:
 
 @calib_app.command("check")
 def check(
+    *,
     calib: Path = typer.Argument(..., help="Calibration file in any supported format."),
     videos: list[Path] = typer.Argument(None, help="Videos, matched to cameras by name; their sizes are compared."),
     keypoints: Path = typer.Option(
@@ -149,7 +148,7 @@ def estimate(
     import torch
 
     from platypose.api import lift
-    from platypose.cli.threads import threads_for
+    from platypose.cli.runs.workers import threads_for
     from platypose.lifting.calibration import save_calibration
     from platypose.lifting.calibration.model import Calibration, new_meta
     from platypose.lifting.calibration.toml_format import write_toml

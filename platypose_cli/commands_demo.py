@@ -7,8 +7,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from platypose.cli.app import app
-from platypose.cli.options import as_json, settings_options
+from platypose.cli.terminal.options import as_json, settings_options
 
 if TYPE_CHECKING:
     from platypose.lifting.settings import PriorSettings, SamplerConfig
@@ -25,7 +24,7 @@ def demo_take() -> Path:
 
 def demo_job(take: Path, source: str):
     """The demo's job: cam01 + cam02 videos (bundled detector) or the OpenPose keypoints of all 4 views."""
-    from platypose.cli.lift_jobs import discover_jobs, keypoints_job
+    from platypose.cli.runs.jobs import discover_jobs, keypoints_job
     from platypose.lifting.calibration import load_calibration
     from platypose.lifting.errors import InputError
 
@@ -59,7 +58,6 @@ def describe(npz: Path) -> list[str]:
     return lines
 
 
-@app.command("demo")
 @settings_options("prior", only=("path",))
 @settings_options("sampler", only=("samples",), defaults={"samples": 20})
 def demo(
@@ -76,7 +74,7 @@ def demo(
 ) -> None:
     """Lift the bundled Pose2Sim balancing take (real lab videos, 4-camera calibration) and say where the files are."""
     from platypose.cli.commands_lift import finish, lift_settings
-    from platypose.cli.lift_batch import run_batch
+    from platypose.cli.runs.batch import run_batch
     from platypose.lifting.settings import DetectOptions, WindowSettings
 
     take = demo_take()
@@ -86,20 +84,20 @@ def demo(
     calibration = take / "calib_pose2sim.toml"
     detect = DetectOptions(threads=threads)
     settings = lift_settings(
-        out,
-        calibration,
-        prior,
-        detect,
-        sampler,
-        WindowSettings(),
-        "npz,csv,bvh,rrd",
+        out=out,
+        cams=calibration,
+        prior=prior,
+        detect=detect,
+        sampler=sampler,
+        windows=WindowSettings(),
+        formats="npz,csv,bvh,rrd",
         persons="largest",
         root="auto",
         root_file=None,
         quiet=quiet,
         arguments=arguments,
     )
-    entries = run_batch([job], settings, 1, False, lambda m: None if quiet else typer.echo(m, err=True))
+    entries = run_batch([job], settings, say=lambda m: None if quiet else typer.echo(m, err=True))
     if entries[0]["status"] == "ok":
         typer.echo("\n".join(describe(out / job.name / f"{job.name}.npz")))
     finish(entries, out)

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
-from platypose.cli.app import app
-from platypose.cli.detection import command_reader, image_size_option
-from platypose.cli.options import field_option
-from platypose.lifting.settings import DetectOptions
+from platypose.cli.runs.models import command_reader
+from platypose.cli.terminal.options import settings_options
+
+if TYPE_CHECKING:
+    from platypose.lifting.settings import DetectOptions
 
 
 def _summary(tracks, seconds: float, frames_run: int | None) -> list[str]:
@@ -63,7 +65,7 @@ def _comparison(tracks, reference_path: Path, fps: float | None, image_size: tup
     ]
 
 
-@app.command("detect")
+@settings_options("detect", parameter="options", panel=None, in_place=True)
 def detect(
     sources: list[Path] = typer.Argument(
         ...,
@@ -74,20 +76,10 @@ def detect(
     cams: Path | None = typer.Option(
         None, "--cams", help="Calibration: the sources are synchronised views, people get one ID across views."
     ),
-    detector: Path | None = field_option(DetectOptions, "detector"),
-    detector_format: str | None = field_option(DetectOptions, "detector_format"),
-    person_detector: Path | None = field_option(DetectOptions, "person_detector"),
-    movenet_size: int = field_option(DetectOptions, "movenet_size"),
-    threads: int | None = field_option(DetectOptions, "threads"),
-    provider: str = field_option(DetectOptions, "provider"),
+    options: DetectOptions = None,
     persons: str = typer.Option(
         "all", "--persons", help="Who to keep: all, largest, largest:N (the N largest), ids id:0,2, or @X,Y."
     ),
-    stride: int = field_option(DetectOptions, "stride"),
-    max_frames: int | None = field_option(DetectOptions, "max_frames"),
-    fps: float | None = field_option(DetectOptions, "fps"),
-    image_size: str | None = field_option(DetectOptions, "image_size"),
-    cache: bool = field_option(DetectOptions, "cache"),
     compare: Path | None = typer.Option(
         None,
         "--compare",
@@ -96,7 +88,7 @@ def detect(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
-    from platypose.cli.safe_names import safe_name
+    from platypose.cli.terminal.safe_names import safe_name
     from platypose.detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
     from platypose.detectors.sources import view_name
     from platypose.detectors.tracking import persons_count, persons_to_keep
@@ -119,19 +111,6 @@ def detect(
         from platypose.lifting.errors import InputError
 
         raise InputError(f"two sources share the output name {names}; give them different names")
-    options = DetectOptions(
-        detector=detector,
-        detector_format=detector_format,
-        person_detector=person_detector,
-        movenet_size=movenet_size,
-        threads=threads,
-        provider=provider,
-        stride=stride,
-        max_frames=max_frames,
-        fps=fps,
-        image_size=image_size_option(image_size),
-        cache=cache,
-    )
     folders = {source: out / name for source, name in zip(sources, names)}
     read = command_reader(options, folders.__getitem__, quiet)
     results = [read(source) for source in sources]
@@ -146,7 +125,7 @@ def detect(
             from platypose.lifting.errors import InputError
 
             raise InputError(f"--compare {compare}: compare one source at a time")
-        comparison = _comparison(views[0], compare, fps, options.image_size)
+        comparison = _comparison(views[0], compare, options.fps, options.image_size)
     keep = persons_to_keep(views, persons)
     for name, tracks, result in zip(names, views, results):
         tracks = tracks if keep is None else tracks.select(keep)

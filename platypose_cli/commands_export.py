@@ -7,8 +7,6 @@ from pathlib import Path
 
 import typer
 
-from platypose.cli.app import app
-
 
 def _describe(path: Path, result) -> list[str]:
     """Summary lines of a LiftResult read from ``path``."""
@@ -70,7 +68,6 @@ def _video_map(items: list[str], camera_names: list[str]) -> dict[str, Path]:
     return videos
 
 
-@app.command("info")
 def info(path: Path = typer.Argument(..., help="A platypose result file (OUT/<name>/<name>.npz).")) -> None:
     """Validate a result npz and print a summary: persons, hypotheses, frames, cameras, spread, meta."""
     from platypose.exporters.npz import read_npz
@@ -79,8 +76,8 @@ def info(path: Path = typer.Argument(..., help="A platypose result file (OUT/<na
     typer.echo("\n".join(_describe(path, result)))
 
 
-@app.command("export")
 def export_command(
+    *,
     path: Path = typer.Argument(..., help="A platypose result file (.npz), the source of truth."),
     formats: str = typer.Option(
         "csv,bvh,rrd",
@@ -100,7 +97,7 @@ def export_command(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress lines."),
 ) -> None:
     """Re-export CSV, BVH and rerun files from a result npz (writing npz again only if asked)."""
-    from platypose.cli.safe_names import printable, safe_name
+    from platypose.cli.terminal.safe_names import printable, safe_name
     from platypose.exporters import export
     from platypose.exporters.npz import read_npz
     from platypose.lifting.files.atomic import check_writable
@@ -116,7 +113,7 @@ def export_command(
         if not quiet:
             typer.echo(message, err=True)
 
-    from platypose.cli.interrupts import terminate_as_interrupt
+    from platypose.cli.runs.workers import terminate_as_interrupt
 
     try:
         with terminate_as_interrupt():  # SIGTERM unwinds like Ctrl-C: no temporary file is left behind

@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import typer
 
-from platypose.cli.app import app
-from platypose.cli.brief_help import brief_help, help_all_option
-from platypose.cli.detection import image_size_option
-from platypose.cli.options import as_json, field_option, settings_options
+from platypose.cli.terminal.brief_help import help_all_option
+from platypose.cli.terminal.options import as_json, field_option, flags, settings_options
 from platypose.lifting.settings import DetectOptions, TakeSettings
 
 if TYPE_CHECKING:
@@ -30,9 +29,25 @@ LIFT_SHOWN = (
     "resume",
     "quiet",
 )
+# the detection options a lift leaves to its own (--threads: torch's too) or to their defaults
+LIFT_LEAVES = ("movenet_size", "threads", "provider", "max_frames", "cache")
+
+
+def lift_arguments(values: dict) -> dict:
+    """``meta["arguments"]`` of a lift: its options' values as JSON (the detection options one by one, an image size
+    as HEIGHTxWIDTH), ``--help-all`` left out."""
+    detect = values["detect"]
+    taken = {f.field: getattr(detect, f.field) for f in flags("detect") if f.field not in LIFT_LEAVES}
+    if taken["image_size"] is not None:
+        taken["image_size"] = "x".join(map(str, taken["image_size"]))
+    shown = {}
+    for name, value in values.items():
+        shown.update(taken if name == "detect" else {} if name == "help_all" else {name: value})
+    return {k: as_json(v) for k, v in shown.items()}
 
 
 def lift_settings(
+    *,
     out: Path,
     cams: Path | None,
     prior: PriorSettings,
@@ -40,7 +55,6 @@ def lift_settings(
     sampler: SamplerConfig,
     windows: WindowSettings,
     formats: str,
-    *,
     persons: str,
     root: str,
     root_file: Path | None,
@@ -50,7 +64,7 @@ def lift_settings(
     floor: str = "auto",
 ):
     """Checked RunSettings from CLI values (InputError for bad ones, before any work starts)."""
-    from platypose.cli.lift_run import RunSettings
+    from platypose.cli.runs.job import RunSettings
     from platypose.exporters.export import parse_formats
     from platypose.lifting.files.atomic import check_writable
     from platypose.lifting.prior.runtime import resolve_device
@@ -92,7 +106,7 @@ def ray_executor(executor: str, address: str | None, cpus_per_input: int, collec
         return None
     if jobs != 1:
         raise InputError("--jobs is for --executor local; with ray, --cpus-per-input sets how many inputs share a node")
-    from platypose.cli.lift_ray import RayExecutor, RayOptions, import_ray
+    from platypose.cli.runs.ray import RayExecutor, RayOptions, import_ray
 
     import_ray()
     return RayExecutor(RayOptions(address=address, cpus_per_input=cpus_per_input, collect=collect))
@@ -100,11 +114,11 @@ def ray_executor(executor: str, address: str | None, cpus_per_input: int, collec
 
 def finish(entries: list[dict], out: Path) -> None:
     """Print the batch's outcome and its warnings; exit 2 if inputs failed for bad input only, 1 if any other way."""
-    from platypose.cli.safe_names import printable
+    from platypose.cli.terminal.safe_names import printable
 
     failed = [e for e in entries if e["status"] == "failed"]
     counts = ", ".join(f"{sum(e['status'] == s for e in entries)} {s}" for s in ("ok", "failed", "skipped"))
-    from platypose.cli.console import written_lines
+    from platypose.cli.terminal.console import written_lines
 
     for line in written_lines(entries):
         typer.echo(line)
@@ -120,8 +134,8 @@ def finish(entries: list[dict], out: Path) -> None:
 
 def _own_folders(jobs: list, out: Path) -> list:
     """``jobs`` renamed where ``out`` holds another input's folder of their name (a line says so, even with -q)."""
-    from platypose.cli.output_names import claim_folders
-    from platypose.cli.safe_names import printable
+    from platypose.cli.runs.folders import claim_folders
+    from platypose.cli.terminal.safe_names import printable
 
     placed = claim_folders(jobs, out)
     for job, moved in zip(jobs, placed):
@@ -131,11 +145,12 @@ def _own_folders(jobs: list, out: Path) -> list:
     return placed
 
 
-@app.command("lift", cls=brief_help(LIFT_SHOWN))
 @settings_options("prior")
 @settings_options("sampler")
 @settings_options("windows")
+@settings_options("detect", exclude=LIFT_LEAVES, panel="Input", short=True, in_place=True)
 def lift(
+    *,
     inputs: list[str] = typer.Argument(
         None,
         help="Videos, several views of one take (matched to --cams by name), folders (each video or sub-folder of "
@@ -151,9 +166,7 @@ def lift(
         "sub-folders/files named after the cameras (cam01_json for cam_01).",
         rich_help_panel="Input",
     ),
-    detector: Path | None = field_option(DetectOptions, "detector", "Input", short=True),
-    detector_format: str | None = field_option(DetectOptions, "detector_format", "Input", short=True),
-    person_detector: Path | None = field_option(DetectOptions, "person_detector", "Input", short=True),
+    detect: DetectOptions = None,
     out: Path = typer.Option(
         Path("out"), "--out", help="Output folder: OUT/<name>/ per input, OUT/summary.json.", rich_help_panel="Output"
     ),
@@ -168,9 +181,6 @@ def lift(
     root: str = field_option(TakeSettings, "root", "People"),
     root_trajectory: Path | None = field_option(TakeSettings, "root_trajectory", "People"),
     sync: str = field_option(TakeSettings, "sync", "Input"),
-    fps: float | None = field_option(DetectOptions, "fps", "Input", short=True),
-    image_size: str | None = field_option(DetectOptions, "image_size", "Input", short=True),
-    stride: int = field_option(DetectOptions, "stride", "Input"),
     jobs: int = typer.Option(1, "--jobs", min=1, help="Inputs lifted in parallel processes.", rich_help_panel="Run"),
     split_seconds: float | None = typer.Option(
         None,
@@ -224,21 +234,21 @@ def lift(
     windows: WindowSettings = None,
 ) -> None:
     """Lift people in videos to calibrated 3D motion hypotheses (docs/lift.md)."""
-    arguments = {k: as_json(v) for k, v in locals().items() if k != "help_all"}
-    from platypose.cli.console import say_over_bar
-    from platypose.cli.lift_batch import run_batch
-    from platypose.cli.lift_jobs import (
+    arguments = lift_arguments(locals())
+    from platypose.cli.runs.batch import run_batch
+    from platypose.cli.runs.jobs import (
         check_camera_count,
         check_views_match,
         discover_jobs,
         expand_inputs,
         keypoints_job,
     )
-    from platypose.cli.safe_names import printable
+    from platypose.cli.terminal.console import say_over_bar
+    from platypose.cli.terminal.safe_names import printable
     from platypose.lifting.errors import InputError
     from platypose.lifting.files.reads import check_readable_inputs
 
-    if keypoints is not None and detector is not None:
+    if keypoints is not None and detect.detector is not None:
         raise InputError("--keypoints and --detector exclude each other: keypoints are read, not detected")
     if not inputs and keypoints is None:
         raise InputError("give INPUT videos or folders, or --keypoints")
@@ -261,23 +271,15 @@ def lift(
     ]
     check_readable_inputs(given)
     job_list = _own_folders(job_list, out)
-    detect = DetectOptions(
-        detector=detector,
-        detector_format=detector_format,
-        person_detector=person_detector,
-        threads=threads,
-        stride=stride,
-        fps=fps,
-        image_size=image_size_option(image_size),
-    )
+    detect = replace(detect, threads=threads)
     settings = lift_settings(
-        out,
-        cams,
-        prior,
-        detect,
-        sampler,
-        windows,
-        formats,
+        out=out,
+        cams=cams,
+        prior=prior,
+        detect=detect,
+        sampler=sampler,
+        windows=windows,
+        formats=formats,
         persons=persons,
         root=root,
         root_file=root_trajectory,
@@ -291,9 +293,7 @@ def lift(
 
     batch_executor = ray_executor(executor, ray_address, cpus_per_input, collect, jobs)
     if split_seconds is not None:  # one input's pieces in parallel (docs/ray.md)
-        from dataclasses import replace
-
-        from platypose.cli.split_pieces import split_executor
+        from platypose.cli.runs.split import split_executor
 
         options = None if batch_executor is None else batch_executor.options
         batch_executor = split_executor(split_seconds, windows.max_gap, jobs, options, collect)
@@ -309,7 +309,9 @@ def lift(
             say_over_bar(printable(message))
 
     try:
-        entries = run_batch(job_list, settings, jobs, resume, say, retry_failed, batch_executor)
+        entries = run_batch(
+            job_list, settings, workers=jobs, resume=resume, say=say, retry_failed=retry_failed, executor=batch_executor
+        )
     except KeyboardInterrupt:
         done = (out / "summary.json").is_file()
         typer.echo(

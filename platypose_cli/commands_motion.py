@@ -7,12 +7,9 @@ from pathlib import Path
 
 import typer
 
-from platypose.cli.app import app
-
 motion_app = typer.Typer(
     help="Inspect real 3D motion files (BVH, ASF/AMC, holosoma, DeepMimic, H3.6M, npz, C3D).", no_args_is_help=True
 )
-app.add_typer(motion_app, name="motion")
 
 NAME_MAP_HELP = "BVH only: JSON {our joint: BVH joint} for the 12 limb joints, 'neck' (skull base), optional 'head'."
 SCALE_HELP = "BVH: metres per file unit (default: detected); DeepMimic: URDF scale (default 0.25)."

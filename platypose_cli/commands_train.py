@@ -2,24 +2,19 @@
 
 from __future__ import annotations
 
-import json
-import sys
-import time
-from dataclasses import fields, replace
 from pathlib import Path
 
 import typer
 
-from platypose.cli.app import app
-from platypose.cli.options import field_option, settings_options
-from platypose.lifting.errors import InputError
+from platypose.cli.terminal.options import settings_options
 from platypose.lifting.settings import DistilConfig, PriorArchitecture, TrainConfig
 
 
-@app.command("train")
 @settings_options("train", parameter="optimisation", given_only=True)
 @settings_options("distil", only=("calls",))
+@settings_options("architecture", panel=None, in_place=True)
 def train(
+    *,
     data: list[Path] = typer.Argument(
         ..., help="Motion files or folders (BVH, ASF/AMC, npy, DeepMimic, npz, C3D), or one motion pack (--pack)."
     ),
@@ -33,12 +28,7 @@ def train(
     precision: str = typer.Option(
         "auto", help="Forward passes in float32 or bfloat16 (autocast); auto: bfloat16 on cuda, float32 on cpu."
     ),
-    layers: int = field_option(PriorArchitecture, "layers"),
-    width: int = field_option(PriorArchitecture, "width"),
-    heads: int = field_option(PriorArchitecture, "heads"),
-    ff_width: int = field_option(PriorArchitecture, "ff_width"),
-    max_frames: int = field_option(PriorArchitecture, "max_frames"),
-    fps: float = field_option(PriorArchitecture, "fps"),
+    architecture: PriorArchitecture = None,
     resume: bool = typer.Option(False, "--resume", help="Continue from the checkpoint at --out."),
     threads: int = typer.Option(0, help="Torch threads (0: torch's default)."),
     log_file: Path = typer.Option(None, help="Also append JSON lines of losses here."),
@@ -58,112 +48,27 @@ def train(
     distil: DistilConfig = None,
 ) -> None:
     """Train a motion prior (x0-predicting transformer) on real 3D motion, or distil one into fewer calls."""
-    from platypose.lifting.files.atomic import check_writable, same_file
-    from platypose.lifting.motion_io import load_motion_paths
-    from platypose.lifting.offline.distillation import distil_prior
-    from platypose.lifting.offline.motion_pack import is_pack, read_pack, write_pack
-    from platypose.lifting.offline.training import TrainingDiverged, train_prior
-    from platypose.lifting.prior.model import PriorConfig, load_prior
-    from platypose.lifting.prior.runtime import resolve_device
-    from platypose.lifting.sampling.sampler import network_steps
-    from platypose.lifting.settings import SamplerConfig
+    from platypose.lifting.offline.train_run import TrainRun, distil_settings, network_of, run_training
 
-    try:
-        prior_config = PriorConfig(
-            layers=layers, width=width, heads=heads, ff_width=ff_width, max_frames=max_frames, fps=fps
-        )
-    except ValueError as err:
-        raise InputError(f"train: {err}") from None
-    config = TrainConfig(**optimisation)
-    shared = {k: v for k, v in optimisation.items() if k in {f.name for f in fields(DistilConfig)}}
-    if "checkpoint_every" in shared:
-        shared["validate_every"] = min(distil.validate_every, shared["checkpoint_every"])
-    distil = replace(distil, **shared)
-    iterations = (config if distil_from is None else distil).iterations
-    if threads < 0:
-        raise InputError(f"train: --threads must be 0 (torch's default) or more, got {threads}")
-    if precision not in ("auto", "float32", "bfloat16"):
-        raise InputError(f"train: --precision must be auto, float32 or bfloat16, got {precision!r}")
-    if (out is None) == (pack is None):
-        raise InputError("train: give --out (a checkpoint to train) or --pack (a motion pack to write), not both")
-    if hold_out is not None:
-        from platypose.lifting.offline.unseen_sets import load_sets, without_sets
-
-        data = without_sets(data, load_sets(hold_out))
-    if pack is not None:
-        check_writable(pack)
-        motions = load_motion_paths(data)
-        frames = write_pack(motions, pack, fps)
-        if not quiet:
-            typer.echo(f"packed {len(motions)} clips, {frames / fps / 60:.1f} min at {fps:g} fps into {pack}", err=True)
-        return
-    torch_device = resolve_device(device)
-    bfloat16 = precision == "bfloat16" or (precision == "auto" and torch_device.type == "cuda")
-    if distil_from is not None and same_file(out, distil_from):  # before check_writable refuses a link by itself
-        raise InputError(f"--out {out}: is the teacher given by --distil-from; it would be overwritten")
-    check_writable(out)
-    if log_file is not None:
-        check_writable(log_file)
-    teacher = load_prior(distil_from)[0] if distil_from is not None else None
-    motions = read_pack(data[0]) if len(data) == 1 and is_pack(data[0]) else load_motion_paths(data)
-    if not motions:
-        raise InputError(f"{', '.join(map(str, data))}: no motion files found")
-    resume_state = None
-    if resume:
-        bundle, resume_state = load_prior(out)
-        if not resume_state:
-            raise InputError(f"{out}: checkpoint holds no training state (finished or not resumable)")
-        distilled_from = bundle.manifest.get("distilled", {}).get("teacher_sha256")
-        if teacher is not None and distilled_from != teacher.checksum:
-            raise InputError(f"{out}: checkpoint was not distilled from {distil_from}; cannot resume it")
-        prior_config = bundle.config
-        if not quiet:
-            typer.echo(f"resuming {out} at iteration {resume_state['iteration']} of {iterations}", err=True)
-    if not quiet:
-        seconds = sum(m.duration_s for m in motions)
-        typer.echo(f"training on {len(motions)} clips, {seconds / 60:.1f} min of motion", err=True)
-
-    def log(entry: dict) -> None:
-        if log_file:
-            with open(log_file, "a") as fh:
-                fh.write(json.dumps(entry) + "\n")
-        if not quiet:
-            done = entry["iteration"]
-            eta = entry["seconds"] / max(done - (resume_state or {}).get("iteration", 0), 1) * (iterations - done)
-            print(
-                f"[{done}/{iterations}] train {entry['train_loss']:.4f} val {entry['val_loss']:.4f} "
-                f"elapsed {entry['seconds'] / 60:.1f} min, left ~{eta / 60:.1f} min",
-                file=sys.stderr,
-                flush=True,
-            )
-
-    began = time.time()
-    try:
-        if teacher is None:
-            train_prior(
-                motions,
-                str(out),
-                prior_config,
-                config,
-                resume=resume_state,
-                log=log,
-                threads=threads or None,
-                device=torch_device,
-                bfloat16=bfloat16,
-            )
-        else:
-            steps = network_steps(teacher, SamplerConfig())
-            try:
-                distil_prior(motions, teacher, steps, str(out), distil, resume_state, log, threads or None)
-            except ValueError as err:
-                raise InputError(f"{distil_from}: {err}") from None
-    except TrainingDiverged as err:
-        raise InputError(f"{out}: {err}") from None
-    if not quiet:
-        typer.echo(f"wrote {out} after {(time.time() - began) / 60:.1f} min", err=True)
+    network = network_of(architecture)
+    run = TrainRun(
+        data=tuple(data),
+        out=out,
+        pack=pack,
+        network=network,
+        config=TrainConfig(**optimisation),
+        distil=distil_settings(optimisation, distil),
+        distil_from=distil_from,
+        hold_out=hold_out,
+        resume=resume,
+        device=device,
+        precision=precision,
+        threads=threads,
+        log_file=log_file,
+    )
+    run_training(run, say=None if quiet else lambda line: typer.echo(line, err=True))
 
 
-@app.command("prior-info")
 def prior_info(prior: Path = typer.Argument(None, help="Checkpoint (default: the shipped prior).")) -> None:
     """Print a prior's size, frame rate, training data and the licence of every clip."""
     from dataclasses import asdict

@@ -16,41 +16,47 @@ class DetectOptions:
     """How a view becomes 2D tracks: precomputed keypoints read (their ``fps`` and ``image_size`` when no video
     lies beside them) or a video detected (the model, its runtime, the frames, the cache beside the outputs).
 
-    The ``detect`` command has every field as an option, ``lift`` and :func:`platypose.lift` those of a lift.
+    Every field is an option of every command taking the group (``detect``; ``lift`` all but those a lift leaves to
+    its own options or defaults), and :func:`platypose.lift` takes those of a lift.
     """
 
     detector: Path | None = setting(
         None,
         "Pose model .onnx (default: the bundled MoveNet MultiPose).",
         short="Pose model .onnx (default: bundled MoveNet).",
+        option=True,
     )
     detector_format: str | None = setting(
         None,
         "Model contract: movenet, yolo-pose, rtmo, rtmpose, heatmap (default: recognised).",
         short="Model contract (default: recognised).",
+        option=True,
     )
     person_detector: Path | None = setting(
         None,
         "Person detector .onnx for top-down models (rtmpose, heatmap).",
         short="Person detector for top-down models.",
+        option=True,
     )
-    movenet_size: int = setting(384, "MoveNet input: longer side in pixels (multiple of 32).")
-    threads: int | None = setting(None, "onnxruntime intra-op threads (default: all cores).")
-    provider: str = setting("CPUExecutionProvider", "onnxruntime execution provider.")
-    stride: int = setting(1, "Detect every N-th frame.", minimum=1)
-    max_frames: int | None = setting(None, "Stop after this many processed frames.", minimum=1)
+    movenet_size: int = setting(384, "MoveNet input: longer side in pixels (multiple of 32).", option=True)
+    threads: int | None = setting(None, "onnxruntime intra-op threads (default: all cores).", option=True)
+    provider: str = setting("CPUExecutionProvider", "onnxruntime execution provider.", option=True)
+    stride: int = setting(1, "Detect every N-th frame.", minimum=1, option=True)
+    max_frames: int | None = setting(None, "Stop after this many processed frames.", minimum=1, option=True)
     fps: float | None = setting(
         None,
         "Frame rate of precomputed keypoints (default: from the video beside them).",
         short="Frame rate of keypoints without a video beside them.",
         finite=False,
+        option=True,
     )
     image_size: tuple[int, int] | None = setting(
         None,
         "HEIGHTxWIDTH of precomputed keypoints (default: from the video).",
         short="HEIGHTxWIDTH of keypoints without a video.",
+        option=True,
     )
-    cache: bool = setting(True, "Reuse detections cached in OUT/<name>/ from an earlier run.")
+    cache: bool = setting(True, "Reuse detections cached in OUT/<name>/ from an earlier run.", option=True)
 
     def __post_init__(self) -> None:
         fps, size, threads = self.fps, self.image_size, self.threads

@@ -1,7 +1,7 @@
 """The field of a settings class, with its help beside it, and the checks every settings class makes.
 
 A field made with :func:`setting` carries its help; ``option=True`` makes it a command-line option of every
-command using its class (``platypose.cli.options`` builds the flags from these fields, ``--`` and the field name
+command using its class (``platypose.cli.terminal.options`` builds the flags from these fields, ``--`` and the field name
 with dashes, plus the ``also`` spellings). Every check raises
 :class:`~platypose.lifting.errors.InputError` with ``option`` set to the field's name, and the message names
 the field as it is spelled here (the CLI puts the flag in its place). Values are checked by their declared

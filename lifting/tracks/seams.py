@@ -7,11 +7,13 @@ A take of T frames is cut into pieces of ``split_s`` seconds (their cores); each
 piece and hypothesis k of the next are sampled independently, so before joining, the later piece's hypotheses are
 reordered (Hungarian method on the mean joint distance over the shared frames) to continue the earlier piece's; then
 the later piece's weight ramps from 0 to 1 over the middle ``margin_s`` seconds of the overlap (the outer halves are
-each piece's edge, lifted without the context past it). No file is read or written.
+each piece's edge, lifted without the context past it). :func:`join_pieces` writes the pieces so joined into the
+take's arrays. No file is read or written.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,3 +81,72 @@ def cross_fade(earlier: np.ndarray, later: np.ndarray, weight: np.ndarray, axis:
     w = np.where(have_a & have_b, w, np.where(have_b, 1.0, 0.0))
     blended = (1 - w) * np.nan_to_num(earlier) + w * np.nan_to_num(later)
     return np.where(have_a | have_b, blended, np.nan).astype(earlier.dtype)
+
+
+def _over(frames: slice, piece_lifted: slice, who, h, e, P: int, N: int) -> tuple[np.ndarray, np.ndarray]:
+    """A piece's hypotheses (P, N, t, 17, 3) and energy (P, N, t) over the take's ``frames``, NaN where it has none."""
+    t = frames.stop - frames.start
+    hyp = np.full((P, N, t, 17, 3), np.nan, np.float32)
+    en = np.full((P, N, t), np.nan, np.float32)
+    a, b = max(frames.start, piece_lifted.start), min(frames.stop, piece_lifted.stop)
+    if b > a and who:
+        hyp[who, :, a - frames.start : b - frames.start] = h[:, :, a - piece_lifted.start : b - piece_lifted.start]
+        en[who, :, a - frames.start : b - frames.start] = e[:, :, a - piece_lifted.start : b - piece_lifted.start]
+    return hyp, en
+
+
+def join_pieces(
+    pieces: Sequence[Piece],
+    persons: Sequence[list[int]],
+    load: Callable[[int], tuple[np.ndarray, np.ndarray]],
+    times: np.ndarray,
+    absent: np.ndarray,
+    *,
+    margin: float,
+    hypotheses: np.ndarray,
+    median: np.ndarray,
+    energy: np.ndarray,
+) -> None:
+    """Write the pieces' results into the take's ``hypotheses`` (P, N, T, 17, 3), ``median`` (P, T, 17, 3) and
+    ``energy`` (P, N, T) in frame order: ``load(n)`` gives piece n's hypotheses (p, N, t, 17, 3) and energy (p, N, t)
+    of its persons ``persons[n]`` over the frames it lifted (``margin`` seconds either side of its core). Each
+    piece's hypotheses are reordered to continue the piece before (over the frames both lifted) and cross-faded
+    around each seam (:func:`fade_weights`), NaN where ``absent`` (P, T); one piece (and the one before) in memory at
+    a time."""
+    P, N = absent.shape[0], hypotheses.shape[1]
+    times = np.asarray(times, dtype=np.float64)
+    previous = None  # (piece, persons, hypotheses, energy) of the piece before, reordered
+    written = 0
+    for n, piece in enumerate(pieces):
+        h, e = load(n)
+        h, e = np.array(h), np.array(e)
+        if previous is not None:
+            before, who_before, hb, eb = previous
+            shared = slice(piece.lifted.start, before.lifted.stop)
+            for p in set(persons[n]) & set(who_before):
+                i, j = who_before.index(p), persons[n].index(p)
+                a = hb[i][:, shared.start - before.lifted.start : shared.stop - before.lifted.start]
+                b = h[j][:, shared.start - piece.lifted.start : shared.stop - piece.lifted.start]
+                order = match_hypotheses(a, b)
+                h[j], e[j] = h[j][order], e[j][order]
+        if n + 1 < len(pieces):
+            seam_next = times[pieces[n + 1].core.start]
+            stop = int(np.searchsorted(times, seam_next - margin / 2, side="left"))
+        else:
+            stop = len(times)
+        frames = slice(written, stop)
+        hyp, en = _over(frames, piece.lifted, persons[n], h, e, P, N)
+        if previous is not None:
+            before, who_before, hb, eb = previous
+            weight = fade_weights(times[frames], times[piece.core.start], margin)
+            hyp_b, en_b = _over(frames, before.lifted, who_before, hb, eb, P, N)
+            hyp = cross_fade(hyp_b, hyp, weight, axis=2)
+            en = cross_fade(en_b, en, weight, axis=2)
+        gone = absent[:, frames]
+        hyp[np.broadcast_to(gone[:, None], hyp.shape[:3])] = np.nan
+        en[np.broadcast_to(gone[:, None], en.shape)] = np.nan
+        hypotheses[:, :, frames] = hyp
+        energy[:, :, frames] = en
+        median[:, frames] = np.median(hyp, axis=1)
+        written = stop
+        previous = (piece, persons[n], h, e)

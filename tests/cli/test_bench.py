@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from platypose.cli.bench_clip import loop_video
+from platypose.cli.runs.bench_clip import loop_video
 from platypose.lifting.offline.benchmark import matmul_probe, network_flops, onnx_matmul, timed_forward, walking_view
 from platypose.lifting.prior.model import MotionPrior, PriorBundle, PriorConfig, save_prior
 

@@ -6,7 +6,7 @@ import typing
 
 import pytest
 
-from platypose.cli.options import SETTINGS, cli_message, flags
+from platypose.cli.terminal.options import SETTINGS, TEXT, cli_message, flags
 from platypose.lifting.errors import InputError
 
 
@@ -18,7 +18,8 @@ def test_every_flag_is_a_field_of_its_class_with_its_type_default_and_help(group
     assert made
     for flag in made:
         field = cls.__dataclass_fields__[flag.field]
-        assert flag.type in (hints[flag.field], *typing.get_args(hints[flag.field])), flag.field
+        typed = flag.type in (hints[flag.field], *typing.get_args(hints[flag.field]))
+        assert typed or ((group, flag.field) in TEXT and flag.type is str), flag.field
         assert flag.default == field.default and flag.help == field.metadata["help"] and flag.help
         assert all(n.startswith("--") for n in flag.names)
 
@@ -57,7 +58,7 @@ def test_an_option_left_at_its_default_is_not_given(monkeypatch):
     import typer
     from typer.testing import CliRunner
 
-    from platypose.cli.options import settings_options
+    from platypose.cli.terminal.options import settings_options
 
     seen = []
     app = typer.Typer()
@@ -110,9 +111,9 @@ def test_lift_md_tables_every_option_of_lift():
 
     import typer
 
-    from platypose.cli.app import _register, app
+    from platypose.cli.app import app, register_commands
 
-    _register()
+    register_commands()
     lift = typer.main.get_command(app).commands["lift"]
     doc = (Path(__file__).resolve().parents[2] / "docs" / "lift.md").read_text(encoding="utf-8")
     table = doc.split("## Options", 1)[1].split("\n## ", 1)[0]
@@ -146,17 +147,16 @@ def test_lift_help_fits_one_screen_with_the_common_options_and_help_all_shows_ev
 def test_lift_always_writes_the_npz(tmp_path):
     """The npz is the source of truth (export and info read it): lift writes it whatever --formats names."""
     from platypose.cli.commands_lift import lift_settings
-    from platypose.cli.detection import DetectOptions
-    from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
+    from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, WindowSettings
 
     settings = lift_settings(
-        tmp_path,
-        None,
-        PriorSettings(),
-        DetectOptions(),
-        SamplerConfig(),
-        WindowSettings(),
-        "trc,angles,report",
+        out=tmp_path,
+        cams=None,
+        prior=PriorSettings(),
+        detect=DetectOptions(),
+        sampler=SamplerConfig(),
+        windows=WindowSettings(),
+        formats="trc,angles,report",
         persons="all",
         root="auto",
         root_file=None,

@@ -11,9 +11,9 @@ import threading
 import time
 from pathlib import Path
 
-from platypose.cli.lift_ray import write_collected
-from platypose.cli.lift_run import JOB_LOCK
-from platypose.cli.locks import exclusive_lock
+from platypose.cli.runs.job import JOB_LOCK
+from platypose.cli.runs.locks import exclusive_lock
+from platypose.cli.runs.ray import write_collected
 
 K = ["--fps", "20", "--image-size", "1920x1080", "--samples", "2", "--threads", "1", "-q"]
 

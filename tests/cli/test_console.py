@@ -6,7 +6,7 @@ import shlex
 import subprocess
 import sys
 
-from platypose.cli.console import FFMPEG_NOTE, LISTED_INPUTS, written_lines
+from platypose.cli.terminal.console import FFMPEG_NOTE, LISTED_INPUTS, written_lines
 
 
 def test_lift_lists_the_files_it_wrote_and_the_command_to_open_the_recording(tmp_path, monkeypatch):

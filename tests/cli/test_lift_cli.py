@@ -266,7 +266,7 @@ def test_batch_records_failures_and_resume_skips_finished(run_cli, tmp_path, pri
 
 def test_interrupted_export_leaves_earlier_outputs(monkeypatch, tmp_path) -> None:
     import platypose.exporters as exporters
-    from platypose.cli.lift_run import export_atomically, staging_folder
+    from platypose.cli.runs.outputs import export_atomically, staging_folder
     from platypose.lifting.job_log import JobLog
 
     folder = tmp_path / "take"
@@ -290,7 +290,7 @@ def test_a_lifts_opensim_ik_warnings_are_its_warnings(data_dir, tmp_path) -> Non
     pytest.importorskip("opensim")
     from export_helpers import two_person_result
 
-    from platypose.cli.lift_run import export_atomically, staging_folder
+    from platypose.cli.runs.outputs import export_atomically, staging_folder
     from platypose.exporters.npz import read_npz
     from platypose.lifting.job_log import JobLog
 

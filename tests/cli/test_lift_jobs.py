@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from platypose.cli.lift_jobs import check_camera_count, discover_jobs, expand_inputs, keypoints_job
+from platypose.cli.runs.jobs import check_camera_count, discover_jobs, expand_inputs, keypoints_job
 from platypose.lifting.errors import InputError
 
 TAKE = "video/pose2sim-balancing"

@@ -19,12 +19,11 @@ import pytest
 import ray
 from export_helpers import read_entities
 
-from platypose.cli import lift_ray
 from platypose.cli.commands_lift import lift_settings
-from platypose.cli.detection import DetectOptions
-from platypose.cli.lift_batch import SUMMARY_LOCK, run_batch
-from platypose.cli.lift_jobs import discover_jobs
-from platypose.cli.lift_ray import RayExecutor, RayOptions
+from platypose.cli.runs import ray as lift_ray
+from platypose.cli.runs.batch import SUMMARY_LOCK, run_batch
+from platypose.cli.runs.jobs import discover_jobs
+from platypose.cli.runs.ray import RayExecutor, RayOptions
 
 STORE = 80 * 1024**2  # object store bytes per node
 
@@ -47,7 +46,7 @@ def cluster():
 def test_the_address_probe_passes_a_real_cluster(cluster) -> None:
     """The probe's GetClusterId call is answered by a real Ray GCS, at its address and at 127.0.0.1 (which Ray
     dials as this machine's address)."""
-    from platypose.cli.ray_address import check_ray_address
+    from platypose.cli.runs.ray_address import check_ray_address
 
     port = cluster.address.rsplit(":", 1)[1]
     check_ray_address(cluster.address, timeout_s=5)
@@ -135,18 +134,18 @@ def test_ray_batch_equals_local_batch(cluster, run_cli, batch_folder, prior_file
 
 def ray_settings(prior_file: str, out: Path):
     """The RunSettings of ``batch_args`` (for run_batch called directly)."""
-    from platypose.lifting.settings import PriorSettings, SamplerConfig, WindowSettings
+    from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, WindowSettings
 
     prior, sampler = PriorSettings(Path(prior_file)), SamplerConfig(samples=4, seed=3)
     detect, formats = DetectOptions(threads=1), "npz,csv,bvh,rrd"
     return lift_settings(
-        out,
-        None,
-        prior,
-        detect,
-        sampler,
-        WindowSettings(),
-        formats,
+        out=out,
+        cams=None,
+        prior=prior,
+        detect=detect,
+        sampler=sampler,
+        windows=WindowSettings(),
+        formats=formats,
         persons="largest",
         root="auto",
         root_file=None,
@@ -296,9 +295,8 @@ def test_detector_and_prior_load_once_per_worker(cluster, batch_folder, prior_fi
     def two_inputs_counting_loads(jobs, settings) -> dict:
         import platypose.detectors.contracts as contracts
         import platypose.lifting.prior.runtime as runtime
-        from platypose.cli import lift_run
-        from platypose.cli.detection import cached_detector
-        from platypose.cli.lift_ray import lift_on_worker
+        from platypose.cli.runs.models import cached_detector, loaded_prior
+        from platypose.cli.runs.ray import lift_on_worker
 
         counts = {"detector": 0, "prior": 0}
         patched = [(contracts, "load_detector", "detector"), (runtime, "load_for_runtime", "prior")]
@@ -312,7 +310,7 @@ def test_detector_and_prior_load_once_per_worker(cluster, batch_folder, prior_fi
             return wrapper
 
         cached_detector.cache_clear()
-        lift_run._PRIORS.clear()
+        loaded_prior.cache_clear()
         for (module, name, key), original in zip(patched, originals):
             setattr(module, name, counting(original, key))
         try:

@@ -1,5 +1,5 @@
-"""``platypose lift --split-seconds``: one input's detection and lifting spread over piece tasks and joined (split_pieces,
-split_join), on the real sports2d demo video and its MoveNet detections with the session's tiny prior: pieces detect
+"""``platypose lift --split-seconds``: one input's detection and lifting spread over piece tasks and joined (runs/pieces.py and
+runs/split.py), on the real sports2d demo video and its MoveNet detections with the session's tiny prior: pieces detect
 exactly the frames of an unsplit run, persons keep their hypotheses through a crossing at a seam, a resumed split
 redoes only the pieces that had not finished, a piece that fails (or whose worker dies) once is run again, bad values
 are one line."""
@@ -14,11 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.cli.detection import cached_detector
-from platypose.cli.lift_batch import run_batch
-from platypose.cli.lift_jobs import discover_jobs
-from platypose.cli.lift_run import RunSettings, run_job
-from platypose.cli.split_pieces import PIECES, LocalPieces, SplitExecutor
+from platypose.cli.runs.batch import run_batch
+from platypose.cli.runs.job import run_job
+from platypose.cli.runs.jobs import discover_jobs
+from platypose.cli.runs.models import cached_detector
+from platypose.cli.runs.pieces import PIECES
+from platypose.cli.runs.pools import LocalPieces
+from platypose.cli.runs.settings import RunSettings
+from platypose.cli.runs.split import SplitExecutor, piece_hooks
 from platypose.lifting.job_log import JobLog
 from platypose.lifting.settings import DetectOptions, PriorSettings, SamplerConfig, TakeSettings, WindowSettings
 
@@ -72,7 +75,7 @@ def seed_detections(data_dir, video: Path, folder: Path) -> None:
 def test_pieces_detect_the_frames_of_an_unsplit_run(data_dir, tmp_path):
     """Every 10th frame of the demo video detected in 3 s pieces (seeks into the video) is what one pass detects:
     the same frame indices and the same keypoints, written as the video's detection cache."""
-    from platypose.cli.split_join import detect_in_pieces
+    from platypose.cli.runs.split import detect_in_pieces
     from platypose.detectors.cache import DetectionCache, cache_key
     from platypose.detectors.pipeline import detect_frames
 
@@ -94,7 +97,7 @@ def test_persons_keep_their_hypotheses_through_a_crossing_at_a_seam(data_dir, ti
     joined median reprojects onto that person's own keypoints around the seam (no swap of identities in the lift)
     about as closely as the unsplit lift's and far from the other person's, and persons are absent in exactly the
     frames they are in the unsplit lift."""
-    from platypose.cli.split_join import SplitLifter
+    from platypose.cli.runs.split import SplitLifter
     from platypose.lifting.calibration import load_calibration
     from platypose.lifting.camera import project
     from platypose.lifting.take import Take
@@ -158,7 +161,7 @@ def test_a_resumed_split_redoes_only_the_pieces_left(data_dir, prior_file, tmp_p
         seed_detections(data_dir, video, tmp_path / run / job.name)
         if run == "interrupted":
             with pytest.raises(KeyboardInterrupt):
-                run_job(job, settings, pieces=InProcess(stop_at=1, error=KeyboardInterrupt))
+                run_job(job, settings, hooks=piece_hooks(InProcess(stop_at=1, error=KeyboardInterrupt), settings))
             assert len(list((tmp_path / run / job.name / PIECES).glob("lift.*.npz"))) == 1
             assert not (tmp_path / run / job.name / "lift.json").exists()
         pool = InProcess()
@@ -217,7 +220,7 @@ def test_on_ray_a_piece_whose_worker_dies_is_run_again(tmp_path):
     """On Ray (a private 2-CPU instance), a piece task whose worker dies once is run again by Ray."""
     import ray
 
-    from platypose.cli.split_pieces import RayPieces
+    from platypose.cli.runs.pools import RayPieces
 
     os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
     ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the task function is this module's
@@ -266,7 +269,7 @@ def test_a_piece_folder_that_is_not_a_folder_is_refused(data_dir, prior_file, tm
         pieces.symlink_to(elsewhere)
     else:
         pieces.write_text("")
-    entry = run_job(job, settings, pieces=InProcess())
+    entry = run_job(job, settings, hooks=piece_hooks(InProcess(), settings))
     assert entry["status"] == "failed" and entry["error_kind"] == "input", entry
     assert entry["error"] == f"{pieces}: is a {kind}, not the folder of pieces platypose made; remove it", entry
     assert list(elsewhere.iterdir()) == []
@@ -315,11 +318,11 @@ def test_a_damaged_piece_is_warned_removed_and_lifted_again(data_dir, prior_file
         seed_detections(data_dir, video, tmp_path / run / job.name)
         if run == "damaged":
             with pytest.raises(KeyboardInterrupt):
-                run_job(job, settings, pieces=InProcess(stop_at=1, error=KeyboardInterrupt))
+                run_job(job, settings, hooks=piece_hooks(InProcess(stop_at=1, error=KeyboardInterrupt), settings))
             (piece,) = (tmp_path / run / job.name / PIECES).glob("lift.*.npz")
             damage(piece)
         pool = InProcess()
-        entry = run_job(job, settings, pieces=pool)
+        entry = run_job(job, settings, hooks=piece_hooks(pool, settings))
         assert entry["status"] == "ok", entry
         assert len(pool.ran) == 3
         said = [w for w in entry["warnings"] if w.startswith("damaged split piece 0 (frames 0-")]
@@ -334,14 +337,14 @@ def test_a_piece_read_back_is_checked_before_use(data_dir, prior_file, tmp_path)
     """A real piece's arrays are read back only as the lift wrote them: other shapes (checked in the npz headers,
     before loading), values not finite where a person is present, or coordinates over 1 km from the origin are
     one ValueError each saying so."""
-    from platypose.cli.piece_files import read_lift_piece
+    from platypose.cli.runs.piece_files import read_lift_piece
 
     video = data_dir / DEMO / "demo.mp4"
     (job,) = discover_jobs([video])
     settings = lift_settings_for(data_dir, prior_file, tmp_path)
     seed_detections(data_dir, video, tmp_path / job.name)
     with pytest.raises(KeyboardInterrupt):
-        run_job(job, settings, pieces=InProcess(stop_at=1, error=KeyboardInterrupt))
+        run_job(job, settings, hooks=piece_hooks(InProcess(stop_at=1, error=KeyboardInterrupt), settings))
     (piece,) = (tmp_path / job.name / PIECES).glob("lift.*.npz")
     with np.load(piece) as data:
         hypotheses, energy = data["hypotheses"], data["energy"]

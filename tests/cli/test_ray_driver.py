@@ -22,7 +22,7 @@ def test_connecting_to_ray_keeps_our_sigterm_handler(monkeypatch) -> None:
     import signal
     import types
 
-    from platypose.cli import lift_ray
+    from platypose.cli.runs import ray as lift_ray
 
     def fake_init(**_):  # as Ray's driver does: its own SIGTERM handler
         signal.signal(signal.SIGTERM, lambda *a: sys.exit(1))

@@ -13,9 +13,12 @@ from pathlib import Path
 import pytest
 from audit_support import CALIB, FAST, KEYPOINT_TIMING, minimal_json, platypose
 
-from platypose.cli.lift_batch import write_summary
-from platypose.cli.lift_jobs import Job, View
-from platypose.cli.lift_run import RunSettings, earlier_failure, finished_outputs, run_job
+from platypose.cli.runs.batch import write_summary
+from platypose.cli.runs.job import run_job
+from platypose.cli.runs.jobs import Job, View
+from platypose.cli.runs.outputs import finished_outputs
+from platypose.cli.runs.records import earlier_failure
+from platypose.cli.runs.settings import RunSettings
 
 DEEP = "[" * 100_000 + "]" * 100_000  # json.loads: RecursionError
 
@@ -92,7 +95,7 @@ def test_a_second_writer_of_one_folder_refuses_and_writes_nothing(tmp_path) -> N
 def test_a_lock_file_goes_when_released_and_a_waiter_on_it_locks_anew(tmp_path) -> None:
     import threading
 
-    from platypose.cli.locks import Busy, exclusive_lock
+    from platypose.cli.runs.locks import Busy, exclusive_lock
 
     path = tmp_path / ".lift.lock"
     held, waiting, done = threading.Event(), threading.Event(), threading.Event()
@@ -171,7 +174,7 @@ def test_a_fifo_as_lift_json_is_set_aside_by_resume(tmp_path) -> None:
     [(["person 0: flagged: spread"], ["person 0: flagged: spread"]), ([5], []), ("person 0", []), (None, [])],
 )
 def test_a_resumed_input_says_the_flags_its_lift_json_kept(tmp_path, flags, said) -> None:
-    from platypose.cli.lift_run import earlier_flags
+    from platypose.cli.runs.records import earlier_flags
 
     manifest = {"outputs": ["a.npz"], "formats": ["npz"], **({"flags": flags} if flags is not None else {})}
     (tmp_path / "lift.json").write_text(json.dumps(manifest))
@@ -179,7 +182,7 @@ def test_a_resumed_input_says_the_flags_its_lift_json_kept(tmp_path, flags, said
 
 
 def test_a_batch_whose_executor_refuses_to_start_leaves_no_summary(tmp_path) -> None:
-    from platypose.cli.lift_batch import run_batch
+    from platypose.cli.runs.batch import run_batch
     from platypose.lifting.errors import InputError
 
     def refuses(*_) -> None:

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.cli.detection import image_size_option
-from platypose.cli.ray_address import host_port
+from platypose.cli.runs.ray_address import host_port
+from platypose.cli.terminal.options import image_size_option
 from platypose.detectors.person_choice import parse_persons
 from platypose.detectors.tracking import persons_to_keep
 from platypose.detectors.types import PoseTrack2D

@@ -11,7 +11,7 @@ import sys
 import pytest
 from audit_support import CALIB, FAST, KEYPOINT_TIMING, openpose_copy, platypose
 
-from platypose.cli.lift_run import finished_outputs
+from platypose.cli.runs.outputs import finished_outputs
 
 pytestmark = pytest.mark.audit
 

@@ -10,7 +10,7 @@ import shutil
 import pytest
 from audit_support import FAST, KEYPOINT_TIMING, OPENPOSE, platypose
 
-from platypose.cli.safe_names import printable, safe_name
+from platypose.cli.terminal.safe_names import printable, safe_name
 from platypose.lifting.job_log import JobLog
 
 TRICKS = {

@@ -100,7 +100,7 @@ def test_a_socket_is_refused(tmp_path) -> None:
 
 def test_a_lift_does_not_move_its_files_over_a_link_in_its_folder(tmp_path, monkeypatch) -> None:
     import platypose.exporters as exporters
-    from platypose.cli import lift_run
+    from platypose.cli.runs import outputs
     from platypose.lifting.job_log import JobLog
 
     staging, folder = tmp_path / "staging", tmp_path / "out/a"
@@ -112,5 +112,5 @@ def test_a_lift_does_not_move_its_files_over_a_link_in_its_folder(tmp_path, monk
     (staging / "a.csv").write_text("new")
     monkeypatch.setattr(exporters, "export", lambda *args, **kwargs: [staging / "a.csv"])
     with pytest.raises(InputError, match=r"a\.csv: is a symbolic link"):
-        lift_run.export_atomically(None, {}, staging, folder, "a", ("csv",), JobLog())
+        outputs.export_atomically(None, {}, staging, folder, "a", ("csv",), JobLog())
     assert (folder / "a.csv").is_symlink() and victim.read_text() == "keep"

@@ -133,7 +133,7 @@ def test_stale_staging_and_stale_outputs_are_removed(run_cli, data_dir, prior_fi
 
 
 def _write_entries(out: str, name: str, count: int) -> None:
-    from platypose.cli.lift_batch import write_summary
+    from platypose.cli.runs.batch import write_summary
 
     for i in range(count):
         entry = {"input": name, "name": name, "status": "ok", "outputs": [], "seconds": float(i), "error": None}
@@ -227,7 +227,7 @@ def test_ctrl_c_with_two_jobs_keeps_finished_inputs(data_dir, prior_file, tmp_pa
 
 def test_staging_folder_of_a_long_job_name(tmp_path):
     """File names over ~225 characters; the staging folder name stays short enough."""
-    from platypose.cli.lift_run import remove_stale_staging, staging_folder
+    from platypose.cli.runs.outputs import remove_stale_staging, staging_folder
 
     name = "x" * 240
     with staging_folder(tmp_path / name, name) as staging:

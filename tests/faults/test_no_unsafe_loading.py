@@ -10,7 +10,7 @@ REPO = Path(__file__).resolve().parents[2]
 PACKAGES = ("detectors", "exporters", "lifting", "platypose", "platypose_cli", "tools")
 SAFE_UNPICKLER = REPO / "lifting/motion_io/safe_unpickle.py"
 # eval of the package's own annotation strings (typer options from its settings classes), never of file content
-OWN_ANNOTATIONS = REPO / "platypose_cli/options.py"
+OWN_ANNOTATIONS = REPO / "platypose_cli/terminal/options.py"
 
 
 def _calls(path: Path):

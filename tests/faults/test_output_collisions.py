@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from audit_support import CALIB, FAST, KEYPOINT_TIMING, minimal_json, platypose
 
-from platypose.cli.lift_jobs import Job, View, discover_jobs
+from platypose.cli.runs.jobs import Job, View, discover_jobs
 
 
 def _video(path: Path) -> Path:
@@ -24,7 +24,7 @@ def test_a_renamed_input_does_not_take_the_name_of_another_input(tmp_path) -> No
     names = {job.input: job.name for job in jobs}
     assert names[str(videos[2])] == "a-2"  # keeps its own name
     assert names[str(videos[0])] == "a" and names[str(videos[1])] == "a-3"
-    from platypose.cli.safe_names import distinct_names
+    from platypose.cli.terminal.safe_names import distinct_names
 
     assert distinct_names(["Take", "take", "take-2"]) == ["Take", "take-3", "take-2"]  # case-blind file systems
 
@@ -34,7 +34,7 @@ def _job(source: Path) -> Job:
 
 
 def _record(folder: Path, job: Job, **fields) -> None:
-    from platypose.cli.output_names import job_sources
+    from platypose.cli.runs.jobs import job_sources
 
     folder.mkdir(parents=True)
     record = {"input": job.input, "sources": job_sources(job), "outputs": [], "formats": ["npz"], **fields}
@@ -42,7 +42,7 @@ def _record(folder: Path, job: Job, **fields) -> None:
 
 
 def test_a_folder_written_for_another_input_is_left_to_it(tmp_path) -> None:
-    from platypose.cli.output_names import claim_folders
+    from platypose.cli.runs.folders import claim_folders
 
     out = tmp_path / "out"
     day_a, day_b = _job(_video(tmp_path / "dayA/take1.mp4")), _job(_video(tmp_path / "dayB/take1.mp4"))
@@ -56,7 +56,7 @@ def test_a_folder_written_for_another_input_is_left_to_it(tmp_path) -> None:
 
 
 def test_a_folder_of_an_older_version_is_compared_by_the_input_as_given(tmp_path) -> None:
-    from platypose.cli.output_names import claim_folders
+    from platypose.cli.runs.folders import claim_folders
 
     out = tmp_path / "out"
     day_a, day_b = _job(_video(tmp_path / "dayA/take1.mp4")), _job(_video(tmp_path / "dayB/take1.mp4"))

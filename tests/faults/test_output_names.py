@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import shutil
 
-from platypose.cli.lift_jobs import discover_jobs, keypoints_job
-from platypose.cli.safe_names import safe_name
+from platypose.cli.runs.jobs import discover_jobs, keypoints_job
+from platypose.cli.terminal.safe_names import safe_name
 
 
 def _listing(folder):

@@ -8,8 +8,8 @@ import threading
 
 import pytest
 
-from platypose.cli import ray_address
-from platypose.cli.ray_address import check_ray_address
+from platypose.cli.runs import ray_address
+from platypose.cli.runs.ray_address import check_ray_address
 from platypose.lifting.errors import InputError
 
 

@@ -45,8 +45,9 @@ def test_a_half_switched_output_set_is_not_taken_as_finished(run_cli, monkeypatc
 def test_resume_fingerprint_sees_runtime_and_keypoints_copied_with_old_times(data_dir, tmp_path) -> None:
     from dataclasses import replace
 
-    from platypose.cli.lift_jobs import keypoints_job
-    from platypose.cli.lift_run import RunSettings, fingerprint
+    from platypose.cli.runs.fingerprint import fingerprint
+    from platypose.cli.runs.jobs import keypoints_job
+    from platypose.cli.runs.settings import RunSettings
     from platypose.lifting.settings import PriorSettings
 
     folder = tmp_path / "cam01_json"

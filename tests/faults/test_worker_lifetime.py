@@ -53,7 +53,7 @@ def test_workers_end_when_the_parent_is_killed(tmp_path) -> None:
 
 
 def test_a_worker_whose_parent_is_already_gone_ends_at_once() -> None:
-    code = "import os, time\nfrom platypose.cli.interrupts import end_with_parent\nend_with_parent(os.getppid() + 10**7, 0.01)\ntime.sleep(60)"
+    code = "import os, time\nfrom platypose.cli.runs.workers import end_with_parent\nend_with_parent(os.getppid() + 10**7, 0.01)\ntime.sleep(60)"
     started = time.monotonic()
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=60)
     assert done.returncode == -signal.SIGTERM and time.monotonic() - started < 30

@@ -1,9 +1,9 @@
 """Seams of a take lifted in pieces (lifting/tracks/seams.py): pieces over real frame times, hypotheses matched across
-a seam, the cross-fade."""
+a seam, the cross-fade, the pieces joined into the take's arrays."""
 
 import numpy as np
 
-from platypose.lifting.tracks.seams import cross_fade, fade_weights, match_hypotheses, plan_pieces
+from platypose.lifting.tracks.seams import cross_fade, fade_weights, join_pieces, match_hypotheses, plan_pieces
 
 
 def test_pieces_cover_the_take_once_with_margins(data_dir):
@@ -45,3 +45,37 @@ def test_cross_fade_ramps_and_keeps_what_one_side_has():
     assert joined[0, 3] == 0 and np.allclose(joined[1, :6], 0) and joined[1, 8] == 0.5
     assert np.all(joined[:, 10:] == 1)
     assert np.isnan(cross_fade(np.full(3, np.nan), np.full(3, np.nan), np.ones(3), axis=0)).all()
+
+
+def test_pieces_lifted_alike_join_into_the_unsplit_arrays(real_clips):
+    """Two persons climbing (a real clip), 4 hypotheses each at other depths, 2 s at 30 fps cut into pieces of 0.8 s
+    lifted 0.2 s either side. Each piece holds its persons' hypotheses in an order of its own (as pieces sampled
+    apart would); person 1 is absent from the first 35 frames, so the first piece lifts person 0 alone. Joined: each
+    person's hypotheses in the order of the first piece that lifted them, NaN where absent, the median over them."""
+    from platypose.lifting.timebase import resample
+
+    climb = next(m for m in real_clips if "climb" in m.name)
+    joints = resample(climb.joints, climb.fps, 30.0)[:60].astype(np.float32)
+    times = np.arange(60) / 30.0
+    truth = np.stack([np.stack([joints + [0.0, 0.5 * k + p, 0.0] for k in range(4)]) for p in range(2)])
+    absent = np.zeros((2, 60), bool)
+    absent[1, :35] = True
+    pieces = plan_pieces(times, 0.8, 0.2)
+    rng = np.random.default_rng(1)
+    persons = [[p for p in range(2) if not absent[p, piece.lifted].all()] for piece in pieces]
+    orders = [rng.permutation(4) for _ in pieces]
+
+    def load(n: int) -> tuple[np.ndarray, np.ndarray]:
+        hypotheses = truth[persons[n]][:, orders[n], pieces[n].lifted]
+        return hypotheses, np.broadcast_to(orders[n][None, :, None], hypotheses.shape[:3]).astype(np.float32)
+
+    hypotheses = np.zeros((2, 4, 60, 17, 3), np.float32)
+    median = np.zeros((2, 60, 17, 3), np.float32)
+    energy = np.zeros((2, 4, 60), np.float32)
+    join_pieces(pieces, persons, load, times, absent, margin=0.2, hypotheses=hypotheses, median=median, energy=energy)
+    assert len(pieces) == 3 and persons[0] == [0] and persons[1] == [0, 1]
+    assert np.allclose(hypotheses[0], truth[0][orders[0]], atol=1e-5)
+    assert np.allclose(hypotheses[1][:, 35:], truth[1][orders[1]][:, 35:], atol=1e-5)
+    assert np.isnan(hypotheses[1][:, :35]).all() and np.isnan(median[1, :35]).all()
+    assert np.allclose(median[0], np.median(truth[0], axis=0), atol=1e-5)
+    assert np.array_equal(energy[0], np.broadcast_to(orders[0][:, None], (4, 60)))

@@ -3,7 +3,7 @@
 The runner's interface: jobs (and settings) in, one summary entry per job out, in job order.
 
 Each input gets ``--threads`` threads for torch and onnxruntime, by default one
-(:mod:`platypose.cli.threads`), with ``--jobs J`` in each of J worker processes. ``summary.json`` is
+(:mod:`platypose.cli.runs.workers`), with ``--jobs J`` in each of J worker processes. ``summary.json`` is
 rewritten under a lock (``OUT/.summary.lock``) and merged with the entries that
 other runs into the same OUT wrote meanwhile (entries of other inputs are kept,
 this run's replace the same inputs'). Ctrl-C (or SIGTERM) stops the batch: inputs
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -24,36 +23,18 @@ from pathlib import Path
 
 import typer
 
-from platypose.cli.bookkeeping import read_record, valid_summary
-from platypose.cli.console import say_over_bar
-from platypose.cli.interrupts import end_with_parent, terminate_as_interrupt
-from platypose.cli.lift_jobs import Job
-from platypose.cli.lift_run import (
-    MANIFEST,
-    RunSettings,
-    earlier_failure,
-    earlier_flags,
-    fingerprint,
-    finished_outputs,
-    flag_lines,
-    job_entry,
-    remove_stale_staging,
-    run_job,
-)
-from platypose.cli.locks import exclusive_lock
-from platypose.cli.safe_names import printable
-from platypose.cli.threads import threads_for
+from platypose.cli.runs.fingerprint import fingerprint
+from platypose.cli.runs.job import job_entry, run_job
+from platypose.cli.runs.jobs import Job
+from platypose.cli.runs.locks import exclusive_lock
+from platypose.cli.runs.outputs import finished_outputs, remove_stale_staging
+from platypose.cli.runs.records import MANIFEST, earlier_failure, earlier_flags, flag_lines, read_record, valid_summary
+from platypose.cli.runs.settings import RunSettings
+from platypose.cli.runs.workers import limit_threads, terminate_as_interrupt, threads_for, worker_init
+from platypose.cli.terminal.console import say_over_bar
+from platypose.cli.terminal.safe_names import printable
 
 SUMMARY = "summary.json"
-
-
-def worker_init(threads: int, parent: int) -> None:
-    """A worker process: threads capped; Ctrl-C is left to the parent, SIGTERM unwinds (staging folders removed), and
-    the worker ends when the parent is gone (even killed with SIGKILL)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
-    end_with_parent(parent)
-    limit_threads(threads)
 
 
 SUMMARY_LOCK = ".summary.lock"  # in OUT, beside summary.json
@@ -65,14 +46,6 @@ def _other_entries(out: Path, mine: list[dict]) -> list[dict]:
     earlier = read_record(out / SUMMARY, valid_summary)
     names = {e["name"] for e in mine}
     return [e for e in (earlier or {}).get("inputs", []) if e["name"] not in names]
-
-
-def limit_threads(threads: int) -> None:
-    """Cap torch's (and OpenMP's) threads in this process."""
-    os.environ["OMP_NUM_THREADS"] = str(threads)
-    import torch
-
-    torch.set_num_threads(threads)
 
 
 def write_summary(out: Path, entries: list[dict], started: str, arguments: dict) -> Path:
@@ -96,6 +69,7 @@ def write_summary(out: Path, entries: list[dict], started: str, arguments: dict)
 def run_batch(
     jobs: Sequence[Job],
     settings: RunSettings,
+    *,
     workers: int = 1,
     resume: bool = False,
     say: Callable[[str], None] = lambda _: None,
@@ -109,7 +83,7 @@ def run_batch(
 
     Ctrl-C stops the batch after writing the summary of what finished (KeyboardInterrupt is re-raised).
     ``executor(jobs, todo, settings, record, bar)``, when given, runs the jobs instead of this machine's
-    processes (``platypose.cli.lift_ray.RayExecutor``).
+    processes (``platypose.cli.runs.ray.RayExecutor``).
     """
     started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
     entries: dict[int, dict] = {}

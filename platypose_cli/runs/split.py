@@ -1,5 +1,8 @@
 """The driver's side of ``platypose lift --split-seconds S``: one take's detection and lifting spread over piece tasks
-(:mod:`platypose.cli.split_pieces`) and joined into the arrays of one unsplit result.
+(:mod:`platypose.cli.runs.pieces`, run by a pool of :mod:`platypose.cli.runs.pools`) and joined into the arrays of
+one unsplit result. :func:`split_executor` checks the option and makes the batch's executor (:class:`SplitExecutor`:
+a batch's inputs one after another in the driver, each spread over the pool), which hands the job its hooks
+(:func:`split_hooks`).
 
 - **Detection** (:func:`detect_in_pieces`): the video is cut into stretches of S seconds, each detected by a task; the
   driver joins the detections (a few kB per frame) into the video's detection cache, the file an unsplit run
@@ -15,22 +18,30 @@
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
+import math
 import os
 import pickle
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from platypose.cli.piece_files import read_lift_piece
-from platypose.cli.piece_plan import PiecePlan
-from platypose.cli.split_pieces import detect_piece, lift_piece, make_piece_folder, piece_folder
-from platypose.lifting.tracks.seams import cross_fade, fade_weights, match_hypotheses, plan_pieces
+from platypose.cli.runs.job import Hooks, run_job
+from platypose.cli.runs.piece_files import read_lift_piece
+from platypose.cli.runs.piece_plan import PiecePlan
+from platypose.cli.runs.pieces import detect_piece, lift_piece, make_piece_folder, piece_folder
+from platypose.cli.runs.pools import LocalPieces, ray_pieces
+from platypose.cli.runs.workers import limit_threads, threads_for
+from platypose.lifting.errors import InputError
+from platypose.lifting.tracks.seams import join_pieces, plan_pieces
 
 MIN_MARGIN_S = 1.0  # seconds each piece is lifted past its own frames, at least (and at least --max-gap)
+MAX_SPLIT_S = 24 * 3600.0  # --split-seconds above a day is no piece of one take (as offsets are bounded)
 
 
 def margin_seconds(max_gap: float) -> float:
@@ -64,12 +75,17 @@ def split_hooks(pool, settings, name: str, log, read: Callable) -> tuple[SplitLi
     return lifter, split_read
 
 
+def piece_hooks(pool, settings) -> Hooks:
+    """The hooks :func:`platypose.cli.runs.job.run_job` takes for a job spread over ``pool`` (:func:`split_hooks`)."""
+    return functools.partial(split_hooks, pool, settings)
+
+
 def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, log) -> int:
     """Detect ``source`` (a video) in pieces of ``split_s`` seconds run by ``pool`` and write the joined detections
     as its detection cache in ``folder`` (nothing to do when that cache is current); pieces already detected by an
     earlier run (``folder/.pieces``) are not detected again, and a damaged cache or piece is removed, warned of
     (``log``, a JobLog) and detected again. The number of pieces detected now."""
-    from platypose.cli.detection import cached_detector
+    from platypose.cli.runs.models import cached_detector
     from platypose.detectors.cache import DetectionCache, cache_key, read_detections
     from platypose.detectors.video import video_info
     from platypose.media import frame_stamps
@@ -199,7 +215,9 @@ class SplitLifter:
             self.pool.run([task(n)[2]], [name(n)], lambda i: plan.record(path), say=self.log)
             return read_lift_piece(path, present, sampler.samples)
 
-        join_pieces(pieces, persons, load, times, absent, margin, hypotheses=hypotheses, median=median, energy=energy)
+        join_pieces(
+            pieces, persons, load, times, absent, margin=margin, hypotheses=hypotheses, median=median, energy=energy
+        )
 
     def _drop(self, plan: PiecePlan, path: Path, why: str) -> None:
         """Remove a damaged piece file and its line in the plan, warning ``why``."""
@@ -215,58 +233,42 @@ def piece_times(seconds: Sequence[float | None], wall: float) -> str:
     return f"in {wall:.1f} s{told}"
 
 
-def _over(frames: slice, piece_lifted: slice, who, h, e, P: int, N: int) -> tuple[np.ndarray, np.ndarray]:
-    """A piece's hypotheses (P, N, t, 17, 3) and energy (P, N, t) over the take's ``frames``, NaN where it has none."""
-    t = frames.stop - frames.start
-    hyp = np.full((P, N, t, 17, 3), np.nan, np.float32)
-    en = np.full((P, N, t), np.nan, np.float32)
-    a, b = max(frames.start, piece_lifted.start), min(frames.stop, piece_lifted.stop)
-    if b > a and who:
-        hyp[who, :, a - frames.start : b - frames.start] = h[:, :, a - piece_lifted.start : b - piece_lifted.start]
-        en[who, :, a - frames.start : b - frames.start] = e[:, :, a - piece_lifted.start : b - piece_lifted.start]
-    return hyp, en
+class SplitExecutor:
+    """Runs a batch's inputs one after another in this process, each split into pieces run by ``pool``:
+    ``executor(jobs, todo, settings, record, bar)`` as :func:`platypose.cli.runs.batch.run_batch` calls it."""
+
+    def __init__(self, make_pool: Callable[[int, bool], object]) -> None:
+        self.make_pool = make_pool
+
+    def __call__(self, jobs, todo, settings, record, bar) -> None:
+        if not todo:
+            return
+        threads = threads_for(settings.detect.threads)
+        limit_threads(threads)
+        here = replace(settings, detect=replace(settings.detect, threads=threads))
+        with self.make_pool(threads, settings.quiet) as pool:
+            for index in todo:
+                record(index, run_job(jobs[index], here, hooks=piece_hooks(pool, here)))
+                bar.update(1)
 
 
-def join_pieces(pieces, persons, load, times, absent, margin, *, hypotheses, median, energy) -> None:
-    """Write the pieces' results (``load(n)``: piece n's hypotheses and energy; persons ``persons``) into the take's
-    arrays in frame order: each
-    piece's hypotheses reordered to continue the piece before (over the frames both lifted), cross-faded around
-    each seam (:func:`platypose.lifting.tracks.seams.fade_weights`), NaN where ``absent``; one piece (and the one
-    before) in memory at a time."""
-    P, N = absent.shape[0], hypotheses.shape[1]
-    times = np.asarray(times, dtype=np.float64)
-    previous = None  # (piece, persons, hypotheses, energy) of the piece before, reordered
-    written = 0
-    for n, piece in enumerate(pieces):
-        h, e = load(n)
-        h, e = np.array(h), np.array(e)
-        if previous is not None:
-            before, who_before, hb, eb = previous
-            shared = slice(piece.lifted.start, before.lifted.stop)
-            for p in set(persons[n]) & set(who_before):
-                i, j = who_before.index(p), persons[n].index(p)
-                a = hb[i][:, shared.start - before.lifted.start : shared.stop - before.lifted.start]
-                b = h[j][:, shared.start - piece.lifted.start : shared.stop - piece.lifted.start]
-                order = match_hypotheses(a, b)
-                h[j], e[j] = h[j][order], e[j][order]
-        if n + 1 < len(pieces):
-            seam_next = times[pieces[n + 1].core.start]
-            stop = int(np.searchsorted(times, seam_next - margin / 2, side="left"))
-        else:
-            stop = len(times)
-        frames = slice(written, stop)
-        hyp, en = _over(frames, piece.lifted, persons[n], h, e, P, N)
-        if previous is not None:
-            before, who_before, hb, eb = previous
-            weight = fade_weights(times[frames], times[piece.core.start], margin)
-            hyp_b, en_b = _over(frames, before.lifted, who_before, hb, eb, P, N)
-            hyp = cross_fade(hyp_b, hyp, weight, axis=2)
-            en = cross_fade(en_b, en, weight, axis=2)
-        gone = absent[:, frames]
-        hyp[np.broadcast_to(gone[:, None], hyp.shape[:3])] = np.nan
-        en[np.broadcast_to(gone[:, None], en.shape)] = np.nan
-        hypotheses[:, :, frames] = hyp
-        energy[:, :, frames] = en
-        median[:, frames] = np.median(hyp, axis=1)
-        written = stop
-        previous = (piece, persons[n], h, e)
+def split_executor(split_s: float, max_gap: float, jobs: int, ray_options, collect: bool) -> SplitExecutor:
+    """The executor of ``--split-seconds split_s``: pieces on ``jobs`` processes here, or on Ray (``ray_options``
+    not None); InputError naming the problem for a value or combination that cannot be split."""
+    shared = 2 * margin_seconds(max_gap)
+    if not math.isfinite(split_s) or split_s <= 0:
+        raise InputError(f"--split-seconds {split_s:g}: give a length in seconds above 0")
+    if split_s > MAX_SPLIT_S:
+        raise InputError(f"--split-seconds {split_s:g}: give at most {MAX_SPLIT_S:g} seconds (a day)")
+    if split_s < shared:
+        raise InputError(
+            f"--split-seconds {split_s:g}: shorter than the {shared:g} s two neighbouring pieces share "
+            f"(twice the larger of {margin_seconds(0):g} s and --max-gap); give at least {shared:g}"
+        )
+    if collect:
+        raise InputError("--split-seconds: not with --collect; the pieces of an input meet in --out, shared storage")
+    if ray_options is not None:
+        return SplitExecutor(lambda threads, quiet: ray_pieces(ray_options, threads, quiet))
+    if jobs < 2:
+        raise InputError("--split-seconds: the pieces run in parallel; add --jobs N (N >= 2) or --executor ray")
+    return SplitExecutor(lambda threads, quiet: LocalPieces(jobs, threads))

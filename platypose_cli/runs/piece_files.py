@@ -1,5 +1,5 @@
 """A split lift's piece file read back and checked before use: the arrays its ``.npy`` headers claim (before
-anything is loaded), then their values. A piece that fails is not used: :class:`platypose.cli.split_join.SplitLifter`
+anything is loaded), then their values. A piece that fails is not used: :class:`platypose.cli.runs.split.SplitLifter`
 removes it and lifts it again."""
 
 from __future__ import annotations

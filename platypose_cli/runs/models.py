@@ -1,5 +1,5 @@
-"""The command's hooks on the one view reader (:mod:`platypose.detectors.view_reader`): the model loaded once per
-process, a progress bar per video, the parsing of ``--image-size``."""
+"""The models a process loads once (the detector, the prior: a batch worker keeps them for its next inputs), and
+the commands' view reader (:mod:`platypose.detectors.view_reader`) on that detector, with a progress bar per video."""
 
 from __future__ import annotations
 
@@ -11,19 +11,7 @@ from pathlib import Path
 
 import typer
 
-from platypose.lifting.settings import DetectOptions
-
-
-def image_size_option(value: str | None) -> tuple[int, int] | None:
-    """``HEIGHTxWIDTH`` -> (height, width)."""
-    from platypose.lifting.errors import InputError
-
-    if value is None:
-        return None
-    height, sep, width = value.lower().partition("x")
-    if not sep or not (height + width).isascii() or not height.isdigit() or not width.isdigit():
-        raise InputError(f"--image-size {value}: give HEIGHTxWIDTH in pixels, e.g. 1080x1920")
-    return int(height), int(width)
+from platypose.lifting.settings import DetectOptions, PriorSettings
 
 
 @functools.lru_cache(maxsize=4)
@@ -32,6 +20,14 @@ def cached_detector(options: DetectOptions):
     from platypose.detectors.view_reader import load_model
 
     return load_model(options)
+
+
+@functools.cache
+def loaded_prior(settings: PriorSettings):
+    """The prior of ``settings``, loaded once per process."""
+    from platypose.lifting.prior.runtime import load_settings
+
+    return load_settings(settings)
 
 
 def command_reader(options: DetectOptions, cache_dir: Callable[[Path], Path], quiet: bool):

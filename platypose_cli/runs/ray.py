@@ -29,10 +29,16 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from platypose.cli.console import say_over_bar
-from platypose.cli.lift_jobs import Job
-from platypose.cli.lift_run import MANIFEST, RunSettings, remove_stale_staging
-from platypose.cli.ray_address import check_ray_address
+from platypose.cli.runs.fingerprint import fingerprint
+from platypose.cli.runs.job import JOB_LOCK, job_entry, run_job
+from platypose.cli.runs.jobs import Job
+from platypose.cli.runs.locks import Busy, exclusive_lock
+from platypose.cli.runs.outputs import remove_stale_outputs, remove_stale_staging
+from platypose.cli.runs.ray_address import check_ray_address
+from platypose.cli.runs.records import FAILURE, MANIFEST, write_failure
+from platypose.cli.runs.settings import RunSettings
+from platypose.cli.runs.workers import limit_threads
+from platypose.cli.terminal.console import say_over_bar
 from platypose.lifting.errors import InputError
 
 INSTALL_HINT = "--executor ray needs Ray on the driver and every worker: pip install 'platypose[ray]'"
@@ -113,9 +119,6 @@ def lift_on_worker(job: Job, settings: RunSettings, threads: int, cwd: str, coll
     """
     import ray
 
-    from platypose.cli.lift_batch import limit_threads
-    from platypose.cli.lift_run import run_job
-
     if os.path.isdir(cwd):
         os.chdir(cwd)
     limit_threads(threads)
@@ -135,8 +138,6 @@ def write_collected(folder: Path, entry: dict, files: dict[str, bytes], say=say_
     relative to its folder, so it holds as it was written on the worker), removing the outputs of an earlier run
     that this one did not write, as a local run does; the entry with paths in ``folder``. Another run writing the
     folder is waited for, and ``say`` says so."""
-    from platypose.cli.lift_run import JOB_LOCK, remove_stale_outputs
-    from platypose.cli.locks import Busy, exclusive_lock
     from platypose.lifting.files.atomic import atomic_open
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -158,8 +159,6 @@ def write_collected(folder: Path, entry: dict, files: dict[str, bytes], say=say_
                 stream.write(files[relative])
     entry = dict(entry, outputs=[str(folder / Path(p).name) for p in entry["outputs"]])
     if entry["status"] == "ok":
-        from platypose.cli.lift_run import FAILURE
-
         (folder / FAILURE).unlink(missing_ok=True)
     return entry
 
@@ -171,6 +170,13 @@ def ray_failure(err: BaseException) -> str:
         return f"{type(cause).__name__}: {' '.join(str(cause).split())}"
     first = next((line.strip() for line in str(err).splitlines() if line.strip()), "")
     return f"{type(err).__name__}: {first}"
+
+
+def check_fits(ray, cpus_per_input: int) -> None:
+    """InputError when no node of the cluster has ``cpus_per_input`` CPUs (the tasks would wait forever)."""
+    biggest = max((n["Resources"].get("CPU", 0) for n in ray.nodes() if n["Alive"]), default=0)
+    if biggest < cpus_per_input:
+        raise InputError(f"--cpus-per-input {cpus_per_input}: the largest Ray node has {biggest:g} CPU(s)")
 
 
 class RayExecutor:
@@ -199,7 +205,7 @@ class RayExecutor:
         threads = settings.detect.threads or o.cpus_per_input
         worker_settings = replace(settings, detect=replace(settings.detect, threads=threads), quiet=True)
         with connected(o, settings.quiet) as ray:
-            self._check_fits(ray)
+            check_fits(ray, o.cpus_per_input)
             task = ray.remote(num_cpus=o.cpus_per_input, max_retries=o.max_retries, retry_exceptions=False)(
                 lift_on_worker
             )
@@ -249,14 +255,6 @@ class RayExecutor:
                     finish(ref, 0)
                 raise
 
-    def _check_fits(self, ray) -> None:
-        """InputError when no node of the cluster has ``cpus_per_input`` CPUs (the tasks would wait forever)."""
-        biggest = max((n["Resources"].get("CPU", 0) for n in ray.nodes() if n["Alive"]), default=0)
-        if biggest < self.options.cpus_per_input:
-            raise InputError(
-                f"--cpus-per-input {self.options.cpus_per_input}: the largest Ray node has {biggest:g} CPU(s)"
-            )
-
     def _running(self, ray, pending: int) -> int:
         """Inputs running now: the cluster's CPUs in use over CPUs per input (at most the ones not finished)."""
         total, free = ray.cluster_resources().get("CPU", 0), ray.available_resources().get("CPU", 0)
@@ -265,8 +263,6 @@ class RayExecutor:
     def _entry(self, ray, ref, job: Job, settings: RunSettings, seconds: float) -> dict:
         """The summary entry of a finished task; a task Ray gave up on is recorded as failed, with failed.json
         (``seconds``: since the batch's tasks were submitted)."""
-        from platypose.cli.lift_run import job_entry
-
         try:
             entry, files, worker = ray.get(ref)
         except ray.exceptions.RayError as err:
@@ -286,6 +282,4 @@ class RayExecutor:
 
 def record_failure(job: Job, settings: RunSettings, error: str) -> None:
     """Write ``OUT/<name>/failed.json`` for a job whose worker never returned, as the runner does for its own."""
-    from platypose.cli.lift_run import fingerprint, write_failure
-
     write_failure(settings.out / job.name, job, error, fingerprint(job, settings), transient=False)

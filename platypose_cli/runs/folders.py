@@ -1,6 +1,6 @@
 """Each job's output folder ``OUT/<name>/``: one per input, never shared, never another input's.
 
-Names come from file and folder names (:func:`platypose.cli.safe_names.safe_name`), so two inputs can want the same
+Names come from file and folder names (:func:`platypose.cli.terminal.safe_names.safe_name`), so two inputs can want the same
 one (``x/a.mp4`` and ``y/a.mp4``), and a renamed one can want a name a third input has by itself (``a-2.mp4``).
 Every input keeps its own name where it can; the others get the first ``NAME-2``, ``NAME-3``, ... that no input of
 the batch wants (compared without case, for file systems that ignore it). A folder that an earlier run wrote for
@@ -14,17 +14,9 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
-from platypose.cli.bookkeeping import read_record, valid_failure, valid_manifest
-from platypose.cli.lift_jobs import Job
-from platypose.cli.safe_names import distinct_names
-
-MANIFEST = "lift.json"
-FAILURE = "failed.json"
-
-
-def job_sources(job: Job) -> list[str]:
-    """The input files of ``job`` as absolute paths (what its folder's ``lift.json`` records as its owner)."""
-    return [str(Path(v.source).resolve()) for v in job.views]
+from platypose.cli.runs.jobs import Job, job_sources
+from platypose.cli.runs.records import FAILURE, MANIFEST, read_record, valid_failure, valid_manifest
+from platypose.cli.terminal.safe_names import distinct_names
 
 
 def folder_owner(folder: Path) -> tuple[list[str] | None, str | None]:

@@ -1,4 +1,5 @@
-"""The batch's bookkeeping files in ``--out`` (``lift.json``, ``failed.json``, ``summary.json``), read defensively.
+"""The batch's bookkeeping files in ``--out`` (``lift.json``, ``failed.json``, ``summary.json``), read defensively,
+and the records of a job's earlier run that ``--resume`` reads: its failure, the flags it said.
 
 They are only read as regular files of bounded size (a FIFO in their place would block the lift). A damaged one
 (not JSON, nested too deep, too large, not a regular file, or not the structure platypose writes) is moved aside
@@ -15,11 +16,15 @@ from pathlib import Path
 
 import typer
 
-from platypose.cli.safe_names import printable
+from platypose.cli.runs.jobs import Job, job_sources
+from platypose.cli.terminal.safe_names import printable
 from platypose.lifting.errors import InputError
+from platypose.lifting.files.atomic import write_text_atomic
 from platypose.lifting.files.reads import read_regular
 
 MAX_RECORD_BYTES = 64 * 2**20  # a summary of tens of thousands of inputs
+MANIFEST = "lift.json"
+FAILURE = "failed.json"
 
 
 def _strings(value: object) -> bool:
@@ -69,3 +74,33 @@ def read_record(path: Path, valid: Callable[[dict], bool]) -> dict | None:
         where = f"ignored (it cannot be moved aside: {err.strerror or err})"
     typer.echo(printable(f"warning: {path}: damaged ({why}); {where}"), err=True)
     return None
+
+
+def flag_lines(reports: list[dict]) -> list[str]:
+    """The console's lines about a lift's flagged persons, from its plausibility ``reports`` (:func:`lifting.checks.flags.person_lines`)."""
+    from platypose.lifting.checks.flags import person_lines
+
+    return person_lines(reports, [report["track_id"] for report in reports])
+
+
+def earlier_flags(folder: Path) -> list[str]:
+    """The flag lines the finished earlier run in ``folder`` kept in its lift.json (none from older versions)."""
+    flags = (read_record(folder / MANIFEST, valid_manifest) or {}).get("flags")
+    return flags if isinstance(flags, list) and all(isinstance(line, str) for line in flags) else []
+
+
+def write_failure(folder: Path, job: Job, error: str, digest: str, transient: bool) -> None:
+    """Record a failed run of ``job`` in ``folder/failed.json``: its error, the fingerprint of its inputs and
+    settings, and whether the failure was transient (retried by ``--resume``)."""
+    failure = {"input": job.input, "sources": job_sources(job), "error": error, "fingerprint": digest}
+    failure["transient"] = transient
+    write_text_atomic(folder / FAILURE, json.dumps(failure, indent=1))
+
+
+def earlier_failure(folder: Path, digest: str) -> str | None:
+    """The error of an earlier failed run of the same input and settings in ``folder`` that was not transient
+    (a full disk, an I/O error: worth retrying), else None."""
+    failure = read_record(folder / FAILURE, valid_failure)  # a damaged one is moved aside with a warning
+    if failure is None or failure["fingerprint"] != digest or failure.get("transient"):
+        return None
+    return failure["error"]

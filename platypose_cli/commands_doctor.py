@@ -7,10 +7,8 @@ import platform
 import typer
 
 from platypose import __version__
-from platypose.cli.app import app
 
 
-@app.command("doctor")
 def doctor() -> None:
     """Print the versions of platypose and of the libraries it runs on."""
     import cv2

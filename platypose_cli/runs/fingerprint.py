@@ -8,9 +8,15 @@ stamped by their SHA-256; larger files (videos) by size and modification time, a
 
 from __future__ import annotations
 
+import hashlib
+import json
+from dataclasses import replace
 from pathlib import Path
 
-from platypose.cli.output_set import file_digest
+from platypose.cli.runs.jobs import Job
+from platypose.cli.runs.outputs import file_digest
+from platypose.cli.runs.settings import RunSettings
+from platypose.cli.terminal.options import as_json
 
 HASHED_BYTES = 256 * 2**20
 
@@ -30,3 +36,26 @@ def input_stamp(path: Path) -> list:
     if not path.is_file():
         return [path.name, None]
     return [path.name, *_file_stamp(path)]
+
+
+def fingerprint(job: Job, settings: RunSettings) -> str:
+    """A digest of the job's input files and the settings that decide whether it can succeed."""
+    take = settings.take
+    sync_file = Path(take.sync) if take.sync not in ("auto", "none") else None
+    files = [v.source for v in job.views] + [
+        p for p in (settings.cams, take.root_trajectory, settings.prior.path, sync_file) if p
+    ]
+    decisive = [
+        take.sync,
+        str(replace(settings.detect, threads=None)),
+        take.persons,
+        take.root,
+        take.floor,
+        settings.prior.runtime,
+        settings.prior.device,
+        as_json(take.sampler),
+        as_json(take.windows),
+        [input_stamp(Path(f)) for f in files],
+        *([settings.split_seconds] if settings.split_seconds else []),  # seams: a split lift is another result
+    ]
+    return hashlib.sha256(json.dumps(decisive, sort_keys=True, default=str).encode()).hexdigest()

@@ -1,5 +1,5 @@
-"""What ``lift`` and ``demo`` print around a batch: lines that do not run into a progress bar, and at the end the
-files written and the command that opens the recording."""
+"""What the commands print: one line for an OSError; around a batch of ``lift`` and ``demo``, lines that do not run
+into a progress bar, and at the end the files written and the command that opens the recording."""
 
 from __future__ import annotations
 
@@ -12,6 +12,13 @@ from pathlib import Path
 import typer
 
 LISTED_INPUTS = 5  # a batch of more inputs names each one's folder only
+
+
+def describe_os_error(err: OSError) -> str:
+    """One line for an OSError: the file(s) it names and the system's reason."""
+    names = [str(n) for n in (err.filename, err.filename2) if n is not None]
+    reason = err.strerror or str(err)
+    return f"{' -> '.join(names)}: {reason}" if names else reason
 
 
 def say_over_bar(message: str) -> None:

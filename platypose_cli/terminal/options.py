@@ -2,10 +2,12 @@
 
 Every field of a settings class in :mod:`platypose.lifting.settings` made with ``setting(..., option=True)``
 is an option: ``--field-name`` (a switch ``--name/--no-name``), plus its ``also`` spellings, with the
-field's help. A command decorated with ``@settings_options("sampler")`` gets one typer option per such
-field of :data:`SETTINGS`'s class and receives the built settings object in its ``sampler`` parameter; an
-option not given takes the class's default (the one source of defaults; --help shows it), unless the
-command sets its own (``defaults=``).
+field's help (its ``short`` help where a command asks for it) and its ``minimum`` as the option's range. A command
+decorated with ``@settings_options("sampler")`` gets one typer option per such field of :data:`SETTINGS`'s class
+and receives the built settings object in its ``sampler`` parameter; an option not given takes the class's default
+(the one source of defaults; --help shows it), unless the command sets its own (``defaults=``). The groups:
+the sampler, the windows, the prior to load, detection (``detect``: ``lift`` and ``detect``), the prior's
+architecture (``architecture``: ``train``), training and distillation.
 
 To add an option: add the field to the class with ``option=True`` (its check in ``__post_init__``, its
 message naming the field, not a flag); every command using the group has it.
@@ -20,6 +22,7 @@ import typing
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from types import EllipsisType
 
 import typer
 
@@ -32,17 +35,21 @@ SETTINGS = {  # each group of options and its settings class
     "prior": library.PriorSettings,
     "train": library.TrainConfig,
     "distil": library.DistilConfig,
+    "detect": library.DetectOptions,
+    "architecture": library.PriorArchitecture,
 }
 PANELS = {"windows": "Sampler", "prior": "Sampler"}  # groups shown in another group's help panel
 RENAMED = {("prior", "path"): "--prior"}  # fields whose flag is not their name
 CONTEXT = "settings_options_context"  # the typer.Context parameter settings_options adds: which options were given
 FLAG_SPELLINGS = {"detector format": "--detector-format", "person detector": "--person-detector"}
+TEXT = {("detect", "image_size"): "image_size_option"}  # fields given as text, parsed by this module's function
 
 
 @dataclass(frozen=True)
 class Flag:
     """A settings field (``field``, of type ``type``) as a command-line option spelled ``names`` (the first is
-    documented; the others are older spellings kept as aliases), with its ``help``, ``default`` and ``panel``."""
+    documented; the others are older spellings kept as aliases), with its ``help`` (``short``: where a command lists
+    it among many), ``default``, ``panel`` and ``minimum`` (None: no range)."""
 
     field: str
     type: object
@@ -50,6 +57,8 @@ class Flag:
     help: str
     default: object
     panel: str
+    short: str
+    minimum: int | None
 
 
 @functools.cache
@@ -60,10 +69,14 @@ def flags(group: str) -> tuple[Flag, ...]:
     made = []
     for f in library.option_fields(cls):
         kind = next((a for a in typing.get_args(hints[f.name]) if a is not type(None)), hints[f.name])
+        kind = str if (group, f.name) in TEXT else kind
         name = RENAMED.get((group, f.name), "--" + f.name.replace("_", "-"))
         names = (f"{name}/--no-{name[2:]}",) if kind is bool else (name, *(f"--{a}" for a in f.metadata["also"]))
         panel = f.metadata["panel"] or PANELS.get(group, group.title())
-        made.append(Flag(f.name, kind, names, f.metadata["help"], f.default, panel))
+        meta = f.metadata
+        made.append(
+            Flag(f.name, kind, names, meta["help"], f.default, panel, meta["short"] or meta["help"], meta["minimum"])
+        )
     return tuple(made)
 
 
@@ -87,12 +100,17 @@ def settings_options(
     exclude: Sequence[str] = (),
     defaults: Mapping[str, object] | None = None,
     given_only: bool = False,
+    panel: str | None | EllipsisType = ...,
+    short: bool = False,
+    in_place: bool = False,
 ) -> Callable[[Callable], Callable]:
     """Give a typer command one option per row of ``group``'s table (``only`` those fields, or all but
     ``exclude``) and call it with ``group=SettingsClass(**values given)``; a value the class refuses is an
     InputError. An option left out takes the class's default, or this command's ``defaults``. The command
     receives the object in ``parameter`` (default: the group's name); ``given_only``: the dict of the values given
-    instead (for a command that builds one of two classes from them).
+    instead (for a command that builds one of two classes from them). ``panel``: the help panel of every option
+    (None: the command's own; default: the group's), ``short``: the fields' short help; ``in_place``: the options
+    stand where ``parameter`` stands in the command's signature (default: after every other).
     """
     chosen = [f for f in flags(group) if (only is None or f.field in only) and f.field not in exclude]
     defaults = dict(defaults or {})
@@ -108,12 +126,19 @@ def settings_options(
                 f.field,
                 inspect.Parameter.KEYWORD_ONLY,
                 default=typer.Option(
-                    defaults.get(f.field, f.default), *f.names, help=f.help, show_default=True, rich_help_panel=f.panel
+                    defaults.get(f.field, f.default),
+                    *f.names,
+                    help=f.short if short else f.help,
+                    show_default=True,
+                    rich_help_panel=f.panel if panel is ... else panel,
+                    **({} if f.minimum is None else {"min": f.minimum}),
                 ),
                 annotation=f.type if f.field in defaults else f.type | None,
             )
             for f in chosen
         ]
+        names = list(signature.parameters)
+        at = names.index(parameter) if in_place else len(names)
         kept = [
             p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=_resolved(p.annotation, command))
             for n, p in signature.parameters.items()
@@ -126,13 +151,16 @@ def settings_options(
             context = values.get(CONTEXT) if stacked else values.pop(CONTEXT, None)  # an inner one reads it too
             given = {f.field: values.pop(f.field) for f in chosen}
             given = {k: v for k, v in given.items() if v is not None and (k in defaults or _given(context, k))}
+            given = {k: globals()[TEXT[group, k]](v) if (group, k) in TEXT else v for k, v in given.items()}
             built = given if given_only else SETTINGS[group](**given)
             return command(**values, **{parameter: built})
 
-        if not stacked:
-            added.append(inspect.Parameter(CONTEXT, inspect.Parameter.KEYWORD_ONLY, annotation=typer.Context))
-        wrapper.__signature__ = signature.replace(parameters=kept + added)
-        wrapper.__annotations__ = {p.name: p.annotation for p in kept + added}
+        context = (
+            [] if stacked else [inspect.Parameter(CONTEXT, inspect.Parameter.KEYWORD_ONLY, annotation=typer.Context)]
+        )
+        parameters = kept[:at] + added + kept[at:] + context
+        wrapper.__signature__ = signature.replace(parameters=parameters)
+        wrapper.__annotations__ = {p.name: p.annotation for p in parameters}
         del wrapper.__wrapped__  # typer must read the new signature, not the command's
         return wrapper
 
@@ -190,3 +218,13 @@ def int_list(text: str, what: str) -> list[int]:
     if not values or min(values) < 1:
         raise InputError(f"{what}: expected positive integers, got {text!r}")
     return values
+
+
+def image_size_option(value: str | None) -> tuple[int, int] | None:
+    """``--image-size HEIGHTxWIDTH`` -> (height, width); InputError naming the option otherwise."""
+    if value is None:
+        return None
+    height, sep, width = value.lower().partition("x")
+    if not sep or not (height + width).isascii() or not height.isdigit() or not width.isdigit():
+        raise InputError(f"--image-size {value}: give HEIGHTxWIDTH in pixels, e.g. 1080x1920")
+    return int(height), int(width)

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from platypose.cli.safe_names import distinct_names, safe_name
+from platypose.cli.terminal.safe_names import distinct_names, safe_name
 from platypose.detectors.sources import KEYPOINT_SUFFIXES, view_name
 from platypose.detectors.video import VIDEO_SUFFIXES, sibling_video
 from platypose.lifting.calibration.matching import match_views, normalise_view_name
@@ -40,6 +40,11 @@ class Job:
     name: str
     input: str
     views: tuple[View, ...]
+
+
+def job_sources(job: Job) -> list[str]:
+    """The input files of ``job`` as absolute paths (what its folder's ``lift.json`` records as its owner)."""
+    return [str(Path(v.source).resolve()) for v in job.views]
 
 
 def is_video(path: Path) -> bool:
