@@ -9,7 +9,7 @@
    the API does neither); a view's notes (a truncated video) become warnings;
 3. the cameras checked against the views' image sizes, or one view's default camera (:func:`view_cameras`);
 4. sync: each camera's time offset (:mod:`platypose.lifting.sync.choice`);
-5. one clock: persons matched across views, the ``persons`` choice (:func:`platypose.detectors.take.take_keypoints`);
+5. one clock: persons matched across views, the ``persons`` choice (:func:`platypose.detectors.persons.take.take_keypoints`);
 6. roots: each person's pelvis path given, triangulated or solved (:func:`platypose.lifting.tracks.persons.root_paths`);
 7. the floor, the lift, and everything after sampling (:func:`lift_take`: :func:`platypose.lifting.tracks.quick_floor.quick_floor`,
    :func:`platypose.lifting.tracks.persons.lift_persons`, :func:`platypose.lifting.finish.steps.finish_take`);
@@ -77,9 +77,9 @@ def run_take(
     input, before any lifting.
     """
     from platypose import __version__
-    from platypose.detectors.person_choice import describe_choice
-    from platypose.detectors.take import take_keypoints
-    from platypose.detectors.view_agreement import disagreeing_views
+    from platypose.detectors.persons.person_choice import describe_choice
+    from platypose.detectors.persons.take import take_keypoints
+    from platypose.detectors.persons.view_agreement import disagreeing_views
     from platypose.lifting.floor import floor_for_lift
     from platypose.lifting.sync.choice import synchronise
     from platypose.lifting.tracks.persons import root_kinds
@@ -155,7 +155,7 @@ def take_settings(**values: object) -> TakeSettings:
     """:class:`TakeSettings` from ``values`` (natural Python values or the command's strings), with the persons
     choice checked as the detectors read it: the one check of a take's settings the command and the API both make
     before any work (InputError naming the field)."""
-    from platypose.detectors.tracking import persons_count
+    from platypose.detectors.tracking.tracker import persons_count
 
     take = TakeSettings(**values)
     persons_count(take.persons)
@@ -218,9 +218,9 @@ def view_cameras(
 
 def _assumed_camera(name: str, source: Path, track: PoseTrack2D) -> AssumedCamera | None:
     """The camera of the one uncalibrated view ``name`` from its video's scene
-    (:func:`platypose.detectors.scene_frames.view_camera`), or None where its keypoints came without a video."""
-    from platypose.detectors.scene_frames import view_camera
-    from platypose.detectors.video import VIDEO_SUFFIXES
+    (:func:`platypose.detectors.sources.scene_frames.view_camera`), or None where its keypoints came without a video."""
+    from platypose.detectors.sources.scene_frames import view_camera
+    from platypose.detectors.sources.video import VIDEO_SUFFIXES
 
     if not (Path(source).is_file() and Path(source).suffix.lower() in VIDEO_SUFFIXES):
         return None
@@ -333,7 +333,7 @@ def lift_take(
 
 def _video_size(source: Path) -> tuple[int, int] | None:
     """A video view's upright image size (height, width) from its header and first frame; None for keypoints."""
-    from platypose.detectors.sources import is_keypoint_source
+    from platypose.detectors.sources.keypoint_source import is_keypoint_source
     from platypose.media import video_info
 
     path = Path(source)
@@ -362,7 +362,7 @@ def _roots(keypoints, times, cameras, take: TakeSettings, log: JobLog) -> list:
 
     given = None
     if take.root_trajectory is not None:
-        from platypose.detectors.root_file import read_root_trajectory
+        from platypose.detectors.sources.root_file import read_root_trajectory
 
         log(f"root trajectory from {take.root_trajectory}")
         given = list(read_root_trajectory(take.root_trajectory, times, keypoints.shape[2]))

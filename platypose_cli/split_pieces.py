@@ -61,7 +61,7 @@ def detect_piece(video: str, detect, start: int, stamp: int | None, count: int |
     The seconds it took."""
     from platypose.cli.detection import cached_detector
     from platypose.detectors.cache import DetectionCache
-    from platypose.detectors.video_range import iter_frame_range
+    from platypose.detectors.sources.video_range import iter_frame_range
 
     model = cached_detector(detect)
     started = time.perf_counter()

@@ -29,7 +29,7 @@ def estimated_cameras(args) -> list[tuple[str, object, str]]:
         for camera in read_npz(path).cameras:
             found.append((camera.name, camera, "lift"))
     for path in args.keypoints or []:
-        from platypose.detectors.sources import read_keypoints
+        from platypose.detectors.sources.keypoint_source import read_keypoints
         from platypose.lifting.calibration.one_view import fit_view
 
         name, keypoints, times, size = _keypoints(Path(path), read_keypoints)

@@ -134,7 +134,7 @@ def test_views_at_60_and_30_fps_are_refused(data_dir, tmp_path: Path) -> None:
     folder.mkdir()
     code = (
         "import sys; from pathlib import Path; sys.path.insert(0, 'tests'); import conftest;"
-        "from platypose.detectors.video import iter_frames;"
+        "from platypose.detectors.sources.video import iter_frames;"
         "take, out = Path(sys.argv[1]), Path(sys.argv[2]);"
         "conftest._write_clip(out / 'cam02.mp4', [f for _, f in iter_frames(take / 'cam02.mp4', max_frames=12)], 30.0);"
         "conftest._write_clip(out / 'cam01.mp4', [f for _, f in iter_frames(take / 'cam01.mp4', max_frames=24)], 60.0)"

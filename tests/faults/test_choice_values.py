@@ -13,8 +13,8 @@ import pytest
 
 from platypose.cli.detection import image_size_option
 from platypose.cli.ray_address import host_port
-from platypose.detectors.person_choice import parse_persons
-from platypose.detectors.tracking import persons_to_keep
+from platypose.detectors.persons.person_choice import parse_persons
+from platypose.detectors.tracking.tracker import persons_to_keep
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.calibration import load_calibration, save_calibration
 from platypose.lifting.errors import InputError
@@ -64,7 +64,7 @@ def test_counts_and_ids_are_unmistakable() -> None:
 
 
 def test_the_rule_that_picked_is_said() -> None:
-    from platypose.detectors.person_choice import describe_choice
+    from platypose.detectors.persons.person_choice import describe_choice
 
     assert describe_choice("largest:2", [3, 0]) == (
         "persons largest:2: the 2 largest by size summed over frames and views: p3, p0"

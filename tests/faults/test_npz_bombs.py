@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.detectors.keypoint_files import read_keypoints_npz
-from platypose.detectors.root_file import read_root_trajectory
+from platypose.detectors.sources.keypoint_files import read_keypoints_npz
+from platypose.detectors.sources.root_file import read_root_trajectory
 from platypose.lifting.errors import InputError
 from platypose.lifting.motion_io import load_motion
 from platypose.lifting.skeleton import JOINT_NAMES

@@ -14,7 +14,7 @@ TAKE = "video/pose2sim-balancing"
 @pytest.fixture(scope="module")
 def take_views(data_dir):
     """The bundled take's cameras, tracks (OpenPose, 60 fps) and each view's main person."""
-    from platypose.detectors.openpose import read_openpose_folder
+    from platypose.detectors.sources.openpose import read_openpose_folder
     from platypose.lifting.calibration import load_calibration
 
     cal = load_calibration(data_dir / TAKE / "calib_pose2sim.toml")
@@ -66,8 +66,8 @@ def test_sync_offsets_bounded_and_still_or_short_views_warned(run_cli, data_dir,
 
 
 def test_views_at_different_frame_rates_are_refused(data_dir, take_views) -> None:
-    from platypose.detectors.openpose import read_openpose_folder
-    from platypose.detectors.take import take_keypoints
+    from platypose.detectors.persons.take import take_keypoints
+    from platypose.detectors.sources.openpose import read_openpose_folder
 
     cameras, tracks = take_views
     slow = read_openpose_folder(data_dir / TAKE / "openpose-body25b/cam02_json", fps=30, image_size=cameras[1].size)
@@ -79,8 +79,8 @@ def test_views_at_different_frame_rates_are_refused(data_dir, take_views) -> Non
 def test_swapped_cameras_warned_and_views_judged_by_persons_seen_well(take_views) -> None:
     import numpy as np
 
-    from platypose.detectors.take import take_keypoints
-    from platypose.detectors.view_agreement import disagreeing_views
+    from platypose.detectors.persons.take import take_keypoints
+    from platypose.detectors.persons.view_agreement import disagreeing_views
     from platypose.lifting.tracks.persons import reprojection_report
     from platypose.lifting.triangulation import triangulate
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from platypose.detectors.pose_metrics import person_size, pose_distance
+from platypose.detectors.tracking.pose_metrics import person_size, pose_distance
 from platypose.lifting.skeleton import JOINT_INDEX
 
 _SEGMENT_NAMES = (

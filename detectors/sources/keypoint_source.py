@@ -5,11 +5,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from platypose.detectors.keypoint_files import read_keypoints_csv, read_keypoints_npz
-from platypose.detectors.keypoint_json import FORMAT, read_keypoints_json
-from platypose.detectors.mmpose import read_mmpose_json
-from platypose.detectors.openpose import read_openpose_folder
-from platypose.detectors.tracking import TrackerConfig
+from platypose.detectors.sources.keypoint_files import read_keypoints_csv, read_keypoints_npz
+from platypose.detectors.sources.keypoint_json import FORMAT, read_keypoints_json
+from platypose.detectors.sources.mmpose import read_mmpose_json
+from platypose.detectors.sources.openpose import read_openpose_folder
+from platypose.detectors.tracking.tracker import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.errors import InputError
 

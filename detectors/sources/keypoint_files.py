@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.detectors.keypoint_checks import check_tracks
+from platypose.detectors.sources.keypoint_checks import check_tracks
+from platypose.detectors.sources.video import timing_from_video
 from platypose.detectors.types import PoseTrack2D
-from platypose.detectors.video import timing_from_video
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.atomic import atomic_open
 from platypose.lifting.files.npz_limits import check_npz_sizes

@@ -17,16 +17,16 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-from platypose.detectors.detector import Detector
-from platypose.detectors.movenet import DEFAULT_LONGEST, MoveNetMultiPose
-from platypose.detectors.persons import load_person_detector
-from platypose.detectors.rtmo import RTMO
-from platypose.detectors.session import CPU, open_session
-from platypose.detectors.topdown import TopDown
-from platypose.detectors.yolo_pose import YoloPose
+from platypose.detectors.models.detector import Detector
+from platypose.detectors.models.movenet import DEFAULT_LONGEST, MoveNetMultiPose
+from platypose.detectors.models.person_detector import load_person_detector
+from platypose.detectors.models.rtmo import RTMO
+from platypose.detectors.models.session import CPU, open_session
+from platypose.detectors.models.topdown import TopDown
+from platypose.detectors.models.yolo_pose import YoloPose
 from platypose.lifting.errors import InputError
 
-BUNDLED_MODEL = Path(__file__).resolve().parent / "models" / "movenet-multipose.onnx"
+BUNDLED_MODEL = Path(__file__).resolve().parent / "movenet-multipose.onnx"
 FORMATS: tuple[str, ...] = ("movenet", "yolo-pose", "rtmo", "rtmpose", "heatmap")
 TOP_DOWN: tuple[str, ...] = ("rtmpose", "heatmap")
 

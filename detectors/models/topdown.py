@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.detectors.boxes import crop_for_box
 from platypose.detectors.keypoints import model_layout
-from platypose.detectors.onnx_io import input_hw, to_nchw
+from platypose.detectors.models.boxes import crop_for_box
+from platypose.detectors.models.onnx_io import input_hw, to_nchw
 
 MEAN = (123.675, 116.28, 103.53)
 STD = (58.395, 57.12, 57.375)

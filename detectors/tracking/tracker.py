@@ -10,8 +10,8 @@ person sizes (repairs the ID switches left by occlusions and missed
 detections); best pairs first, each fragment joined at most once per end.
 Tracks with fewer than ``min_track_frames`` observed frames are dropped. Last,
 with ``repair_switches``, two tracks that came close and switched identities are
-swapped back from the switch on (``detectors.id_repair``). With ``repair_sides``, frames where the detector
-labelled a person's left as their right are relabelled (``detectors.side_swaps``).
+swapped back from the switch on (``detectors.tracking.id_repair``). With ``repair_sides``, frames where the detector
+labelled a person's left as their right are relabelled (``detectors.tracking.side_swaps``).
 """
 
 from __future__ import annotations
@@ -22,11 +22,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from platypose.detectors.id_repair import SwitchRepairConfig, repair_id_switches
 from platypose.detectors.keypoints import missing_persons
-from platypose.detectors.person_choice import check_point_in_image, indices_of_ids, nearest_track, parse_persons
-from platypose.detectors.pose_metrics import person_size, pose_distance
-from platypose.detectors.side_swaps import repair_side_swaps
+from platypose.detectors.persons.person_choice import check_point_in_image, indices_of_ids, nearest_track, parse_persons
+from platypose.detectors.tracking.id_repair import SwitchRepairConfig, repair_id_switches
+from platypose.detectors.tracking.pose_metrics import person_size, pose_distance
+from platypose.detectors.tracking.side_swaps import repair_side_swaps
 from platypose.detectors.types import PoseTrack2D
 
 _NO_MATCH = 1e6
@@ -45,7 +45,7 @@ class TrackerConfig:
     min_confidence: float = 0.2
     min_track_frames: int = 3
     repair_switches: bool = True  # swap identities back where two tracks that came close were switched
-    repair_sides: bool = True  # undo the detector's left/right label swaps (detectors.side_swaps)
+    repair_sides: bool = True  # undo the detector's left/right label swaps (detectors.tracking.side_swaps)
 
 
 @dataclass
@@ -172,14 +172,14 @@ def track_detections(
 
 
 def persons_count(persons: str) -> int | None:
-    """Check a ``persons`` choice (:func:`platypose.detectors.person_choice.parse_persons`; InputError if bad): N for
+    """Check a ``persons`` choice (:func:`platypose.detectors.persons.person_choice.parse_persons`; InputError if bad): N for
     ``largest`` (1) or ``largest:N``, None for the others (all, ids, a point)."""
     kind, value = parse_persons(persons)
     return value if kind == "count" else None
 
 
 def persons_to_keep(views: Sequence[PoseTrack2D], persons: str) -> np.ndarray | None:
-    """Indices along P (shared by the views) of the ``persons`` choice (:mod:`platypose.detectors.person_choice`):
+    """Indices along P (shared by the views) of the ``persons`` choice (:mod:`platypose.detectors.persons.person_choice`):
     the largest first by size summed over frames and views, the tracks of given ids, or the track nearest a pixel
     of the first view where it is first seen; None for ``all``."""
     kind, value = parse_persons(persons)

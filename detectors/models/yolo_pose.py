@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.detectors.boxes import center_to_corners, nms
 from platypose.detectors.keypoints import model_layout
-from platypose.detectors.letterbox import letterbox
-from platypose.detectors.onnx_io import input_hw, to_nchw
+from platypose.detectors.models.boxes import center_to_corners, nms
+from platypose.detectors.models.letterbox import letterbox
+from platypose.detectors.models.onnx_io import input_hw, to_nchw
 
 
 class YoloPose:

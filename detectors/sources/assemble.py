@@ -3,8 +3,8 @@
 Frame numbers missing between the first and the last become frames with no
 detection (NaN, confidence 0), so times stay right. Implausible values (a gap
 of many frames, a crowd, points far outside the image) are refused by
-:mod:`detectors.keypoint_checks` before any tracking. People that all carry a
-track ID keep it; otherwise :mod:`detectors.tracking` assigns IDs.
+:mod:`detectors.sources.keypoint_checks` before any tracking. People that all carry a
+track ID keep it; otherwise :mod:`detectors.tracking.tracker` assigns IDs.
 """
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from platypose.detectors.keypoint_checks import (
+from platypose.detectors.keypoints import to_our_joints
+from platypose.detectors.sources.keypoint_checks import (
     check_fps,
     check_frame_numbers,
     check_frame_span,
@@ -21,8 +22,7 @@ from platypose.detectors.keypoint_checks import (
     check_people_count,
     check_points,
 )
-from platypose.detectors.keypoints import to_our_joints
-from platypose.detectors.tracking import TrackerConfig, track_detections, tracks_from_ids
+from platypose.detectors.tracking.tracker import TrackerConfig, track_detections, tracks_from_ids
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.errors import InputError
 from platypose.lifting.joint_maps import KEYPOINT_LAYOUTS

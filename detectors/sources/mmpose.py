@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.detectors.assemble import Person, assemble_tracks
-from platypose.detectors.keypoint_checks import describe_parse_error, whole_number
 from platypose.detectors.keypoints import model_layout
-from platypose.detectors.tracking import TrackerConfig
+from platypose.detectors.sources.assemble import Person, assemble_tracks
+from platypose.detectors.sources.keypoint_checks import describe_parse_error, whole_number
+from platypose.detectors.sources.video import timing_from_video
+from platypose.detectors.tracking.tracker import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
-from platypose.detectors.video import timing_from_video
 from platypose.lifting.errors import InputError
 
 

@@ -12,7 +12,7 @@ the reading per frame that minimises
     sum over consecutive seen frames of  sum over the group's joints  c |x_t - x_s|^2 / size^2   +   SWAP_COST per exchanged frame,
 
 ``x_t``, ``x_s`` a joint in the two frames' readings, ``c`` the lower of its two confidences, ``size`` the person's
-size (:func:`platypose.detectors.pose_metrics.person_size`). The detector's labels are kept unless exchanging them
+size (:func:`platypose.detectors.tracking.pose_metrics.person_size`). The detector's labels are kept unless exchanging them
 makes the motion steadier by more than ``SWAP_COST`` a frame: where two limbs cross (a walker's ankles passing) both
 readings move alike and the labels stay; a track read swapped throughout would pay on every frame, so the labels
 the detector gives most of the time win.
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.detectors.pose_metrics import person_size
+from platypose.detectors.tracking.pose_metrics import person_size
 from platypose.lifting.skeleton import JOINT_INDEX, MIRROR
 
 SWAP_COST = 0.05  # per exchanged frame, in squared person sizes (one joint 0.22 sizes steadier pays for it)

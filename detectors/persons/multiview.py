@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from platypose.detectors.keypoints import missing_persons
-from platypose.detectors.tracking import person_size
+from platypose.detectors.tracking.tracker import person_size
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.calibration.matching import gather_views
 from platypose.lifting.camera import Camera

@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.cache import DetectionCache, cache_key
-from platypose.detectors.detector import Detector
 from platypose.detectors.keypoints import to_our_joints
-from platypose.detectors.tracking import TrackerConfig, track_detections
+from platypose.detectors.models.detector import Detector
+from platypose.detectors.sources.video import decoding_shortfall, iter_frames, processed_times, video_info
+from platypose.detectors.tracking.tracker import TrackerConfig, track_detections
 from platypose.detectors.types import PoseTrack2D
-from platypose.detectors.video import decoding_shortfall, iter_frames, processed_times, video_info
 
 Progress = Callable[[int, int], None]
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.detectors.letterbox import fit_size, letterbox
+from platypose.detectors.models.letterbox import fit_size, letterbox
 
 DEFAULT_LONGEST = 384  # input size of the longest side; why not 256: docs/keypoints.md
 

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from platypose.detectors.tracking import persons_to_keep
+from platypose.detectors.tracking.tracker import persons_to_keep
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.calibration.matching import gather_views
 from platypose.lifting.camera import Camera
@@ -43,7 +43,7 @@ def take_keypoints(
     """
     check_frame_rates(views, source)
     if len(views) > 1:
-        from platypose.detectors.multiview import match_across_views
+        from platypose.detectors.persons.multiview import match_across_views
 
         views = match_across_views(views, cameras)
     keep = persons_to_keep(views, persons)

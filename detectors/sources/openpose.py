@@ -7,7 +7,7 @@ file are kept as frames with no detection (NaN, confidence 0), so times stay
 right; the gap is reported by :func:`missing_frames`. A file numbered far past
 the others (more than ``keypoint_checks.MAX_GAP_FRAMES`` after the one before)
 is an error naming it. OpenPose's ``person_id``
-is usually -1, so people are tracked by :mod:`detectors.tracking`. A point
+is usually -1, so people are tracked by :mod:`detectors.tracking.tracker`. A point
 OpenPose did not find is written as (0, 0, 0) and becomes missing.
 """
 
@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.detectors.assemble import Person, assemble_tracks
-from platypose.detectors.keypoint_checks import check_frame_numbers, describe_parse_error
-from platypose.detectors.tracking import TrackerConfig
+from platypose.detectors.sources.assemble import Person, assemble_tracks
+from platypose.detectors.sources.keypoint_checks import check_frame_numbers, describe_parse_error
+from platypose.detectors.sources.video import timing_from_video
+from platypose.detectors.tracking.tracker import TrackerConfig
 from platypose.detectors.types import PoseTrack2D
-from platypose.detectors.video import timing_from_video
 from platypose.lifting.errors import InputError
 
 _LAYOUT_BY_COUNT = {17: "coco17", 18: "coco18", 26: "halpe26", 133: "wholebody133"}

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.detectors.boxes import nms
 from platypose.detectors.keypoints import model_layout
-from platypose.detectors.letterbox import letterbox
-from platypose.detectors.onnx_io import input_hw, outputs_by_rank, to_nchw
+from platypose.detectors.models.boxes import nms
+from platypose.detectors.models.letterbox import letterbox
+from platypose.detectors.models.onnx_io import input_hw, outputs_by_rank, to_nchw
 
 
 class RTMO:

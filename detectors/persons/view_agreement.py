@@ -1,6 +1,6 @@
 """Whether a take's views see the same people: the sign of cameras swapped between calibration and videos.
 
-After persons are matched across views (:mod:`platypose.detectors.multiview`), a person one view sees is usually
+After persons are matched across views (:mod:`platypose.detectors.persons.multiview`), a person one view sees is usually
 seen by another view in the same frame. When a view's video is paired with another camera's calibration, its
 detections triangulate with nobody and stay persons of their own: that view's share of matched detections falls
 to about nothing, and the take seems to hold more people than any view shows.

@@ -73,6 +73,6 @@ def timing_from_video(
         info = video_info(video)
         fps = info.fps if fps is None else fps
         image_size = info.image_size if image_size is None else image_size
-    from platypose.detectors.keypoint_checks import check_fps, check_image_size
+    from platypose.detectors.sources.keypoint_checks import check_fps, check_image_size
 
     return check_fps(str(path), fps), check_image_size(str(path), (int(image_size[0]), int(image_size[1])))

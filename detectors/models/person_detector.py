@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.detectors.boxes import center_to_corners, nms
-from platypose.detectors.letterbox import letterbox
-from platypose.detectors.onnx_io import input_hw, to_nchw
-from platypose.detectors.session import open_session
+from platypose.detectors.models.boxes import center_to_corners, nms
+from platypose.detectors.models.letterbox import letterbox
+from platypose.detectors.models.onnx_io import input_hw, to_nchw
+from platypose.detectors.models.session import open_session
 from platypose.lifting.errors import InputError
 
 _STRIDES = (8, 16, 32)
