@@ -1,27 +1,25 @@
-"""Values a user types or passes through the API for who to lift, the floor, sync offsets and addresses: digits
-are ASCII digits, counts and ids cannot be mistaken, booleans are not numbers, NumPy scalars are numbers, and a
-point outside the image is refused (each an InputError naming the option and the problem)."""
+"""Values a user types or passes through the API for who to lift, the floor, sync offsets, addresses and sampler
+numbers: digits are ASCII digits, counts and ids cannot be mistaken, booleans are not numbers, NumPy scalars are
+numbers, and a point outside the image is refused (each an InputError naming the option and the problem). The audit
+cases (marker ``audit``, run with ``pytest -m audit``) type them into the real CLI; each must end in a clean error
+checked for its words (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
-import json
-import re
 from pathlib import Path
 
 import numpy as np
 import pytest
+from audit_support import Case, Run, check_case, lift_args, openpose_copy, registry
 
 from platypose.cli.detection import image_size_option
 from platypose.cli.ray_address import host_port
 from platypose.detectors.persons.person_choice import parse_persons
 from platypose.detectors.tracking.tracker import persons_to_keep
 from platypose.detectors.types import PoseTrack2D
-from platypose.lifting.calibration import load_calibration, save_calibration
 from platypose.lifting.errors import InputError
 from platypose.lifting.settings import TakeSettings
 from platypose.pipeline import take_settings
-
-CALIB = Path(__file__).resolve().parents[2] / "data/video/pose2sim-balancing/calib_pose2sim.toml"
 
 
 @pytest.mark.parametrize("text", ["²", "³,", "@²,5", "largest:²", "id:٣", "1_0,", "@1_0,5", "@1e999,5"])
@@ -108,15 +106,52 @@ def test_sync_offsets_take_numpy_scalars() -> None:
         offsets_by_name({"cam01": True}, ["cam01"], "sync")
 
 
-@pytest.mark.parametrize("offset", [1e308, -1e6])
-def test_calibration_time_offset_is_bounded(tmp_path: Path, offset: float) -> None:
-    path = tmp_path / "c.json"
-    save_calibration(path, load_calibration(CALIB))
-    content = json.loads(path.read_text())
-    content["cameras"][1]["time_offset_s"] = offset
-    path.write_text(json.dumps(content))
-    expected = (
-        f"c.json: camera 'cam_02' time_offset_s {offset:g} is out of range (a finite number of seconds, at most 86400"
-    )
-    with pytest.raises(InputError, match=re.escape(expected)):
-        load_calibration(path)
+CASES: list[Case] = []
+case = registry(CASES)
+
+
+@case("persons-superscript")
+def _(w: Path) -> Run:
+    return Run(lift_args(openpose_copy(w), w / "out", "--persons", "²"), says=("--persons", "got '²'"))
+
+
+@case("ray-port-superscript")
+def _(w: Path) -> Run:
+    args = lift_args(openpose_copy(w), w / "out", "--executor", "ray", "--ray-address", "127.0.0.1:²")
+    return Run(args, says=("--ray-address 127.0.0.1:²: not an address",))
+
+
+@case("persons-point-outside-the-image")
+def _(w: Path) -> Run:
+    args = lift_args(openpose_copy(w), w / "out", "--persons", "@-50000,-50000")
+    return Run(args, says=("@-50000,-50000: the point is outside the first view's image (1088x1920 pixels",))
+
+
+@case("persons-plain-number-is-ambiguous")
+def _(w: Path) -> Run:
+    args = lift_args(openpose_copy(w), w / "out", "--persons", "1")
+    return Run(args, says=("a plain number is ambiguous; write largest:1", "id:1"))
+
+
+@case("temperature-just-over-its-bound-says-both-as-they-are")
+def _(w: Path) -> Run:
+    args = lift_args(openpose_copy(w), w / "out", "--temperature", "1000000.5")
+    return Run(args, says=("--temperature", "must be between -1,000,000 and 1,000,000, got 1000000.5"))
+
+
+@case("split-with-a-max-gap-of-1e308")
+def _(w: Path) -> Run:
+    args = lift_args(openpose_copy(w), w / "out", "--max-gap", "1e308", "--split-seconds", "2", "--jobs", "2")
+    return Run(args, says=("--max-gap", "from 0 to 86400 (a day), got 1e+308"))
+
+
+@case("energy-scale-1e308")
+def _(w: Path) -> Run:
+    args = lift_args(openpose_copy(w), w / "out", "--energy-scale", "1e308")
+    return Run(args, says=("energy-scale", "must be between -1,000,000 and 1,000,000, got 1e+308"))
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
+def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
+    check_case(audit_case, tmp_path)
