@@ -1,4 +1,4 @@
-"""Pitch, roll, focal length and height errors of estimated cameras against a calibration (issue 35's table).
+"""Pitch, roll, focal length and height errors of estimated cameras against a calibration, as a table.
 
 Each estimated camera is either the one a lift wrote (``--npz OUT.npz``: its ``cameras``, in the estimated world)
 or estimated here from a view's 2D keypoints (``--keypoints FOLDER``, an OpenPose folder or keypoint file, the

@@ -1,4 +1,4 @@
-"""Pitch, roll and focal length of each video's camera from its scene's lines, against a calibration (issue 48).
+"""Pitch, roll and focal length of each video's camera from its scene's lines, against a calibration.
 
 Each video's camera is estimated from its own frames alone (no detections, no metadata:
 :func:`platypose.detectors.sources.scene_frames.video_scene_camera`) and compared with the calibration's camera of the
