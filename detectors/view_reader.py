@@ -13,7 +13,7 @@ from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
-from platypose.detectors.detector import Detector
+from platypose.detectors.models.detector import Detector
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.settings import DetectOptions
 
@@ -40,8 +40,8 @@ class ViewRead:
 
 
 def load_model(options: DetectOptions) -> Detector:
-    """The pose model ``options`` name (:func:`platypose.detectors.contracts.load_detector`)."""
-    from platypose.detectors.contracts import load_detector
+    """The pose model ``options`` name (:func:`platypose.detectors.models.contracts.load_detector`)."""
+    from platypose.detectors.models.contracts import load_detector
 
     o = options
     return load_detector(o.detector, o.detector_format, o.person_detector, o.threads, o.provider, o.movenet_size)
@@ -63,14 +63,14 @@ class ViewReader:
 
     def __call__(self, source: Path) -> ViewRead:
         """The tracks of the view at ``source``; InputError for a source that is neither keypoints nor a video."""
-        from platypose.detectors.sources import is_keypoint_source, read_keypoints
+        from platypose.detectors.sources.keypoint_source import is_keypoint_source, read_keypoints
 
         o, started = self.options, time.perf_counter()
         if is_keypoint_source(source):
             tracks = read_keypoints(source, fps=o.fps, image_size=o.image_size)
             return ViewRead(tracks, time.perf_counter() - started, None)
-        from platypose.detectors.pipeline import detect_video
-        from platypose.detectors.video import video_info
+        from platypose.detectors.sources.video import video_info
+        from platypose.detectors.video_detection import detect_video
 
         info = video_info(source)
         if self.model is None:

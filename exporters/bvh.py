@@ -21,7 +21,7 @@ import numpy as np
 
 from platypose.exporters.euler import EULER_ORDERS, continuous_euler, euler_to_matrix, local_euler
 from platypose.exporters.frames import Lead, frame_chunks
-from platypose.exporters.gaps import fill_frames, fill_plan, present_frames
+from platypose.exporters.gaps import fill_frames, fill_plan
 from platypose.exporters.ik import (
     CHILDREN,
     body_directions,
@@ -31,6 +31,7 @@ from platypose.exporters.ik import (
     refine_rotations,
     rest_offsets,
 )
+from platypose.exporters.presence import present_frames
 from platypose.exporters.twist import limit_twists
 from platypose.lifting.files.atomic import atomic_open
 from platypose.lifting.motion_io.kinematics import forward_kinematics

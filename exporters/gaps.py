@@ -2,7 +2,8 @@
 
 A person is absent in a frame when no view saw them (the npz holds NaN there, the
 source of truth), or when their joints all lie within ``MIN_BODY_EXTENT_M`` of one point (a lift collapsed to a
-point has no bones to fit: no rotation, no scale; :func:`present_frames`). Every other file (BVH, TRC, C3D, the CSVs, the joint angles)
+point has no bones to fit: no rotation, no scale; :func:`platypose.exporters.presence.present_frames`). Every other
+file (BVH, TRC, C3D, the CSVs, the joint angles)
 holds every frame of the clip for every person it writes, filled by one rule:
 
 - a gap between two present frames is interpolated linearly in time, joint by
@@ -29,17 +30,6 @@ import numpy as np
 from platypose.exporters.frames import Lead
 from platypose.exporters.result import LiftResult
 from platypose.lifting.files.atomic import write_text_atomic
-
-MIN_BODY_EXTENT_M = 0.05  # a person whose 17 joints fit in a box this wide (any axis) is no body
-
-
-def present_frames(joints: np.ndarray) -> np.ndarray:
-    """Frames ``(..., T)`` of joints ``(..., T, 17, 3)`` metres that hold a body: every joint finite and the joints
-    spread over at least ``MIN_BODY_EXTENT_M`` along some axis."""
-    finite = np.isfinite(joints).all(axis=(-1, -2))
-    with np.errstate(invalid="ignore"):
-        extent = np.nan_to_num(np.ptp(joints, axis=-2).max(axis=-1), nan=0.0)
-    return finite & (extent >= MIN_BODY_EXTENT_M)
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from platypose.exporters.frames import FrameArray, frame_chunks
+from platypose.exporters.presence import present_frames
 from platypose.lifting.camera import Camera
 from platypose.lifting.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS
 from platypose.lifting.tracks.roots import seen_frames
@@ -79,9 +80,7 @@ class LiftResult:
 
     def present(self) -> np.ndarray:
         """Frames where each person is present, (P, T) bool: the median finite and a body, not collapsed to a point
-        (:func:`platypose.exporters.gaps.present_frames`)."""
-        from platypose.exporters.gaps import present_frames
-
+        (:func:`platypose.exporters.presence.present_frames`)."""
         return np.concatenate([present_frames(self.median[:, t]) for t in frame_chunks(self.num_frames)], axis=1)
 
     def collapsed(self) -> list[int]:

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.exporters import rerun_adapter as rra
+import platypose.exporters.rerun_adapter as rra
 from platypose.exporters.frames import frame_chunks
 from platypose.exporters.result import LiftResult
 from platypose.exporters.rrd_floor import log_floor_and_plausibility, log_who

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from platypose.exporters import rerun_adapter as rra
+import platypose.exporters.rerun_adapter as rra
 
 
 def video_stamps(video_seconds: np.ndarray, frame_times: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:

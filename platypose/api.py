@@ -89,7 +89,7 @@ def lift(
     (``meta["sync"]``) and the log's warnings, a truncated video's among them); InputError naming the argument
     for a bad one, and for bad input, as the CLI.
     """
-    from platypose.detectors.sources import view_name
+    from platypose.detectors.sources.keypoint_source import view_name
     from platypose.detectors.view_reader import ViewReader
     from platypose.pipeline import run_take
 

@@ -9,7 +9,7 @@
    the API does neither); a view's notes (a truncated video) become warnings;
 3. the cameras checked against the views' image sizes, or one view's default camera (:func:`view_cameras`);
 4. sync: each camera's time offset (:mod:`platypose.lifting.sync.choice`);
-5. one clock: persons matched across views, the ``persons`` choice (:func:`platypose.detectors.take.take_keypoints`);
+5. one clock: persons matched across views, the ``persons`` choice (:func:`platypose.detectors.persons.take.take_keypoints`);
 6. roots: each person's pelvis path given, triangulated or solved (:func:`platypose.lifting.tracks.persons.root_paths`);
 7. the floor, the lift, and everything after sampling (:func:`lift_take`: :func:`platypose.lifting.tracks.quick_floor.quick_floor`,
    :func:`platypose.lifting.tracks.persons.lift_persons`, :func:`platypose.lifting.finish.steps.finish_take`);
@@ -77,9 +77,9 @@ def run_take(
     input, before any lifting.
     """
     from platypose import __version__
-    from platypose.detectors.person_choice import describe_choice
-    from platypose.detectors.take import take_keypoints
-    from platypose.detectors.view_agreement import disagreeing_views
+    from platypose.detectors.persons.person_choice import describe_choice
+    from platypose.detectors.persons.take import take_keypoints
+    from platypose.detectors.persons.view_agreement import disagreeing_views
     from platypose.lifting.floor import floor_for_lift
     from platypose.lifting.sync.choice import synchronise
     from platypose.lifting.tracks.persons import root_kinds
@@ -209,9 +209,9 @@ def view_cameras(
 
 def _assumed_camera(name: str, source: Path, track: PoseTrack2D) -> AssumedCamera | None:
     """The camera of the one uncalibrated view ``name`` from its video's scene
-    (:func:`platypose.detectors.scene_frames.view_camera`), or None where its keypoints came without a video."""
-    from platypose.detectors.scene_frames import view_camera
-    from platypose.detectors.video import VIDEO_SUFFIXES
+    (:func:`platypose.detectors.sources.scene_frames.view_camera`), or None where its keypoints came without a video."""
+    from platypose.detectors.sources.scene_frames import view_camera
+    from platypose.detectors.sources.video import VIDEO_SUFFIXES
 
     if not (Path(source).is_file() and Path(source).suffix.lower() in VIDEO_SUFFIXES):
         return None
@@ -309,7 +309,7 @@ def lift_take(
 
 def _video_size(source: Path) -> tuple[int, int] | None:
     """A video view's upright image size (height, width) from its header and first frame; None for keypoints."""
-    from platypose.detectors.sources import is_keypoint_source
+    from platypose.detectors.sources.keypoint_source import is_keypoint_source
     from platypose.media import video_info
 
     path = Path(source)
@@ -338,7 +338,7 @@ def _roots(keypoints, times, cameras, settings: TakeSettings, log: JobLog) -> li
 
     given = None
     if settings.root_trajectory is not None:
-        from platypose.detectors.root_file import read_root_trajectory
+        from platypose.detectors.sources.root_file import read_root_trajectory
 
         log(f"root trajectory from {settings.root_trajectory}")
         given = list(read_root_trajectory(settings.root_trajectory, times, keypoints.shape[2]))

@@ -236,7 +236,7 @@ def bench(
 
     from platypose.cli.runs.bench_clip import peak_rss_mb
     from platypose.cli.runs.workers import threads_for
-    from platypose.detectors.tracking import persons_count
+    from platypose.detectors.tracking.tracker import persons_count
     from platypose.lifting.errors import InputError
     from platypose.lifting.files.atomic import write_text_atomic
     from platypose.lifting.prior.model import DEFAULT_PRIOR

@@ -34,7 +34,7 @@ def convert(
 
     Given a video instead, write a one-camera calibration from its size: field-of-view prior, level camera at the origin.
     """
-    from platypose.detectors.video import VIDEO_SUFFIXES, video_info
+    from platypose.detectors.sources.video import VIDEO_SUFFIXES, video_info
     from platypose.lifting.calibration import load_calibration, save_calibration
     from platypose.lifting.calibration.defaults import default_calibration
     from platypose.lifting.files.atomic import check_writable
@@ -53,7 +53,7 @@ def convert(
 
 def _check_videos(calibration, videos: list[Path]) -> None:
     """Match videos to cameras and warn about size differences."""
-    from platypose.detectors.video import video_info
+    from platypose.detectors.sources.video import video_info
     from platypose.lifting.calibration.matching import match_views
     from platypose.lifting.calibration.report import size_mismatch
 
@@ -66,7 +66,7 @@ def _check_videos(calibration, videos: list[Path]) -> None:
 
 def _check_keypoints(calibration, folder: Path, fps: float | None, sync: str) -> None:
     """Triangulate multi-view 2D keypoints (on one clock as ``sync`` says) and print the median reprojection error."""
-    from platypose.detectors.openpose import read_openpose_folder
+    from platypose.detectors.sources.openpose import read_openpose_folder
     from platypose.lifting.calibration.matching import gather_views, match_views
     from platypose.lifting.errors import InputError
     from platypose.lifting.sync.choice import synchronise

@@ -46,9 +46,9 @@ def _comparison(tracks, reference_path: Path, fps: float | None, image_size: tup
     """Lines with the per-joint median pixel distance from the reference's main person to the nearest track."""
     import numpy as np
 
-    from platypose.detectors.compare import distances_to_reference
-    from platypose.detectors.sources import read_keypoints
-    from platypose.detectors.tracking import persons_to_keep
+    from platypose.detectors.sources.keypoint_source import read_keypoints
+    from platypose.detectors.tracking.compare import distances_to_reference
+    from platypose.detectors.tracking.tracker import persons_to_keep
     from platypose.lifting.skeleton import JOINT_NAMES
 
     reference = read_keypoints(reference_path, fps=fps, image_size=image_size)
@@ -89,9 +89,9 @@ def detect(
 ) -> None:
     """Detect and track people; write OUT/<name>/<name>_keypoints2d.npz and .csv per source (docs/keypoints.md)."""
     from platypose.cli.terminal.safe_names import safe_name
-    from platypose.detectors.keypoint_files import write_keypoints_csv, write_keypoints_npz
-    from platypose.detectors.sources import view_name
-    from platypose.detectors.tracking import persons_count, persons_to_keep
+    from platypose.detectors.sources.keypoint_files import write_keypoints_csv, write_keypoints_npz
+    from platypose.detectors.sources.keypoint_source import view_name
+    from platypose.detectors.tracking.tracker import persons_count, persons_to_keep
     from platypose.lifting.files.atomic import check_writable
 
     persons_count(persons)  # a bad --persons fails before any detection
@@ -116,7 +116,7 @@ def detect(
     results = [read(source) for source in sources]
     views = [r.tracks for r in results]
     if cameras is not None:
-        from platypose.detectors.multiview import match_across_views
+        from platypose.detectors.persons.multiview import match_across_views
 
         views = match_across_views(views, cameras)
     comparison = []

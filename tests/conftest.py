@@ -100,7 +100,7 @@ def _write_clip(path: Path, frames: list[np.ndarray], fps: float) -> None:
 @pytest.fixture(scope="session")
 def batch_folder(data_dir, tmp_path_factory) -> Path:
     """good.mp4 (the first 12 frames of cam01, halved), corrupt.mp4 (a cut-off real MP4), empty.mp4 (a blank wall)."""
-    from platypose.detectors.video import iter_frames
+    from platypose.detectors.sources.video import iter_frames
 
     folder = tmp_path_factory.mktemp("batch")
     frames = [

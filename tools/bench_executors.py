@@ -56,7 +56,7 @@ def make_batch(folder: Path, inputs: int, frames: int | None) -> Path:
     if frames is not None:
         import cv2
 
-        from platypose.detectors.video import iter_frames
+        from platypose.detectors.sources.video import iter_frames
 
         cut = []
         for video in sources:

@@ -1,4 +1,4 @@
-"""Pitch, roll, focal length and height errors of estimated cameras against a calibration (issue 35's table).
+"""Pitch, roll, focal length and height errors of estimated cameras against a calibration, as a table.
 
 Each estimated camera is either the one a lift wrote (``--npz OUT.npz``: its ``cameras``, in the estimated world)
 or estimated here from a view's 2D keypoints (``--keypoints FOLDER``, an OpenPose folder or keypoint file, the
@@ -29,7 +29,7 @@ def estimated_cameras(args) -> list[tuple[str, object, str]]:
         for camera in read_npz(path).cameras:
             found.append((camera.name, camera, "lift"))
     for path in args.keypoints or []:
-        from platypose.detectors.sources import read_keypoints
+        from platypose.detectors.sources.keypoint_source import read_keypoints
         from platypose.lifting.calibration.one_view import fit_view
 
         name, keypoints, times, size = _keypoints(Path(path), read_keypoints)

@@ -9,7 +9,7 @@ timed in process CPU time (``time.process_time``: the machine is shared, wall ti
 is per frame and stateless, so stride N is exactly every N-th frame's detections; they are tracked again
 (as ``--stride N`` does) and interpolated onto every frame as lifting resamples a track
 (``lifting.timebase.resample_keypoints``), then compared with the reference on every frame
-(``detectors.compare.distances_to_reference``: the reference's main person against the nearest track).
+(``detectors.tracking.compare.distances_to_reference``: the reference's main person against the nearest track).
 
 Printed per size and stride: the detector call (median CPU ms), CPU ms per video frame (median decode +
 detector call / N + tracking), the compare median and 90th percentile px, and the frames where the person
@@ -27,12 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.detectors.compare import distances_to_reference
-from platypose.detectors.contracts import load_detector
 from platypose.detectors.keypoints import to_our_joints
-from platypose.detectors.sources import read_keypoints
-from platypose.detectors.tracking import persons_to_keep, track_detections
-from platypose.detectors.video import frame_times, iter_frames, video_info
+from platypose.detectors.models.contracts import load_detector
+from platypose.detectors.sources.keypoint_source import read_keypoints
+from platypose.detectors.sources.video import frame_times, iter_frames, video_info
+from platypose.detectors.tracking.compare import distances_to_reference
+from platypose.detectors.tracking.tracker import persons_to_keep, track_detections
 from platypose.lifting.timebase import resample_keypoints
 
 REPO = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Print issue 47 item 5's figures of lifts: facing flips and left/right swaps against the images.
+"""Print figures of lifts: facing flips and left/right swaps against the images.
 
     .venv/bin/python tools/facing_figures.py OUT/<job>/<job>.npz ...
 
@@ -11,8 +11,8 @@ Per person present in at least half the frames of each npz, one Markdown table r
 - swapped legs / arms: share of hypothesis-frames whose legs (hips, knees, ankles) or arms (shoulders, elbows,
   wrists), projected into the view that sees the person, lie closer to the keypoints of the other side than to their
   own (by at least half of their own distance and 10 px); and the answer's. The keypoints are first relabelled by
-  continuity (:func:`platypose.detectors.side_swaps.repair_side_swaps`), so that a detector's own swap in a frame
-  does not count as the lift's, before and after that repair alike.
+  continuity (:func:`platypose.detectors.tracking.side_swaps.repair_side_swaps`), so that a detector's own swap in
+  a frame does not count as the lift's, before and after that repair alike.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from platypose.detectors.side_swaps import repair_side_swaps
+from platypose.detectors.tracking.side_swaps import repair_side_swaps
 from platypose.exporters.npz import read_npz
 from platypose.lifting.camera import project
 from platypose.lifting.skeleton import JOINT_INDEX, MIRROR

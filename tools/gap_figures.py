@@ -1,4 +1,4 @@
-"""Figures of issue 36 (one continuous motion per person through detection gaps, one body), from lift results.
+"""Figures of one continuous motion per person through detection gaps (one body), from lift results.
 
 python tools/gap_figures.py track OUT/demo/demo.npz
     per person: frames present / filled by the prior, pelvis path length, largest pelvis step between

@@ -1,4 +1,4 @@
-"""Print issue 42's figures of lifts: hinges bent backwards, their fastest turn, OpenSim IK against the angles CSV.
+"""Print figures of lifts: hinges bent backwards, their fastest turn, OpenSim IK against the angles CSV.
 
     .venv/bin/python tools/hinge_figures.py OUT/<job>/<job>.npz ...
 

@@ -28,10 +28,10 @@ FPS = 60.0
 
 def looped_keypoints(seconds: float, folder: Path) -> list[Path]:
     """Per-camera npz files ``folder/cam0<i>.npz`` holding ``seconds`` of the take's keypoints played back and forth."""
-    from platypose.detectors.keypoint_files import write_keypoints_npz
-    from platypose.detectors.sources import read_keypoints
+    from platypose.detectors.sources.keypoint_files import write_keypoints_npz
+    from platypose.detectors.sources.keypoint_source import read_keypoints
+    from platypose.detectors.sources.video import video_info
     from platypose.detectors.types import PoseTrack2D
-    from platypose.detectors.video import video_info
 
     folder.mkdir(parents=True, exist_ok=True)
     frames = int(round(seconds * FPS))

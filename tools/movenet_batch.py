@@ -83,8 +83,8 @@ def real_inputs(count: int) -> np.ndarray:
     """The first ``count`` demo frames as the detector feeds them: letterboxed RGB int32 ``(count, H, W, 3)``."""
     import cv2
 
-    from platypose.detectors.letterbox import fit_size, letterbox
-    from platypose.detectors.movenet import DEFAULT_LONGEST
+    from platypose.detectors.models.letterbox import fit_size, letterbox
+    from platypose.detectors.models.movenet import DEFAULT_LONGEST
     from platypose.media import iter_frames
 
     inputs = []
@@ -150,7 +150,7 @@ def compare(
     paths: tuple[Path, Path, list[str]], frames: np.ndarray, threads: int, batches: list[int], rounds: int
 ) -> None:
     """Identity and speed of the batched network + per-frame decoder against the whole model, at ``threads``."""
-    from platypose.detectors.session import open_session
+    from platypose.detectors.models.session import open_session
 
     network_path, decoder_path, heads = paths
     whole = open_session(MODEL, threads)

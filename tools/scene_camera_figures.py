@@ -1,7 +1,7 @@
-"""Pitch, roll and focal length of each video's camera from its scene's lines, against a calibration (issue 48).
+"""Pitch, roll and focal length of each video's camera from its scene's lines, against a calibration.
 
 Each video's camera is estimated from its own frames alone (no detections, no metadata:
-:func:`platypose.detectors.scene_frames.video_scene_camera`) and compared with the calibration's camera of the
+:func:`platypose.detectors.sources.scene_frames.video_scene_camera`) and compared with the calibration's camera of the
 same name (pitch and roll as :func:`platypose.lifting.calibration.pose_above_floor.pose_of` defines them). Where
 the calibration is a guess (``--guess``: the sports2d demo's), only the values are shown.
 
@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from platypose.detectors.cache import read_detections
-from platypose.detectors.scene_frames import video_scene_camera
-from platypose.detectors.sources import read_keypoints
+from platypose.detectors.sources.keypoint_source import read_keypoints
+from platypose.detectors.sources.scene_frames import video_scene_camera
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.matching import match_views
 from platypose.lifting.calibration.pose_above_floor import pose_of

@@ -27,7 +27,7 @@ import numpy as np
 
 from platypose.detectors.cache import read_detections
 from platypose.detectors.keypoints import to_our_joints
-from platypose.detectors.tracking import track_detections
+from platypose.detectors.tracking.tracker import track_detections
 from platypose.lifting.timebase import resample_keypoints
 
 

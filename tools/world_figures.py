@@ -6,14 +6,14 @@ For each npz and person (the median motion, the frames the person is present):
 
 - lowest ankle: the lower ankle's z (the height above the floor in a calibrated or estimated world), median over
   frames, and its 10th percentile; its median in each whole second of the take, and how far those medians
-  spread (largest less smallest: issue 48's floor check, at most 8 cm along a walker's path);
+  spread (largest less smallest: the floor's check, at most 8 cm along a walker's path);
 - trunk tilt: the angle of pelvis -> thorax from world z up, median over frames (degrees);
 - pelvis z: median over frames;
 - pelvis path: the summed pelvis steps between consecutive present frames (m), the largest step (m), and the
   largest step from the last frame before a gap (absent frames) to the first after it (m);
 - the world the npz says (``meta["floor"]``: source and frame).
 
-Printed as Markdown table rows (issue 28's done-when figures).
+Printed as Markdown table rows.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The take's ``--persons``, ``--floor`` and ``--sync`` choices read in pure Python, so that settings are checked
 before anything heavy is imported (no numpy, torch or cv2): what they ask for takes effect later, in
-:mod:`platypose.detectors.person_choice` (the tracks picked), :mod:`platypose.lifting.floor`
+:mod:`platypose.detectors.persons.person_choice` (the tracks picked), :mod:`platypose.lifting.floor`
 (:func:`~platypose.lifting.floor.floor_for_lift`) and :mod:`platypose.lifting.sync.choice`.
 
 Numbers of ``--persons`` are ASCII digits only (``str.isdigit`` takes ``²``)."""

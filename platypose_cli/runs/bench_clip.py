@@ -23,7 +23,7 @@ def loop_video(source: Path, target: Path, frames: int, fps: float) -> tuple[int
     """
     import cv2
 
-    from platypose.detectors.video import iter_frames, video_info
+    from platypose.detectors.sources.video import iter_frames, video_info
 
     height, width = video_info(source).image_size
     writer = cv2.VideoWriter(str(target), cv2.VideoWriter_fourcc(*"mp4v"), fps, (width, height))

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from platypose.cli.terminal.safe_names import distinct_names, safe_name
-from platypose.detectors.sources import KEYPOINT_SUFFIXES, view_name
-from platypose.detectors.video import VIDEO_SUFFIXES, sibling_video
+from platypose.detectors.sources.keypoint_source import KEYPOINT_SUFFIXES, view_name
+from platypose.detectors.sources.video import VIDEO_SUFFIXES, sibling_video
 from platypose.lifting.calibration.matching import match_views, normalise_view_name
 from platypose.lifting.errors import InputError
 

@@ -55,7 +55,7 @@ def detect_piece(video: str, detect, start: int, stamp: int | None, count: int |
     (DetectOptions), every ``detect.stride``-th by index; save them (:class:`~platypose.detectors.cache.DetectionCache` layout) at ``path``.
     The seconds it took."""
     from platypose.detectors.cache import DetectionCache
-    from platypose.detectors.video_range import iter_frame_range
+    from platypose.detectors.sources.video_range import iter_frame_range
 
     model = cached_detector(detect)
     started = time.perf_counter()

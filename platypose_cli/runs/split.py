@@ -62,7 +62,7 @@ def split_hooks(pool, settings, name: str, log, read: Callable) -> tuple[SplitLi
     """For job ``name`` lifted with ``settings`` (RunSettings with ``split_seconds``) over ``pool``: the lifter
     :func:`platypose.pipeline.run_take` takes, and ``read`` (a view reader) preceded, for a video, by its detection
     in pieces into the detection cache ``read`` then finds (keypoint files are read whole)."""
-    from platypose.detectors.sources import is_keypoint_source
+    from platypose.detectors.sources.keypoint_source import is_keypoint_source
 
     folder = settings.out / name
     lifter = SplitLifter(pool, settings.prior, settings.split_seconds, piece_folder(settings.out, name), log)
@@ -87,7 +87,7 @@ def detect_in_pieces(source: Path, detect, folder: Path, split_s: float, pool, l
     (``log``, a JobLog) and detected again. The number of pieces detected now."""
     from platypose.cli.runs.models import cached_detector
     from platypose.detectors.cache import DetectionCache, cache_key, read_detections
-    from platypose.detectors.video import video_info
+    from platypose.detectors.sources.video import video_info
     from platypose.media import frame_stamps
 
     name = cached_detector(detect).name

@@ -75,7 +75,7 @@ def test_importing_platypose_loads_no_torch():
 def test_a_video_view_is_detected_and_lifted_as_the_command_does(tiny_default_prior, run_cli, tmp_path):
     import cv2
 
-    from platypose.detectors.video import iter_frames
+    from platypose.detectors.sources.video import iter_frames
 
     video = tmp_path / "cam01.mp4"  # the take's first 12 frames of cam01, halved
     frames = [f[::2, ::2].copy() for _, f in iter_frames(TAKE / "cam01.mp4", max_frames=12)]

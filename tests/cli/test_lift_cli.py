@@ -17,9 +17,9 @@ TAKE = "video/pose2sim-balancing"
 @pytest.fixture(scope="module")
 def triangulated(data_dir):
     """Plain DLT triangulation (T, 17, 3) of the athlete from the 4 views' OpenPose keypoints, and the cameras."""
-    from platypose.detectors.multiview import match_across_views
-    from platypose.detectors.sources import read_keypoints
-    from platypose.detectors.tracking import persons_to_keep
+    from platypose.detectors.persons.multiview import match_across_views
+    from platypose.detectors.sources.keypoint_source import read_keypoints
+    from platypose.detectors.tracking.tracker import persons_to_keep
     from platypose.lifting.calibration import load_calibration
     from platypose.lifting.triangulation import triangulate
 

@@ -293,7 +293,7 @@ def test_detector_and_prior_load_once_per_worker(cluster, batch_folder, prior_fi
     """Two inputs in one Ray worker process: the runner's own code loads the detector and the prior once."""
 
     def two_inputs_counting_loads(jobs, settings) -> dict:
-        import platypose.detectors.contracts as contracts
+        import platypose.detectors.models.contracts as contracts
         import platypose.lifting.prior.runtime as runtime
         from platypose.cli.runs.models import cached_detector, loaded_prior
         from platypose.cli.runs.ray import lift_on_worker

@@ -55,7 +55,7 @@ def real_tracks(data_dir):
     """The demo's MoveNet detections tracked (2 persons, 230 frames at 30 fps)."""
     from platypose.detectors.cache import read_detections
     from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking import track_detections
+    from platypose.detectors.tracking.tracker import track_detections
 
     _, detections, indices = read_detections(data_dir / DEMO / "movenet-detections.npz")
     return track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
@@ -77,7 +77,7 @@ def test_pieces_detect_the_frames_of_an_unsplit_run(data_dir, tmp_path):
     the same frame indices and the same keypoints, written as the video's detection cache."""
     from platypose.cli.runs.split import detect_in_pieces
     from platypose.detectors.cache import DetectionCache, cache_key
-    from platypose.detectors.pipeline import detect_frames
+    from platypose.detectors.video_detection import detect_frames
 
     video = data_dir / DEMO / "demo.mp4"
     options = DetectOptions(threads=1, stride=10)

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from onnx_models import constant_model
 
-from platypose.detectors.contracts import load_detector
-from platypose.detectors.persons import decode_yolox
-from platypose.detectors.session import ProviderFallbackWarning, open_session
-from platypose.detectors.video import iter_frames
+from platypose.detectors.models.contracts import load_detector
+from platypose.detectors.models.person_detector import decode_yolox
+from platypose.detectors.models.session import ProviderFallbackWarning, open_session
+from platypose.detectors.sources.video import iter_frames
 from platypose.lifting.errors import InputError
 
 

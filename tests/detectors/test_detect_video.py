@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.detectors.contracts import load_detector
 from platypose.detectors.keypoints import to_our_joints
-from platypose.detectors.movenet import decode_movenet
-from platypose.detectors.openpose import read_openpose_folder
-from platypose.detectors.pipeline import detect_frames, detect_video
-from platypose.detectors.video import iter_frames, video_info
+from platypose.detectors.models.contracts import load_detector
+from platypose.detectors.models.movenet import decode_movenet
+from platypose.detectors.sources.openpose import read_openpose_folder
+from platypose.detectors.sources.video import iter_frames, video_info
+from platypose.detectors.video_detection import detect_frames, detect_video
 from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import JOINT_INDEX
 
@@ -136,7 +136,7 @@ def test_box_downscale_is_close_to_area_averaging(data_dir: Path, movenet) -> No
     median distance to OpenPose's keypoints either way)."""
     import cv2
 
-    from platypose.detectors.letterbox import box_downscale, fit_size, letterbox
+    from platypose.detectors.models.letterbox import box_downscale, fit_size, letterbox
 
     for _, frame in iter_frames(data_dir / POSE2SIM / "cam01.mp4", stride=25):
         size = fit_size(frame.shape[:2], movenet.longest, 32)

@@ -13,15 +13,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.detectors.keypoint_files import (
+from platypose.detectors.sources.keypoint_files import (
     CSV_HEADER,
     read_keypoints_csv,
     read_keypoints_npz,
     write_keypoints_csv,
     write_keypoints_npz,
 )
-from platypose.detectors.openpose import read_openpose_folder
-from platypose.detectors.sources import read_keypoints
+from platypose.detectors.sources.keypoint_source import read_keypoints
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import JOINT_INDEX, JOINT_NAMES
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.detectors.multiview import match_across_views
-from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.persons.multiview import match_across_views
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.calibration import load_calibration
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.detectors.openpose import missing_frames, read_openpose_folder
+from platypose.detectors.sources.openpose import missing_frames, read_openpose_folder
 from platypose.lifting.errors import InputError
 from platypose.lifting.joint_maps import BODY25_NAMES, BODY25B_NAMES
 from platypose.lifting.skeleton import JOINT_INDEX

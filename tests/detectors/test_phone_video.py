@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 import pytest
 
-from platypose.detectors.video import processed_times
+from platypose.detectors.sources.video import processed_times
 from platypose.media import frame_times, iter_frames, video_info
 
 TAKE = "video/pose2sim-balancing"

@@ -9,8 +9,8 @@ import pytest
 
 from platypose.detectors.cache import read_detections
 from platypose.detectors.keypoints import to_our_joints
-from platypose.detectors.side_swaps import BODY, exchanged, repair_side_swaps
-from platypose.detectors.tracking import TrackerConfig, track_detections
+from platypose.detectors.tracking.side_swaps import BODY, exchanged, repair_side_swaps
+from platypose.detectors.tracking.tracker import TrackerConfig, track_detections
 from platypose.lifting.skeleton import JOINT_INDEX
 
 LEFT_HIP, RIGHT_HIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from platypose.detectors.cache import read_detections
-from platypose.detectors.id_repair import repair_id_switches
 from platypose.detectors.keypoints import to_our_joints
-from platypose.detectors.pose_metrics import person_size
-from platypose.detectors.tracking import TrackerConfig, select_persons, track_detections
+from platypose.detectors.tracking.id_repair import repair_id_switches
+from platypose.detectors.tracking.pose_metrics import person_size
+from platypose.detectors.tracking.tracker import TrackerConfig, select_persons, track_detections
 from platypose.lifting.errors import InputError
 from platypose.lifting.skeleton import MIRROR
 
@@ -147,8 +147,8 @@ def test_spurious_short_detections_are_dropped() -> None:
 
 def test_stored_demo_detections_are_the_bundled_detector_output(data_dir: Path, demo_detections) -> None:
     """The stored detections are what the bundled MoveNet gives today (checked on 3 frames)."""
-    from platypose.detectors.contracts import load_detector
-    from platypose.detectors.video import iter_frames
+    from platypose.detectors.models.contracts import load_detector
+    from platypose.detectors.sources.video import iter_frames
 
     detections, indices = demo_detections
     detector = load_detector(threads=1)

@@ -9,8 +9,8 @@ import sys
 import numpy as np
 from media_helpers import truncated_copy
 
-from platypose.detectors.pipeline import detect_video
-from platypose.detectors.video import decoding_shortfall, iter_frames, video_info
+from platypose.detectors.sources.video import decoding_shortfall, iter_frames, video_info
+from platypose.detectors.video_detection import detect_video
 
 CAM01 = "video/pose2sim-balancing/cam01.mp4"
 

@@ -11,7 +11,7 @@ def test_the_roof_mans_gap_is_marked_as_filled_by_the_prior(data_dir):
     (lifted through), and the gap rule marks those frames "prior" and filled, not interpolated or held."""
     from platypose.detectors.cache import read_detections
     from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking import track_detections
+    from platypose.detectors.tracking.tracker import track_detections
 
     _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
     tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 from export_helpers import read_entities, two_person_result
 
-from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.exporters.person_pictures import THUMBNAIL_HEIGHT, GoodFrame, good_frame, good_frames, thumbnails
 from platypose.exporters.rrd import write_rrd
 from platypose.lifting.calibration.defaults import default_camera

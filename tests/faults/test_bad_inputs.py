@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.detectors.keypoint_files import read_keypoints_csv, read_keypoints_npz, write_keypoints_csv
-from platypose.detectors.keypoint_json import read_keypoints_json
-from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.sources.keypoint_files import read_keypoints_csv, read_keypoints_npz, write_keypoints_csv
+from platypose.detectors.sources.keypoint_json import read_keypoints_json
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.lifting.errors import InputError
 from platypose.lifting.motion_io import load_motion
 

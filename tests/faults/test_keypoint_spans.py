@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.lifting.errors import InputError
 
 REAL = sorted(

@@ -1,5 +1,6 @@
 """An ASF hierarchy must be a tree under the root: a cycle, a bone listed as its own child, or children listed
-again are refused in one pass over the links (they looped for ever or grew memory by gigabytes)."""
+again are refused in one pass over the links (they looped for ever or grew memory by gigabytes); the audit case (marker ``audit``) runs ``motion info`` on a cycle
+(:mod:`audit_support`)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
+from audit_support import Case, Run, check_case
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.motion_io import load_motion
@@ -63,3 +65,14 @@ def test_every_child_listed_four_times_is_refused_at_once(tmp_path: Path) -> Non
 
 def test_the_real_hierarchy_loads(tmp_path: Path) -> None:
     assert load_motion(edited_take(tmp_path, lambda t: t))[0].joints.shape[1:] == (17, 3)
+
+
+def _cycle_in_motion_info(w: Path) -> Run:
+    (w / "test.asf").write_text(ASF.read_text().replace("    ltibia lfoot\n", "    ltibia lfoot lfemur\n"))
+    (w / "test.amc").write_bytes(ASF.with_suffix(".amc").read_bytes())
+    return Run(["motion", "info", w / "test.amc"], says=("hierarchy lists bone 'lfemur' twice",), timeout=60)
+
+
+@pytest.mark.audit
+def test_a_cycle_in_motion_info_of_the_cli_is_a_clean_error(tmp_path: Path) -> None:
+    check_case(Case("asf-cycle", _cycle_in_motion_info), tmp_path)

@@ -1,7 +1,8 @@
 """Input npz files (keypoints, a root trajectory, motion for ``train`` / ``motion info``, holosoma npy) are refused
 from what their headers claim, before any array is allocated: a 2 kB file claiming 190 GiB, or zeros deflated
 into megabytes, cost nothing. Pickled motion (Human3.6M) counts every array at its materialised size, so views
-with zero strides of one small buffer cannot add up to gigabytes."""
+with zero strides of one small buffer cannot add up to gigabytes. The audit case (marker ``audit``) gives ``lift`` a
+root trajectory claiming 180 GiB (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
@@ -13,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from audit_support import Case, Run, check_case, lift_args, openpose_copy
 
-from platypose.detectors.keypoint_files import read_keypoints_npz
-from platypose.detectors.root_file import read_root_trajectory
+from platypose.detectors.sources.keypoint_files import read_keypoints_npz
+from platypose.detectors.sources.root_file import read_root_trajectory
 from platypose.lifting.errors import InputError
 from platypose.lifting.motion_io import load_motion
 from platypose.lifting.skeleton import JOINT_NAMES
@@ -117,3 +119,21 @@ def test_h36m_views_of_one_buffer_are_counted_at_their_full_size(tmp_path: Path)
             load_motion(path)
 
     assert grown_kb(load) < 500_000
+
+
+def _root_trajectory_claiming_180_gib(w: Path) -> Run:
+    root = w / "root.npz"
+    with zipfile.ZipFile(root, "w") as archive:
+        header = io.BytesIO()
+        np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (60, 2**27, 3)})
+        archive.writestr("root.npy", header.getvalue() + bytes(16))
+        stream = io.BytesIO()
+        np.lib.format.write_array(stream, np.arange(3.0))
+        archive.writestr("frame_times.npy", stream.getvalue())
+    args = lift_args(openpose_copy(w), w / "out", "--root-trajectory", root)
+    return Run(args, says=("root.npz", "claims 180.0 GiB in its header"))
+
+
+@pytest.mark.audit
+def test_lift_of_a_root_trajectory_npz_claiming_180_gib_is_a_clean_error(tmp_path: Path) -> None:
+    check_case(Case("root-trajectory-npz-claiming-180-gib", _root_trajectory_claiming_180_gib), tmp_path)

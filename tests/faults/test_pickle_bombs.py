@@ -1,12 +1,14 @@
 """Human3.6M motion files are pickles: a small file whose objects would take 2**40 elements or bytes when built
 (doubled lists, huge shapes through every way numpy rebuilds an array) is refused naming the file and the key;
-real data still loads."""
+real data still loads. The audit cases (marker ``audit``) give such files to ``motion info`` (:mod:`audit_watch`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
+from audit_watch import check
 
 from platypose.lifting.errors import InputError
 
@@ -56,3 +58,36 @@ def test_pickle_resource_bombs_are_refused(data_dir, tmp_path) -> None:
         assert path.stat().st_size < 2000
         with pytest.raises(InputError, match=rf"{name}.npz: 'positions_3d'"):
             load_h36m(path)
+
+
+def _bombs() -> dict:
+    doubled: list = []
+    for _ in range(40):
+        doubled = [doubled, doubled]
+    wide: list = [0.0] * 3
+    for _ in range(24):
+        wide = [wide, wide]
+    nested: dict = {}
+    for _ in range(5000):
+        nested = {"a": nested}
+    reconstruct = np.zeros(1).__reduce__()[0]
+    return {
+        "deep40": doubled,
+        "wide24": wide,
+        "ndarray-2e40": _Reduce(np.ndarray, (2**40,)),
+        "reconstruct-2e40": _Reduce(reconstruct, np.ndarray, (2**40,), b"b"),
+        "setstate-2e40": _Reduce(reconstruct, np.ndarray, (0,), b"b", state=(1, (2**40,), np.dtype("f8"), False, b"")),
+        "dtype-huge": _Reduce(np.ndarray, (4,), np.dtype(("V", 2**30))),
+        "dict-deep": nested,
+    }
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize("name", list(_bombs()))
+def test_pickle_bombs_in_mocap(tmp_path: Path, name: str) -> None:
+    path = tmp_path / f"{name}_data_3d_h36m.npz"
+    try:
+        np.savez(path, positions_3d=np.array({"S1": {"Walking": _bombs()[name]}}, dtype=object))
+    except RecursionError:
+        pytest.skip("numpy cannot write this one")
+    check(tmp_path / "case", ["motion", "info", path], "error", (path.name, "positions_3d"))

@@ -1,14 +1,18 @@
 """A prior checkpoint is checked before its network is built: its joint names are a list of ours, its weights'
 names and shapes are those its config asks for, and the config asks for a bounded network. Sampler numbers are
-bounded so float32 arithmetic stays finite."""
+bounded so float32 arithmetic stays finite. The audit cases (marker ``audit``) give priors with bad settings to
+``prior-info`` and a teacher as its own student to ``train`` (:mod:`audit_watch`)."""
 
 from __future__ import annotations
 
 import resource
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
+from audit_watch import PRIOR, REPO, check
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.prior.model import load_prior, save_prior
@@ -110,3 +114,46 @@ def test_prior_config_and_manifest_are_validated(run_cli, prior_file, tmp_path, 
     code, _, err = run_cli("prior-info", bad)
     assert code == 2 and needle in err and len(err.strip().splitlines()) == 1, err
     assert "Error" not in err  # the problem, not the name of a Python exception
+
+
+@pytest.mark.audit
+def test_distilling_into_the_teacher_is_refused(tmp_path: Path) -> None:
+    teacher = tmp_path / "teacher.pt"
+    shutil.copy(PRIOR, teacher)
+    before = teacher.read_bytes()
+    args = ["train", REPO / "data/motion/deepmimic", "--out", teacher, "--distil-from", teacher, "--iterations", "1"]
+    check(tmp_path / "case", args, "error", ("teacher.pt", "is the teacher given by --distil-from"))
+    assert teacher.read_bytes() == before
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize(
+    ("name", "edit", "needle"),
+    [
+        ("steps-1e9", lambda p: p["config"].update(diffusion_steps=1e9), "diffusion_steps"),
+        ("steps-int-1e9", lambda p: p["config"].update(diffusion_steps=10**9), "diffusion_steps"),
+        ("layers-1e6", lambda p: p["config"].update(layers=10**6), "layers"),
+        ("width-str", lambda p: p["config"].update(width="64"), "not a valid"),
+        ("fps-nan", lambda p: p["config"].update(fps=float("nan")), "fps"),
+        ("sampling-steps", lambda p: p["manifest"].update(sampling_steps=[10**12]), "sampling_steps"),
+        ("clips-bad", lambda p: p["manifest"].update(clips=[{"name": 1}]), "clips"),
+        ("manifest-list", lambda p: p.update(manifest=[1]), "manifest"),
+    ],
+    ids=[
+        "steps-1e9",
+        "steps-int-1e9",
+        "layers-1e6",
+        "width-str",
+        "fps-nan",
+        "sampling-steps",
+        "clips-bad",
+        "manifest-list",
+    ],
+)
+def test_priors_with_bad_settings(tmp_path: Path, name: str, edit, needle: str) -> None:
+    import torch
+
+    payload = torch.load(PRIOR, weights_only=True)
+    edit(payload)
+    torch.save(payload, tmp_path / f"{name}.pt")
+    check(tmp_path / "case", ["prior-info", tmp_path / f"{name}.pt"], "error", (f"{name}.pt", needle))

@@ -1,12 +1,15 @@
 """The ``--ray-address`` probe asks Ray's own gRPC call: an HTTP/2 or gRPC server that is not Ray is refused, and
-a local address is also probed where Ray really dials it (this machine's address in place of 127.0.0.1)."""
+a local address is also probed where Ray really dials it (this machine's address in place of 127.0.0.1). The audit
+cases (marker ``audit``) give addresses that are no cluster to the real CLI (:mod:`audit_watch`)."""
 
 from __future__ import annotations
 
 import socket
 import threading
+from pathlib import Path
 
 import pytest
+from audit_watch import LIFT, check
 
 from platypose.cli.runs import ray_address
 from platypose.cli.runs.ray_address import check_ray_address
@@ -21,6 +24,7 @@ SETTINGS = frame(0x4, 0, 0)
 STATUS_200 = frame(0x1, 0x4, 1, b"\x88")  # HPACK static entry 8: ":status 200"
 HTML = b"<html><body>It works!</body></html>"
 CLUSTER_ID = bytes([0x12, 28]) + b"c" * 28  # GetClusterIdReply.cluster_id
+SSH_GREETING = b"SSH-2.0-OpenSSH_9.6\r\n"  # a server that is not Ray
 TRAILERS = frame(0x1, 0x5, 1, b"\x00\x0bgrpc-status\x010")
 
 
@@ -134,7 +138,7 @@ def test_ray_address_is_checked_with_a_deadline(run_cli, batch_folder, prior_fil
     for bad in ("nonsense", "host:", "ray://:10001", "a b:1", "h:70000"):
         with pytest.raises(InputError, match="not an address"):
             check_ray_address(bad)
-    port, stop = _server(b"SSH-2.0-OpenSSH_9.6\r\n")
+    port, stop = _server(SSH_GREETING)
     with pytest.raises(InputError, match="answers but not as a Ray cluster"):
         check_ray_address(f"127.0.0.1:{port}", timeout_s=2)
     stop.set()
@@ -146,3 +150,21 @@ def test_ray_address_is_checked_with_a_deadline(run_cli, batch_folder, prior_fil
         )  # fmt: skip
         assert code == 2 and err.startswith("error: --ray-address") and len(err.strip().splitlines()) == 1, err
     assert time.monotonic() - started < 30
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize(
+    ("address", "needle"),
+    [
+        (lambda: f"127.0.0.1:{_closed_port()}", "nothing answers"),
+        (lambda: "nonsense", "not an address"),
+        (lambda: f"ray://127.0.0.1:{_closed_port()}", "nothing answers"),
+        (lambda: f"127.0.0.1:{_server(SSH_GREETING)[0]}", "not as a Ray cluster"),
+        (lambda: "no-such-host.invalid:6379", "nothing answers"),
+        (lambda: "127.0.0.1:0", "not an address"),
+    ],
+    ids=["closed-port", "nonsense", "ray-client-closed", "ssh-server", "unresolvable", "port-0"],
+)
+def test_ray_addresses_that_are_no_cluster(batch_folder, tmp_path: Path, address, needle: str) -> None:
+    args = ["lift", batch_folder / "good.mp4", "--executor", "ray", "--ray-address", address(), *LIFT]
+    check(tmp_path, args, "error", ("--ray-address", needle), timeout=90)

@@ -1,10 +1,16 @@
 """--resume skips only what is finished and unchanged: an output set half switched by a killed run, a changed
-output, a leftover staging folder, another runtime, or keypoints copied with an old time are redone."""
+output, a leftover staging folder, another runtime, or keypoints copied with an old time are redone (the audit cases, marker ``audit``, through the real CLI: :mod:`audit_watch`)."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
+from pathlib import Path
+
+import pytest
+from audit_support import KEYPOINT_TIMING
+from audit_watch import LIFT, TAKE, check
 
 
 def test_a_half_switched_output_set_is_not_taken_as_finished(run_cli, monkeypatch, tmp_path, batch_folder, prior_file):
@@ -60,3 +66,36 @@ def test_resume_fingerprint_sees_runtime_and_keypoints_copied_with_old_times(dat
     files = sorted(folder.iterdir())
     shutil.copy2(files[-1], files[len(files) // 2])  # cp -p: other content, an older time, same count
     assert fingerprint(job, settings) != before
+
+
+def _skipped(out: Path) -> int:
+    return json.loads((out / "summary.json").read_text())["counts"]["skipped"]
+
+
+@pytest.mark.audit
+def test_resume_redoes_what_changed(batch_folder, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    base = ["lift", batch_folder / "good.mp4", "--out", out, "--formats", "npz,bvh", *LIFT]
+    check(tmp_path / "first", base, "ok", out=out)
+    bvh = out / "good/good_p0.bvh"
+    text = bvh.read_text()
+    bvh.write_text(text[:-2] + ("1" if text[-2] != "1" else "2") + text[-1])
+    (out / ".good.999999999.x.partial").mkdir()
+    check(tmp_path / "changed-output", [*base, "--resume"], "ok", out=out)
+    assert not _skipped(out), "a changed output was skipped"
+    assert not list(out.glob(".good.*.partial")), "a stale staging folder was left"
+    check(tmp_path / "runtime", [*base, "--resume", "--runtime", "float32"], "ok", out=out)
+    assert not _skipped(out), "a run with another runtime was skipped"
+
+
+@pytest.mark.audit
+def test_resume_sees_keypoints_copied_with_an_old_time(tmp_path: Path) -> None:
+    views = tmp_path / "kp/cam01_json"
+    shutil.copytree(TAKE / "openpose-body25b/cam01_json", views)
+    out = tmp_path / "out"
+    base = ["lift", "--keypoints", views, *KEYPOINT_TIMING, "--out", out, "--formats", "npz", *LIFT]
+    check(tmp_path / "first", base, "ok", out=out)
+    files = sorted(views.iterdir())
+    shutil.copy2(files[-1], files[len(files) // 2])
+    check(tmp_path / "again", [*base, "--resume"], "ok", out=out)
+    assert not _skipped(out), "keypoints copied with an old time were skipped"

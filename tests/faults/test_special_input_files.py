@@ -1,5 +1,6 @@
 """A FIFO (or another special file) given where lift reads an input file is refused before anything reads it: a
-reader would block on it for ever, or read an endless writer whole."""
+reader would block on it for ever, or read an endless writer whole. The audit case (marker ``audit``): ``bench --video`` of a FIFO
+(:mod:`audit_support`)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from audit_support import Case, Run, check_case
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.reads import check_readable_inputs
@@ -46,3 +48,14 @@ def test_lift_refuses_a_fifo_root_trajectory_at_once(tmp_path) -> None:
     assert done.returncode != 0
     assert f"{fifo}: is a FIFO (named pipe), a regular input file was expected" in done.stderr
     assert "Traceback" not in done.stderr and not (tmp_path / "out").exists()
+
+
+def _bench_video_fifo(w: Path) -> Run:
+    fifo = w / "clip.mp4"
+    os.mkfifo(fifo)
+    return Run(["bench", "--video", fifo, "-q"], says=("clip.mp4: is a FIFO (named pipe), not a video file to loop",))
+
+
+@pytest.mark.audit
+def test_bench_refuses_a_fifo_video_in_the_cli(tmp_path: Path) -> None:
+    check_case(Case("bench-video-fifo", _bench_video_fifo), tmp_path)

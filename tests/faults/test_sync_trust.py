@@ -11,7 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from platypose.detectors.sources import read_keypoints
+from platypose.detectors.sources.keypoint_source import read_keypoints
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.sync.choice import synchronise, trusted_offsets
 from platypose.pipeline import match_cameras

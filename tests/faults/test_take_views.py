@@ -1,20 +1,39 @@
 """The views of one take: sync offsets are bounded and views that barely move or are short are warned about, views
 at different frame rates are refused, swapped cameras are warned about (views judged by the persons they see
-well), and calibration names matching no video are one error."""
+well), and calibration names matching no video are one error. The audit cases (marker ``audit``) run the real CLI
+on them, with sync files out of range or broken (:mod:`audit_watch`)."""
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
+from audit_support import KEYPOINT_TIMING
+from audit_watch import LIFT, REPO, check
+from audit_watch import TAKE as TAKE_DIR
 
 from platypose.lifting.errors import InputError
 
 TAKE = "video/pose2sim-balancing"
+CALIB = TAKE_DIR / "calib_pose2sim.toml"
+SYNC_CHECK = [
+    "calib",
+    "check",
+    TAKE_DIR / "calib_pose2sim.toml",
+    "--keypoints",
+    TAKE_DIR / "openpose-body25b",
+    "--fps",
+    "60",
+]
 
 
 @pytest.fixture(scope="module")
 def take_views(data_dir):
     """The bundled take's cameras, tracks (OpenPose, 60 fps) and each view's main person."""
-    from platypose.detectors.openpose import read_openpose_folder
+    from platypose.detectors.sources.openpose import read_openpose_folder
     from platypose.lifting.calibration import load_calibration
 
     cal = load_calibration(data_dir / TAKE / "calib_pose2sim.toml")
@@ -66,8 +85,8 @@ def test_sync_offsets_bounded_and_still_or_short_views_warned(run_cli, data_dir,
 
 
 def test_views_at_different_frame_rates_are_refused(data_dir, take_views) -> None:
-    from platypose.detectors.openpose import read_openpose_folder
-    from platypose.detectors.take import take_keypoints
+    from platypose.detectors.persons.take import take_keypoints
+    from platypose.detectors.sources.openpose import read_openpose_folder
 
     cameras, tracks = take_views
     slow = read_openpose_folder(data_dir / TAKE / "openpose-body25b/cam02_json", fps=30, image_size=cameras[1].size)
@@ -79,8 +98,8 @@ def test_views_at_different_frame_rates_are_refused(data_dir, take_views) -> Non
 def test_swapped_cameras_warned_and_views_judged_by_persons_seen_well(take_views) -> None:
     import numpy as np
 
-    from platypose.detectors.take import take_keypoints
-    from platypose.detectors.view_agreement import disagreeing_views
+    from platypose.detectors.persons.take import take_keypoints
+    from platypose.detectors.persons.view_agreement import disagreeing_views
     from platypose.lifting.finish.reprojection import reprojection_report
     from platypose.lifting.triangulation import triangulate
 
@@ -135,3 +154,101 @@ def test_calibration_names_matching_no_video_are_one_error(run_cli, data_dir, tm
     assert code == 2 and len(err.strip().splitlines()) == 1, err
     assert "no camera matches a view by name" in err and "name each video" in err and "cam_01.mp4" in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.audit
+def test_a_broken_sync_file_with_one_view(tmp_path: Path) -> None:
+    (tmp_path / "broken.json").write_text("{oops")
+    args = ["lift", "--keypoints", TAKE_DIR / "openpose-body25b/cam01_json", "--fps", "60", "--cams", CALIB, "--sync"]
+    check(tmp_path / "case", [*args, tmp_path / "broken.json", *LIFT], "error", ("broken.json", "not valid JSON"))
+
+
+def _views(folder: Path, frames: slice, still: str = "") -> Path:
+    """The take's four OpenPose views, ``frames`` of each; view ``still`` repeats its first frame throughout."""
+    for view in sorted((TAKE_DIR / "openpose-body25b").iterdir()):
+        files = sorted(view.glob("*.json"))[frames]
+        (folder / view.name).mkdir(parents=True)
+        for i, f in enumerate(files):
+            source = files[0] if view.name == still else f
+            (folder / view.name / f"{view.name[:-5]}.{i:04d}.json").write_bytes(source.read_bytes())
+    return folder
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize(
+    ("frames", "still", "needle"),
+    [(slice(None), "cam02_json", "barely moves"), (slice(60), "", "s of frames")],
+    ids=["still-view", "one-second"],
+)
+def test_sync_auto_warns_when_it_cannot_tell(tmp_path: Path, frames: slice, still: str, needle: str) -> None:
+    views = _views(tmp_path / "kp", frames, still)
+    args = ["calib", "check", CALIB, "--keypoints", views, "--fps", "60", "--sync", "auto"]
+    check(tmp_path / "case", args, "warn", needle)
+
+
+@pytest.mark.audit
+def test_views_at_60_and_30_fps_are_refused(data_dir, tmp_path: Path) -> None:
+    folder = tmp_path / "in"
+    folder.mkdir()
+    code = (
+        "import sys; from pathlib import Path; sys.path.insert(0, 'tests'); import conftest;"
+        "from platypose.detectors.sources.video import iter_frames;"
+        "take, out = Path(sys.argv[1]), Path(sys.argv[2]);"
+        "conftest._write_clip(out / 'cam02.mp4', [f for _, f in iter_frames(take / 'cam02.mp4', max_frames=12)], 30.0);"
+        "conftest._write_clip(out / 'cam01.mp4', [f for _, f in iter_frames(take / 'cam01.mp4', max_frames=24)], 60.0)"
+    )
+    subprocess.run([sys.executable, "-c", code, str(TAKE_DIR), str(folder)], cwd=REPO, check=True)
+    out = tmp_path / "out"
+    check(
+        tmp_path / "case",
+        ["lift", folder, "--cams", CALIB, "--out", out, *LIFT],
+        "error",
+        ("cam01.mp4", "different frame rates (60, 30 fps)"),
+        out=out,
+    )
+
+
+@pytest.mark.audit
+def test_swapped_views_are_warned_about(tmp_path: Path) -> None:
+    views = tmp_path / "kp"
+    for src, dst in (("cam01", "cam03"), ("cam02", "cam02"), ("cam03", "cam01"), ("cam04", "cam04")):
+        (views / f"{dst}_json").mkdir(parents=True)
+        for f in sorted((TAKE_DIR / "openpose-body25b" / f"{src}_json").glob("*.json")):
+            (views / f"{dst}_json" / f.name.replace(src, dst)).write_bytes(f.read_bytes())
+    out = tmp_path / "out"
+    args = ["lift", "--keypoints", views, "--cams", CALIB, *KEYPOINT_TIMING, "--out", out, "--formats", "npz", *LIFT]
+    check(tmp_path / "case", args, "warn", "swapped", out=out)
+
+
+@pytest.mark.audit
+def test_video_names_matching_no_camera(batch_folder, tmp_path: Path) -> None:
+    names = tmp_path / "in"
+    names.mkdir()
+    for n in ("front", "side", "back", "top"):
+        shutil.copy(batch_folder / "good.mp4", names / f"{n}.mp4")
+    out = tmp_path / "out"
+    check(
+        tmp_path,
+        ["lift", names, "--cams", CALIB, "--out", out, *LIFT],
+        "error",
+        ("no camera matches a view by name", "name each video"),
+        out=out,
+    )
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize(
+    ("name", "text", "needle"),
+    [
+        ("offset-1e6", '{"cam01": 0, "cam02": 1e6, "cam03": 0, "cam04": 0}', "at most"),
+        ("offset-1e4", '{"cam01": 0, "cam02": 1e4, "cam03": 0, "cam04": 0}', "shares no time"),
+        ("offset-400-digits", '{"cam01": 0, "cam02": ' + "9" * 400 + ', "cam03": 0, "cam04": 0}', "finite"),
+        ("offset-nan", '{"cam01": 0, "cam02": NaN, "cam03": 0, "cam04": 0}', "finite"),
+        ("offset-deep", '{"cam01":' + "[" * 100000 + "]" * 100000 + "}", "not valid JSON"),
+        ("offset-string", '{"cam01": "late"}', "camera name"),
+    ],
+    ids=["1e6", "1e4", "400-digits", "nan", "deep", "string"],
+)
+def test_sync_offsets_out_of_range(tmp_path: Path, name: str, text: str, needle: str) -> None:
+    (tmp_path / f"{name}.json").write_text(text)
+    check(tmp_path / "case", [*SYNC_CHECK, "--sync", tmp_path / f"{name}.json"], "error", (f"{name}.json", needle))

@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from platypose.detectors import scene_frames
-from platypose.detectors.scene_frames import sample_frames, video_scene_camera
+from platypose.detectors.sources import scene_frames
+from platypose.detectors.sources.scene_frames import sample_frames, video_scene_camera
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.pose_above_floor import pose_of
 from platypose.lifting.calibration.scene import estimate
@@ -136,7 +136,7 @@ def test_with_its_people_masked_a_lab_camera_is_within_the_targets(calibration, 
     cam02: the person's box hides the back wall and the rails, the platform's right edge pulls the best supported
     vertical point a degree off, and from there the horizon's search found a scene with the focal length +33 %
     (at a 2 % standard deviation); the candidates' scene that explains the most line length is the right one."""
-    from platypose.detectors.sources import read_keypoints
+    from platypose.detectors.sources.keypoint_source import read_keypoints
 
     truth = pose_of(calibration.camera(view.replace("cam", "cam_")))
     people = read_keypoints(f"{BALANCING}/openpose-body25b/{view}_json").keypoints

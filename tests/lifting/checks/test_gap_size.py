@@ -16,7 +16,7 @@ def _man(data_dir) -> tuple[np.ndarray, np.ndarray]:
     gap) and the joints the camera sees of him per frame, from the bundled detections."""
     from platypose.detectors.cache import read_detections
     from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking import track_detections
+    from platypose.detectors.tracking.tracker import track_detections
 
     _, detections, indices = read_detections(data_dir / DEMO / "movenet-detections.npz")
     tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")

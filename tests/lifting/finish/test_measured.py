@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.camera import project
 from platypose.lifting.finish.measured import FARTHEST_M, SAMPLER_WEIGHT, image_pull, measure, steady_shift

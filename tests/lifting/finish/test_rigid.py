@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import torch
 
-from platypose.detectors.multiview import match_across_views
-from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.persons.multiview import match_across_views
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.exporters.bvh import write_bvh
 from platypose.lifting.anatomy.limits import hinge_coordinates, limit_excess
 from platypose.lifting.calibration import load_calibration

@@ -83,7 +83,7 @@ def test_a_person_who_drops_from_a_roof_while_unseen_lands_on_the_floor(data_dir
     (within 5 cm of it or of their height standing on it), the roof frames keep their depth, the gap only bridges (no pelvis step over 0.5 m), images unchanged."""
     from platypose.detectors.cache import read_detections
     from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking import track_detections
+    from platypose.detectors.tracking.tracker import track_detections
     from platypose.lifting.calibration import load_calibration
     from platypose.lifting.floor import CALIBRATED_FLOOR
     from platypose.lifting.stance import ANKLE_HEIGHT, standing_heights

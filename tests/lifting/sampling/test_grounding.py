@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import torch
 
-from platypose.detectors.multiview import match_across_views
-from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.persons.multiview import match_across_views
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.defaults import default_camera
 from platypose.lifting.checks.flags import person_lines
@@ -48,7 +48,7 @@ def sports2d(data_dir: Path):
     """The Sports2D demo's bundled MoveNet detections, tracked: keypoints ``(1, T, P, 17, 3)`` and frame times."""
     from platypose.detectors.cache import read_detections
     from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking import track_detections
+    from platypose.detectors.tracking.tracker import track_detections
 
     _, detections, indices = read_detections(data_dir / SPORTS2D / "movenet-detections.npz")
     tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from platypose.detectors.openpose import read_openpose_folder
+from platypose.detectors.sources.openpose import read_openpose_folder
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.sync.offsets import estimate_offsets, lag_correlation, main_person, sample_at, with_offsets
 

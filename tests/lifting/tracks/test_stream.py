@@ -15,8 +15,8 @@ TAKE = "video/pose2sim-balancing"
 @pytest.fixture(scope="module")
 def real_track(data_dir):
     """The athlete's OpenPose keypoints seen by cam01 (C=1, T, P=1, 17, 3) at 60 fps, and the camera."""
-    from platypose.detectors.sources import read_keypoints
-    from platypose.detectors.tracking import persons_to_keep
+    from platypose.detectors.sources.keypoint_source import read_keypoints
+    from platypose.detectors.tracking.tracker import persons_to_keep
     from platypose.lifting.calibration import load_calibration
 
     camera = load_calibration(data_dir / TAKE / "calib_pose2sim.toml").cameras[0]

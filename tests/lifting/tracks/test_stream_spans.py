@@ -19,7 +19,7 @@ def sports_demo(data_dir):
     the woman walks in after 1.3 s and out before the end; the demo's default camera."""
     from platypose.detectors.cache import read_detections
     from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking import track_detections
+    from platypose.detectors.tracking.tracker import track_detections
     from platypose.lifting.calibration.defaults import default_camera
 
     _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
@@ -56,7 +56,7 @@ def torch_tensor(values):
 def test_persons_present_throughout_lift_as_before(tiny_prior, data_dir):
     """Both persons of the balancing take are seen in every frame: spans are the whole clip, the two persons go
     through every window together, and the hypotheses are those of the whole-clip lift bit for bit."""
-    from platypose.detectors.sources import read_keypoints
+    from platypose.detectors.sources.keypoint_source import read_keypoints
     from platypose.lifting.calibration import load_calibration
 
     take = data_dir / "video/pose2sim-balancing"
