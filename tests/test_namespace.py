@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -40,3 +41,17 @@ def test_installed_package_resolves_outside_the_checkout(tmp_path) -> None:
     result = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert result.stdout.split() == ["None", "None"]  # no generic top-level names installed
+
+
+def test_every_sub_package_is_installed() -> None:
+    """pyproject.toml lists every folder with an ``__init__.py`` under the installed folders as a package (setuptools
+    installs only those listed: a sub-package left out is missing from ``pip install .``, not from the checkout)."""
+    listed = set(re.findall(r'^\s*"(platypose[\w.]*)",?\s*$', (REPO / "pyproject.toml").read_text(), re.M))
+    folders = {"platypose": "platypose", "platypose_cli": "platypose.cli", "data": "platypose.data"}
+    folders |= {name: f"platypose.{name}" for name in ("lifting", "detectors", "exporters")}
+    found = {
+        ".".join([package, *init.parent.relative_to(REPO / folder).parts])
+        for folder, package in folders.items()
+        for init in (REPO / folder).rglob("__init__.py")
+    }
+    assert len(found) > 20 and found - listed == set(), sorted(found - listed)
