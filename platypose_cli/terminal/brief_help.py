@@ -1,6 +1,6 @@
 """A command whose ``--help`` shows only the options most people use, and ``--help-all`` every option in its panels.
 
-``@app.command("lift", cls=brief_help({"cams", "out", ...}))`` with a parameter ``help_all: bool = help_all_option()``:
+``app.command("lift", cls=brief_help({"cams", "out", ...}))(lift)``, ``lift`` with a parameter ``help_all: bool = help_all_option()``:
 the named parameters (their Python names) are shown by ``--help``, the others are hidden there and still work;
 ``--help-all`` shows them all. The short help ends by naming ``--help-all``.
 """
