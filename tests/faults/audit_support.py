@@ -175,10 +175,10 @@ def edit_json(path: Path, change: Callable[[dict], None]) -> None:
     path.write_text(json.dumps(content))
 
 
-def minimal_json(folder: Path, **override) -> Path:
-    """Real cam01 OpenPose frames in the minimal JSON schema."""
+def minimal_json(folder: Path, count: int = 10, **override) -> Path:
+    """The first ``count`` real cam01 OpenPose frames in the minimal JSON schema, as ``folder/cam01.json``."""
     frames = []
-    for n, path in enumerate(sorted((OPENPOSE / "cam01_json").glob("*.json"))[:10]):
+    for n, path in enumerate(sorted((OPENPOSE / "cam01_json").glob("*.json"))[:count]):
         people = json.loads(path.read_text())["people"]
         frames.append(
             {
@@ -279,6 +279,14 @@ def fill(mount: Path) -> None:
 
 def lift_args(keypoints: Path, out: Path, *extra) -> list:
     return ["lift", "--keypoints", keypoints, "--cams", CALIB, *KEYPOINT_TIMING, *FAST, "--out", out, *extra]
+
+
+def tiny_lift_args(prior: str, keypoints: Path, out: Path, *extra) -> list[str]:
+    """``lift`` of ``keypoints`` with the Pose2Sim calibration and the tiny test prior ``prior``: 2 hypotheses,
+    3 steps, one thread, quiet."""
+    fast = ["--samples", "2", "--steps", "3", "--skip", "1", "--guidance-iters", "1", "--threads", "1", "-q"]
+    args = ["--keypoints", keypoints, "--cams", CALIB, "--prior", prior, *KEYPOINT_TIMING, *fast, "--out", out, *extra]
+    return ["lift", *map(str, args)]
 
 
 def summary(out: Path) -> dict:

@@ -2,7 +2,8 @@
 numbers too large for a float, a time offset), importers' values out of range (focal lengths, sensor sizes,
 distortion, cameras within millimetres of each other) each one line naming the problem, and the real files still
 read; the cameras checked against the videos before any detection (another image size fails before anything is
-read, an image too small to show a person is refused, a focal length no lens has is a warning).
+read, an image too small to show a person is refused, a focal length no lens has is a warning; a calibration of one
+camera given for another view or for four videos is one error).
 
 The audit cases (marker ``audit``, run with ``pytest -m audit``) run ``platypose calib check`` and ``lift`` as the
 real CLI; each run ends as due, unflagged (:mod:`audit_watch`, :mod:`audit_support`)."""
@@ -18,7 +19,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 from audit_support import CALIB as TAKE_CALIB
-from audit_support import FAST, Case, Run, check_case, platypose, registry
+from audit_support import (
+    FAST,
+    KEYPOINT_TIMING,
+    Case,
+    Run,
+    check_case,
+    one_camera_calibration,
+    openpose_copy,
+    platypose,
+    registry,
+)
 from audit_watch import CALIB, check
 
 from platypose.lifting.calibration import load_calibration, save_calibration
@@ -351,6 +362,25 @@ def _(w: Path) -> Run:
     video = Path(TAKE_CALIB).parent / "cam01.mp4"
     args = ["lift", video, "--cams", full, *FAST, "--out", w / "out"]
     return Run(args, says=("calibration mismatch: calibration says 1280x720 px for camera cam_01",), timeout=60)
+
+
+@case("one-camera-calibration-for-another-view")
+def _(w: Path) -> Run:
+    calib = one_camera_calibration(w, "cam_01")
+    keypoints = openpose_copy(w / "kp", "cam02")
+    args = ["lift", "--keypoints", keypoints, "--cams", calib, *KEYPOINT_TIMING, *FAST, "--out", w / "out"]
+    return Run(args, says=("cam02_json", "calibration mismatch with", "only_cam_01.json"))
+
+
+@case("one-camera-calibration-for-four-videos")
+def _(w: Path) -> Run:
+    calib = one_camera_calibration(w, "cam_01")
+    take = w / "take"
+    take.mkdir()
+    for view in ("cam01", "cam02", "cam03", "cam04"):
+        (take / f"{view}.mp4").symlink_to(TAKE / f"{view}.mp4")
+    says = ("only_cam_01.json: the calibration has 1 camera (cam_01), you gave 4 videos", "cam04.mp4")
+    return Run(["lift", take, "--cams", calib, "--out", w / "out", "-q"], says=says)
 
 
 @pytest.mark.audit

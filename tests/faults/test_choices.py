@@ -2,7 +2,7 @@
 numbers: digits are ASCII digits, counts and ids cannot be mistaken, booleans are not numbers, NumPy scalars are
 numbers, and a point outside the image is refused (each an InputError naming the option and the problem). The audit
 cases (marker ``audit``, run with ``pytest -m audit``) type them into the real CLI; each must end in a clean error
-checked for its words (:mod:`audit_support`)."""
+checked for its words, and ``lift --help-all`` shows every option's default as it is (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
@@ -148,6 +148,18 @@ def _(w: Path) -> Run:
 def _(w: Path) -> Run:
     args = lift_args(openpose_copy(w), w / "out", "--energy-scale", "1e308")
     return Run(args, says=("energy-scale", "must be between -1,000,000 and 1,000,000, got 1e+308"))
+
+
+@case("lift-help-keeps-bracketed-defaults")
+def _(w: Path) -> Run:
+    def check(proc) -> str | None:
+        shown = " ".join(proc.stdout.split())
+        missing = [b for b in ("[default: 50]", "[default: l2]", "[default: out]") if b not in shown]
+        if "[default: (" in shown:  # a settings option's default shown as a description (issue 52, item 12)
+            return "--help shows a default in parentheses"
+        return f"--help lost {missing}" if missing else None
+
+    return Run(["lift", "--help-all"], "ok", check)  # every option: --help shows the common ones
 
 
 @pytest.mark.audit

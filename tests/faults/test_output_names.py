@@ -1,7 +1,8 @@
 """Job names and output folders: names from input file names stay inside --out (dots, hidden names, names of our
 own files, newlines and very long names become safe folder and file names, and a lift of such inputs writes nothing
 beside OUT); one output folder per input (names that collide in a batch, a folder an earlier run wrote for another
-input). The audit cases (marker ``audit``) run the real CLI (:mod:`audit_watch`)."""
+input). The audit cases (marker ``audit``) run the real CLI (:mod:`audit_watch`), and lift a view named by 240
+characters into every format (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,18 @@ import shutil
 from pathlib import Path
 
 import pytest
-from audit_support import CALIB, FAST, KEYPOINT_TIMING, minimal_json, platypose
+from audit_support import (
+    CALIB,
+    FAST,
+    KEYPOINT_TIMING,
+    Case,
+    Run,
+    check_case,
+    minimal_json,
+    openpose_copy,
+    platypose,
+    registry,
+)
 from audit_watch import LIFT, check
 
 from platypose.cli.runs.jobs import Job, View, discover_jobs, keypoints_job
@@ -134,3 +146,21 @@ def test_job_names_stay_inside_out(batch_folder, tmp_path: Path) -> None:
         shutil.copy(batch_folder / "good.mp4", names / n)
     out = tmp_path / "out"
     check(tmp_path, ["lift", names, "--out", out, "--formats", "npz,bvh", *LIFT], "ok", out=out)
+
+
+CASES: list[Case] = []
+case = registry(CASES)
+
+
+@case("lift-long-file-name")
+def _(w: Path) -> Run:
+    folder = openpose_copy(w)
+    long = folder.rename(w / ("x" * 240 + "_json"))
+    args = ["lift", "--keypoints", long, *KEYPOINT_TIMING, *FAST, "--out", w / "out", "--formats", "npz,csv,bvh"]
+    return Run(args, "ok")  # no --cams: a view named x...x matches no camera of the Pose2Sim calibration
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
+def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
+    check_case(audit_case, tmp_path)

@@ -1,6 +1,8 @@
 """Human3.6M motion files are pickles: a small file whose objects would take 2**40 elements or bytes when built
 (doubled lists, huge shapes through every way numpy rebuilds an array) is refused naming the file and the key;
-real data still loads. The audit cases (marker ``audit``) give such files to ``motion info`` (:mod:`audit_watch`)."""
+real data still loads, and nothing in such a file runs. The audit cases (marker ``audit``) give such files to
+``motion info`` (:mod:`audit_watch`), and a file whose pickle would run code to ``motion info``, ``train`` and
+``eval`` (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
@@ -8,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from audit_support import Case, Run, check_case, malicious_h36m, registry
 from audit_watch import check
 
 from platypose.lifting.errors import InputError
@@ -91,3 +94,44 @@ def test_pickle_bombs_in_mocap(tmp_path: Path, name: str) -> None:
     except RecursionError:
         pytest.skip("numpy cannot write this one")
     check(tmp_path / "case", ["motion", "info", path], "error", (path.name, "positions_3d"))
+
+
+CASES: list[Case] = []
+case = registry(CASES)
+
+
+@case("h36m-malicious-motion-info")
+def _(w: Path) -> Run:
+    data, marker = malicious_h36m(w)
+    return Run(
+        ["motion", "info", data],
+        marker=marker,
+        says=("data_3d_h36m.npz: 'positions_3d' holds more than bounded numpy arrays", "refused to load io.open"),
+    )
+
+
+@case("h36m-malicious-train-folder-scan")
+def _(w: Path) -> Run:
+    data, marker = malicious_h36m(w)
+    args = ["train", data.parent, "--out", w / "p.pt", "--iterations", "1"]
+    return Run(
+        args,
+        marker=marker,
+        says=("data_3d_h36m.npz: 'positions_3d' holds more than bounded numpy arrays", "refused to load io.open"),
+    )
+
+
+@case("h36m-malicious-eval")
+def _(w: Path) -> Run:
+    data, marker = malicious_h36m(w)
+    return Run(
+        ["eval", data, "--frames", "1", "--samples", "2"],
+        marker=marker,
+        says=("data_3d_h36m.npz: 'positions_3d' holds more than bounded numpy arrays", "refused to load io.open"),
+    )
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
+def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
+    check_case(audit_case, tmp_path)

@@ -1,18 +1,23 @@
 """The report picture and the person pictures: long flag text does not run into the row's title,
-a report without a video says why its thumbnails are missing, and two overlapping people do not share a picture."""
+a report without a video says why its thumbnails are missing, and two overlapping people do not share a picture.
+The audit case (marker ``audit``, run with ``pytest -m audit``) exports a real lift's recording with its video and
+checks that each person's picture boxes their own joints (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
 import re
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from export_helpers import two_person_result
+from audit_support import TAKE, Case, Run, check_case, lift_args, openpose_copy, platypose, registry
+from export_helpers import read_entities, two_person_result
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from platypose.exporters import export
+from platypose.exporters.npz import read_npz
 from platypose.exporters.person_pictures import good_frames
 from platypose.lifting.calibration.defaults import default_camera
 
@@ -93,3 +98,49 @@ def test_two_overlapping_people_get_pictures_of_their_own(tmp_path) -> None:
     assert overlap.prod() == 0.0  # the pictures do not show the same people
     assert frames[0].frame >= 10 and frames[1].frame >= 10
     assert frames[0].box[2] < 500 < frames[1].box[0]  # each picture shows its own person (at 100 and 1200 px)
+
+
+CASES: list[Case] = []
+case = registry(CASES)
+
+
+WHO = re.compile(r"p(\d+): best seen by (\S+) in frame (\d+), image box (\d+),(\d+)-(\d+),(\d+) px")
+
+
+def _own_pictures(npz: Path, recording: Path) -> str | None:
+    """None when every person's picture in ``recording`` (its who/ texts) boxes their own joints in ``npz``, and no
+    two people share a box; else what is wrong."""
+    result = read_npz(npz)
+    texts = [
+        v["static:TextDocument:text"][0][0]
+        for k, v in read_entities(recording).items()
+        if re.fullmatch(r"/who/p\d+", k)
+    ]
+    boxes = {}
+    for text in texts:
+        track, camera, frame, *box = WHO.fullmatch(text).groups()
+        c = [cam.name for cam in result.cameras].index(camera)
+        joints = result.keypoints2d[c, list(result.track_ids).index(int(track)), int(frame)]
+        joints = joints[joints[:, 2] > 0, :2]
+        x1, y1, x2, y2 = map(float, box)
+        if not ((joints >= [x1 - 1, y1 - 1]) & (joints <= [x2 + 1, y2 + 1])).all():
+            return f"p{track}'s picture does not show p{track}: {text}"
+        boxes[track] = tuple(box)
+    if len(boxes) < 2 or len(set(boxes.values())) < len(boxes):
+        return f"the people do not have pictures of their own: {texts}"
+    return None
+
+
+@case("every-person-gets-their-own-picture")
+def _(w: Path) -> Run:
+    done = platypose(lift_args(openpose_copy(w / "kp"), w / "res", "--formats", "npz"), 240)
+    assert done is not None and done.returncode == 0, done and done.stderr
+    npz = w / "res/cam01/cam01.npz"
+    args = ["export", npz, "--formats", "rrd", "--out", w / "out", "--video", f"cam_01={TAKE / 'cam01.mp4'}"]
+    return Run(args, "ok", lambda proc: _own_pictures(npz, w / "out/cam01.rrd"), timeout=240)
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
+def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
+    check_case(audit_case, tmp_path)

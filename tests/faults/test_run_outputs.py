@@ -1,11 +1,17 @@
-"""What runs leave behind in --out: full disks, --out where it cannot be, resume, signals, concurrent runs (two
-lifts of one input at once: the second writer of a folder refuses, and the folder holds one run's files, as its
-lift.json says, never a mix), stale files, exit codes and quiet output, each ending in a clean error or handled
-well (:mod:`audit_support`). Every case runs the real CLI: run with ``pytest -m audit``."""
+"""What runs leave behind in --out and what they say: full disks, --out where it cannot be, resume (settings
+changed, another working directory, a failed rerun keeping the good run, transient failures retried, the flags found
+said again), staging folders and stale outputs, SIGTERM and Ctrl-C, concurrent runs (summary.json keeps every entry;
+two lifts of one input at once: the second writer of a folder refuses, and the folder holds one run's files, as its
+lift.json says, never a mix), warnings in summary.json and on the console, the npz written whatever the formats, exit
+codes and quiet output. The cases without a marker lift the first frames of the Pose2Sim take's real OpenPose
+keypoints with the tiny prior; the audit cases (marker ``audit``, run with ``pytest -m audit``) run the real CLI with
+the shipped prior, each ending in a clean error or handled well (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
+import errno
 import json
+import multiprocessing
 import os
 import shutil
 import signal
@@ -35,13 +41,12 @@ from audit_support import (
     registry,
     result_npz,
     summary,
+    tiny_lift_args,
     tmpfs,
     truncated_video,
 )
 
 from platypose.cli.runs.outputs import finished_outputs
-
-pytestmark = pytest.mark.audit
 
 CASES: list[Case] = []
 case = registry(CASES)
@@ -309,11 +314,64 @@ def _(w: Path) -> Run:
     return Run(["detect", video, "--out", w / "out", "--stride", "10", "-q", "--threads", "1"], "ok", check)
 
 
+def _ik_warned(out: Path, stderr: str) -> str | None:
+    """None when the lift's OpenSim IK warnings are in summary.json and on the console; else what is missing."""
+    warnings = [w for entry in summary(out)["inputs"] for w in entry["warnings"] if "OpenSim IK" in w]
+    if not warnings:
+        return "summary.json lists no OpenSim IK warning"
+    if f"warning: cam01: {warnings[0]}" not in stderr:
+        return "the console does not say the OpenSim IK warning"
+    return None
+
+
+@case("lift-says-opensim-ik-warnings")
+def _(w: Path) -> Run:
+    keypoints = openpose_copy(w / "kp", frames=100)
+    out = w / "out"
+    timing = ["--fps", "20", "--image-size", "1920x1080", "--samples", "2", "--threads", "1"]
+    args = ["lift", "--keypoints", keypoints, *timing, "-q", "--formats", "npz,mot", "--out", out]
+    return Run(args, "ok", lambda proc: _ik_warned(out, proc.stderr), timeout=300)
+
+
+@case("lift-writes-the-npz-whatever-the-formats")
+def _(w: Path) -> Run:
+    out = w / "out"
+    args = [*lift_args(openpose_copy(w / "kp"), out, "--formats", "trc,angles")]
+    return Run(args, "ok", lambda proc: None if (out / "cam01/cam01.npz").is_file() else "no npz written")
+
+
+def _flag_lines(stderr: str) -> list[str]:
+    return [line for line in stderr.splitlines() if line.startswith("  ") and ": flagged: " in line]
+
+
+@case("resume-repeats-the-flags-it-found")
+def _(w: Path) -> Run:
+    keypoints = w / "kp"
+    keypoints.mkdir()
+    for view, source in (("cam01", "cam02"), ("cam02", "cam01"), ("cam03", "cam03"), ("cam04", "cam04")):
+        openpose_copy(w / view, source).rename(keypoints / f"{view}_json")
+    args = [*lift_args(keypoints, w / "out", "--formats", "npz"), "--resume"]  # cam01 and cam02 swapped: flags
+
+    def action() -> tuple[str, str]:
+        first = platypose(args, 240)
+        assert first is not None and first.returncode == 0 and _flag_lines(first.stderr), first and first.stderr
+        again = platypose(args, 240)
+        if again is None or again.returncode != 0 or "1 skipped" not in again.stdout:
+            return "silent wrong", f"the resumed run did not skip the input: {again and again.stdout}"
+        if _flag_lines(again.stderr) != _flag_lines(first.stderr):
+            return "silent wrong", f"the resumed run says {_flag_lines(again.stderr)}, not {_flag_lines(first.stderr)}"
+        return "handled well", "ok"
+
+    return Run(action=action)
+
+
+@pytest.mark.audit
 @pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
 def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
     check_case(audit_case, tmp_path)
 
 
+@pytest.mark.audit
 def test_two_lifts_of_one_input_at_once_do_not_mix_their_files(tmp_path) -> None:
     keypoints = openpose_copy(tmp_path / "kp", frames=60)
     out = tmp_path / "out"
@@ -339,3 +397,169 @@ def test_two_lifts_of_one_input_at_once_do_not_mix_their_files(tmp_path) -> None
     assert (tmp_path / "again/cam01.csv").read_bytes() == (folder / "cam01.csv").read_bytes()  # one run's CSV and npz
     entry = json.loads((out / "summary.json").read_text())["inputs"][0]
     assert entry["status"] == "ok"  # the refusal ends at once; the run that wrote the folder ends last
+
+
+def hypotheses(npz: Path) -> int:
+    with np.load(npz) as data:
+        return data["hypotheses"].shape[1]
+
+
+def test_resume_reruns_when_settings_change_and_says_why(run_cli, prior_file, tmp_path):
+    source, out = openpose_copy(tmp_path, frames=12), tmp_path / "out"
+    assert run_cli(*tiny_lift_args(prior_file, source, out, "--formats", "npz"))[0] == 0
+    code, _, err = run_cli(*tiny_lift_args(prior_file, source, out, "--formats", "npz", "--resume"))
+    assert code == 0
+    entry = summary(out)["inputs"][0]
+    assert entry["status"] == "skipped" and entry["reason"] == "finished earlier with the same inputs and settings"
+    argv = tiny_lift_args(prior_file, source, out, "--formats", "npz", "--resume")
+    argv[argv.index("--samples") + 1] = "4"
+    code, _, _ = run_cli(*argv)
+    assert code == 0 and summary(out)["inputs"][0]["status"] == "ok"
+    assert hypotheses(out / "cam01/cam01.npz") == 4  # 2 were kept before the fix, with exit 0
+
+
+def test_lift_json_is_output_relative_and_resume_works_from_elsewhere(run_cli, prior_file, tmp_path, monkeypatch):
+    source = openpose_copy(tmp_path, frames=12).resolve()
+    (tmp_path / "a").mkdir()
+    monkeypatch.chdir(tmp_path / "a")
+    assert run_cli(*tiny_lift_args(prior_file, source, Path("out"), "--formats", "npz"))[0] == 0
+    manifest = json.loads((tmp_path / "a/out/cam01/lift.json").read_text())
+    assert manifest["outputs"] == ["cam01.npz"] and len(manifest["fingerprint"]) == 64
+    monkeypatch.chdir(tmp_path)
+    shutil.move(tmp_path / "a", tmp_path / "b")
+    monkeypatch.chdir(tmp_path / "b")
+    assert run_cli(*tiny_lift_args(prior_file, source, Path("out"), "--formats", "npz", "--resume"))[0] == 0
+    entry = summary(tmp_path / "b/out")["inputs"][0]
+    assert entry["status"] == "skipped" and Path(entry["outputs"][0]).is_file()
+
+
+def test_a_failed_rerun_keeps_the_good_run_and_its_log(run_cli, prior_file, tmp_path):
+    source, out = openpose_copy(tmp_path, frames=12), tmp_path / "out"
+    assert run_cli(*tiny_lift_args(prior_file, source, out, "--formats", "npz"))[0] == 0
+    good_log, good_npz = (out / "cam01/log.txt").read_text(), (out / "cam01/cam01.npz").read_bytes()
+    broken = sorted(source.glob("*.json"))[3]
+    content = json.loads(broken.read_text())
+    content["people"][0]["pose_keypoints_2d"][0] = 1e30
+    broken.write_text(json.dumps(content))
+    code, _, err = run_cli(*tiny_lift_args(prior_file, source, out, "--formats", "npz", "--resume"))
+    assert code == 2 and "far outside" in err  # the input changed: run again, and it fails
+    assert (out / "cam01/log.txt").read_text() == good_log
+    assert (out / "cam01/cam01.npz").read_bytes() == good_npz
+    assert "far outside" in (out / "cam01/log-failed.txt").read_text()
+    assert summary(out)["inputs"][0]["error_kind"] == "input"
+
+
+def test_transient_failures_are_retried_by_resume(run_cli, prior_file, tmp_path, monkeypatch):
+    import platypose.exporters as exporters
+
+    source, out = openpose_copy(tmp_path, frames=12), tmp_path / "out"
+    real_export = exporters.export
+
+    def full_disk(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", str(out / "cam01" / "cam01.npz"))
+
+    monkeypatch.setattr(exporters, "export", full_disk)
+    code, _, err = run_cli(*tiny_lift_args(prior_file, source, out, "--formats", "npz"))
+    assert code == 1 and "No space left on device" in err  # not bad input: exit 1
+    failure = json.loads((out / "cam01/failed.json").read_text())
+    assert failure["transient"] is True and summary(out)["inputs"][0]["error_kind"] == "system"
+    monkeypatch.setattr(exporters, "export", real_export)
+    code, _, err = run_cli(*tiny_lift_args(prior_file, source, out, "--formats", "npz", "--resume"))
+    assert code == 0 and summary(out)["inputs"][0]["status"] == "ok"
+
+
+def test_stale_staging_and_stale_outputs_are_removed(run_cli, prior_file, tmp_path):
+    source, out = openpose_copy(tmp_path, frames=12), tmp_path / "out"
+    (out / "cam01").mkdir(parents=True)
+    dead = out / ".cam01.999999999.abc.partial"  # a killed run's staging folder (no such process)
+    dead.mkdir()
+    (dead / ".hypotheses.npy").write_bytes(b"\0" * 1000)
+    alive = out / f".cam01.{os.getpid()}.xyz.partial"  # a running process's: left alone
+    alive.mkdir()
+    (out / "cam01/cam01_p7.bvh").write_text("HIERARCHY\n")  # a person of an earlier run
+    (out / "cam01/notes.txt").write_text("mine")  # not a platypose output: kept
+    assert run_cli(*tiny_lift_args(prior_file, source, out, "--formats", "npz,bvh"))[0] == 0
+    assert not dead.exists() and alive.exists()
+    names = sorted(p.name for p in (out / "cam01").iterdir())
+    assert "cam01_p7.bvh" not in names and "notes.txt" in names and "cam01.npz" in names
+    assert "removed output(s) of an earlier run" in (out / "cam01/log.txt").read_text()
+
+
+def _write_entries(out: str, name: str, count: int) -> None:
+    from platypose.cli.runs.batch import write_summary
+
+    for i in range(count):
+        entry = {"input": name, "name": name, "status": "ok", "outputs": [], "seconds": float(i), "error": None}
+        write_summary(Path(out), [entry], "now", {})
+
+
+def test_concurrent_runs_into_one_out_keep_every_entry(tmp_path):
+    context = multiprocessing.get_context("spawn")
+    processes = [context.Process(target=_write_entries, args=(str(tmp_path), f"take{i}", 15)) for i in range(3)]
+    for process in processes:
+        process.start()
+    for process in processes:
+        process.join(60)
+    content = summary(tmp_path)
+    assert sorted(e["name"] for e in content["inputs"]) == ["take0", "take1", "take2"]
+    assert content["counts"]["ok"] == 3
+
+
+def _lift_process(argv: list[str]) -> subprocess.Popen:
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "platypose", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        preexec_fn=default_signals,
+    )
+
+
+def test_sigterm_removes_the_staging_folder(prior_file, tmp_path):
+    source, out = openpose_copy(tmp_path, frames=100), tmp_path / "out"
+    argv = tiny_lift_args(prior_file, source, out, "--formats", "npz")
+    argv[argv.index("--samples") + 1] = "64"
+    process = _lift_process(argv)
+    deadline = time.monotonic() + 120
+    while not list(out.glob(".*.partial")) and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert process.poll() is None, process.communicate()[1]
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode != 0 and "Traceback" not in err
+    assert list(out.glob(".*.partial")) == [] and not (out / "cam01/lift.json").exists()
+
+
+def test_ctrl_c_with_two_jobs_keeps_finished_inputs(prior_file, tmp_path):
+    out = tmp_path / "out"
+    videos = [TAKE / f"cam0{i}.mp4" for i in (1, 2, 3, 4)]
+    argv = ["lift", *map(str, videos), "--prior", prior_file, "--samples", "2", "--steps", "3", "--skip", "1"]
+    argv += ["--stride", "3", "--jobs", "2", "--threads", "1", "--formats", "npz", "-q", "--out", str(out)]
+    process = _lift_process(argv)
+    deadline = time.monotonic() + 300
+    while not list(out.glob("*/lift.json")) and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if process.poll() is not None:
+        pytest.skip("the batch finished before it could be interrupted")
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130 and "Traceback" not in err, err
+    finished = sorted(p.parent.name for p in out.glob("*/lift.json"))
+    listed = sorted(e["name"] for e in summary(out)["inputs"] if e["status"] == "ok")
+    assert finished and finished == listed
+    assert list(out.glob(".*.partial")) == []
+
+
+def test_staging_folder_of_a_long_job_name(tmp_path):
+    """File names over ~225 characters; the staging folder name stays short enough."""
+    from platypose.cli.runs.outputs import remove_stale_staging, staging_folder
+
+    name = "x" * 240
+    with staging_folder(tmp_path / name, name) as staging:
+        assert staging.is_dir() and len(staging.name) < 100
+        (staging / f"{name}_hypotheses.csv").write_text("ok")  # the longest output name fits beside it
+    stale = tmp_path / f".{name[:64]}.999999999.abc.partial"
+    stale.mkdir()
+    assert remove_stale_staging(tmp_path, name) == [stale.name]

@@ -1,17 +1,30 @@
 """The views of one take: sync offsets are bounded and views that barely move or are short are warned about, views
 at different frame rates are refused, swapped cameras are warned about (views judged by the persons they see
-well), and calibration names matching no video are one error. The audit cases (marker ``audit``) run the real CLI
-on them, with sync files out of range or broken (:mod:`audit_watch`)."""
+well; a calibration with two cameras' poses swapped is named in summary.json and on the console), and calibration
+names matching no video are one error. The audit cases (marker ``audit``) run the real CLI on them, with sync files
+out of range or broken (:mod:`audit_watch`) and a swapped calibration (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from audit_support import KEYPOINT_TIMING
+from audit_support import (
+    FAST,
+    KEYPOINT_TIMING,
+    Case,
+    Run,
+    check_case,
+    openpose_copy,
+    registry,
+    summary,
+    swapped_calibration,
+    tiny_lift_args,
+)
 from audit_watch import LIFT, REPO, check
 from audit_watch import TAKE as TAKE_DIR
 
@@ -308,3 +321,57 @@ def test_video_names_matching_no_camera(batch_folder, tmp_path: Path) -> None:
 def test_sync_offsets_out_of_range(tmp_path: Path, name: str, text: str, needle: str) -> None:
     (tmp_path / f"{name}.json").write_text(text)
     check(tmp_path / "case", [*SYNC_CHECK, "--sync", tmp_path / f"{name}.json"], "error", (f"{name}.json", needle))
+
+
+def test_swapped_calibration_is_named_in_the_console_and_summary(run_cli, data_dir, prior_file, tmp_path):
+    full = tmp_path / "full.json"
+    assert run_cli("calib", "convert", data_dir / TAKE / "calib_pose2sim.toml", "--out", full)[0] == 0
+    content = json.loads(full.read_text())
+    cams = {c["name"]: c for c in content["cameras"]}
+    for key in set(cams["cam_01"]) - {"name", "size", "K", "dist"}:
+        cams["cam_01"][key], cams["cam_02"][key] = cams["cam_02"][key], cams["cam_01"][key]
+    swapped = tmp_path / "swapped.json"
+    swapped.write_text(json.dumps(content))
+    views = tmp_path / "views"
+    for view in ("cam01", "cam02", "cam03"):
+        openpose_copy(views, view, frames=20)
+    argv = tiny_lift_args(prior_file, views, tmp_path / "out", "--formats", "npz", "--persons", "largest")
+    argv[argv.index("--cams") + 1] = str(swapped)
+    code, _, err = run_cli(*argv)
+    assert code == 0
+    warnings = " ".join(summary(tmp_path / "out")["inputs"][0]["warnings"])
+    assert "cam_01" in warnings and "cam_02" in warnings and "calibration" in warnings
+    assert "warning: " in err and "calibration" in err
+
+
+CASES: list[Case] = []
+case = registry(CASES)
+
+
+@case("swapped-calibrations")
+def _(w: Path) -> Run:
+    calib = swapped_calibration(w)
+    kp = w / "kp"
+    for view in ("cam01", "cam02"):
+        openpose_copy(kp, view, frames=20)
+    out = w / "out"
+
+    def check(proc) -> str | None:
+        entries = summary(out)["inputs"]
+        warned = any(
+            "cam_01" in " ".join(e.get("warnings", [])) or "cam_02" in " ".join(e.get("warnings", [])) for e in entries
+        )
+        if not warned:
+            return "no warning naming the swapped view in summary.json"
+        if "warning" not in proc.stderr:
+            return "no warning on the console"
+        return None
+
+    args = ["lift", "--keypoints", kp, "--cams", calib, *KEYPOINT_TIMING, *FAST[:-1], "--out", out, "--formats", "npz"]
+    return Run(args, "ok", check)
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
+def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
+    check_case(audit_case, tmp_path)

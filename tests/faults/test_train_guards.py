@@ -1,13 +1,17 @@
-"""``train`` refuses bad options and stops on a non-finite loss; a prior with non-finite
-weights is refused when loaded (also by prior-info)."""
+"""``train`` refuses bad options and stops on a non-finite loss; a prior with non-finite weights is refused when
+loaded (also by prior-info); sampler numbers (--seed, --samples, weights) are bounded. The audit cases (marker
+``audit``, run with ``pytest -m audit``) give the shipped prior with NaN weights to ``prior-info`` and out-of-range
+--seed and --samples to ``lift`` (:mod:`audit_support`)."""
 
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
+from audit_support import REPO, Case, Run, check_case, lift_args, openpose_copy, registry
 
 from platypose.lifting.errors import InputError
 from platypose.lifting.motion import Motion
@@ -28,11 +32,11 @@ def one_line_error(code: int, err: str, *needles: str) -> None:
 @pytest.mark.parametrize(
     "options, needle",
     [
-        (["--max-frames", "0"], "max_frames must be at least 1"),
-        (["--fps", "0"], "fps must be a positive number"),
+        (["--max-frames", "0"], "train: max_frames must be at least 1, got 0"),
+        (["--fps", "0"], "train: fps must be a positive number, got 0.0"),
         (["--fps", "inf"], "fps must be a positive number"),
-        (["--width", "10", "--heads", "3"], "width 10 must be even and a multiple of heads (3)"),
-        (["--learning-rate", "nan"], "--learning-rate must be a finite number"),
+        (["--width", "10", "--heads", "3"], "train: width 10 must be even and a multiple of heads (3)"),
+        (["--learning-rate", "nan"], "--learning-rate must be a finite number, got nan"),
         (["--iterations", "0"], "--iterations must be at least 1"),
         (["--learning-rate", "2"], "--learning-rate must be in (0, 1)"),
         (["--checkpoint-every", "0"], "--checkpoint-every must be at least 1"),
@@ -153,3 +157,34 @@ def test_distilling_into_the_teacher_is_refused(run_cli, data_dir, prior_file, t
         )  # fmt: skip
         assert code == 2 and "is the teacher given by --distil-from" in err, err
     assert teacher.read_bytes() == before
+
+
+CASES: list[Case] = []
+case = registry(CASES)
+
+
+@case("prior-with-nan-weights-prior-info")
+def _(w: Path) -> Run:
+    payload = torch.load(REPO / "lifting/prior/weights/default.pt", weights_only=True)
+    first = next(iter(payload["state_dict"]))
+    payload["state_dict"][first] = payload["state_dict"][first] * float("nan")
+    torch.save(payload, w / "nan.pt")
+    return Run(["prior-info", w / "nan.pt"], says=("nan.pt: prior weights 'input.weight' hold NaN or infinite values",))
+
+
+@case("lift-seed-1e23")
+def _(w: Path) -> Run:
+    args = [*lift_args(openpose_copy(w), w / "out"), "--seed", str(10**23)]
+    return Run(args, says=("--seed must be in 0..2**63-1, got 100000000000000000000000",))
+
+
+@case("lift-samples-1e9")
+def _(w: Path) -> Run:
+    args = [*lift_args(openpose_copy(w), w / "out"), "--samples", str(10**9)]
+    return Run(args, says=("--samples must be at most 5000, got 1000000000",))
+
+
+@pytest.mark.audit
+@pytest.mark.parametrize("audit_case", CASES, ids=[c.name for c in CASES])
+def test_audit_case(audit_case: Case, tmp_path: Path) -> None:
+    check_case(audit_case, tmp_path)

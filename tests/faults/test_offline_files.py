@@ -1,6 +1,7 @@
-"""Audit, the offline commands' own files (issue 52): a prior's piece index, the pieces a rewrite removes, motion
-packs and unseen-sets files, crafted or damaged, against the real CLI; each ends in a clean error or handled well
-(:mod:`audit_support`). Run with ``pytest -m audit``."""
+"""The offline commands' own files (``train``, ``eval``, ``prior-info``, ``calibrate-prior``): a prior's piece
+index, the pieces a rewrite removes (never a user's file beside them), motion packs and unseen-sets files, crafted or
+damaged, against the real CLI; each ends in a clean error or handled well (:mod:`audit_support`). Every case is an
+audit case: run with ``pytest -m audit``."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""Audit, a split lift's pieces and ``--collect`` (issue 52, items 2, 3 and 7): pieces damaged after a killed run,
-a ``.pieces`` that is not a folder, an earlier run's files beside a collected one; against the real CLI, each
-ending in a clean error or handled well (:mod:`audit_support`). Run with ``pytest -m audit``.
+"""A split lift's pieces and ``--collect``: pieces damaged after a killed run, a ``.pieces`` that is not a folder,
+an earlier run's files beside a collected one; against the real CLI, each ending in a clean error or handled well
+(:mod:`audit_support`). Every case is an audit case: run with ``pytest -m audit``.
 
 ``K`` and ``SPLIT`` are the issue's: a copy of the balancing take's cam01 OpenPose folder at 20 fps, 2 hypotheses,
 npz only; pieces of 2 s on two processes. ``killed SPLIT-run``: ``lift K SPLIT`` killed (SIGKILL) once two lift
