@@ -272,9 +272,8 @@ def lift_take(
     log = log if log is not None else JobLog()
     fps = take.frame_rate(prior.fps)
     if isinstance(floor, FloorToEstimate):
-        floor = quick_floor(
-            prior, everyone or take, log=log, progress=progress, lifter=lifter, height_only=floor.height_only
-        )
+        on = everyone if everyone is not None else take
+        floor = quick_floor(prior, on, log=log, progress=progress, lifter=lifter, height_only=floor.height_only)
     if floor is not None:
         take = replace(take, sampler=replace(take.sampler, floor=floor.plane))
         log(f"floor ({floor.source}): {' '.join(f'{v:g}' for v in floor.plane)} (n . x + d = 0), grounding on")
