@@ -265,7 +265,8 @@ def lift_take(
     :mod:`platypose.lifting.checks.plausibility`, with its ``flag_text``; logged, not a warning) and ``rigid_bones``
     (per person, :func:`platypose.lifting.finish.rigid.rigid_person`: every hypothesis and the median get one length
     per bone over the clip); the caller adds its own. ``lifter`` lifts the persons (:func:`lift_persons`, or the same
-    spread over pieces: ``platypose.cli.runs.split.SplitLifter``). With an estimated floor every output is moved into
+    spread over pieces: ``platypose.cli.runs.split.SplitLifter``); the floor's quick lift is always the whole take's
+    (:func:`lift_persons`), so a split take stands on the floor and in the world of the unsplit one. With an estimated floor every output is moved into
     the estimated world (:mod:`platypose.lifting.finish.world`: z = 0 the floor, z up, the camera at its estimated
     height and pitch), which ``meta["floor"]["frame"]`` says.
     """
@@ -273,7 +274,7 @@ def lift_take(
     fps = take.frame_rate(prior.fps)
     if isinstance(floor, FloorToEstimate):
         on = everyone if everyone is not None else take
-        floor = quick_floor(prior, on, log=log, progress=progress, lifter=lifter, height_only=floor.height_only)
+        floor = quick_floor(prior, on, log=log, progress=progress, height_only=floor.height_only)  # whole: one floor
     if floor is not None:
         take = replace(take, sampler=replace(take.sampler, floor=floor.plane))
         log(f"floor ({floor.source}): {' '.join(f'{v:g}' for v in floor.plane)} (n . x + d = 0), grounding on")

@@ -8,12 +8,14 @@ Per kept diffusion step t (noisiest first, after skipping S)::
         accept or cut the step           # "backtrack" (default) or "paper"
     x_{t_prev} = DDIM(x_t, x0, t, t_prev)
 
-All windows and hypotheses go through the network as one batch.
+All windows and hypotheses go through the network as one batch. Each window's noise comes from its own key
+(:func:`window_key`: the seed, whose window, where it starts), so a window is sampled alike whichever windows share
+its batch: a person's lift does not depend on who else is in the take, nor on how a long take is cut into pieces.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +43,20 @@ class SampleResult:
     joints: np.ndarray
     energy: np.ndarray
     fitted: np.ndarray
+
+
+def window_key(seed: int, identity: int, start: int) -> int:
+    """The noise key of a window: the sampler's ``seed``, whose window it is (``identity``: a person's track id) and
+    where it starts (``start``: its first frame on the prior's clock counted from time 0), mixed into one 64-bit
+    integer (numpy's SeedSequence, so nearby keys give unrelated noise)."""
+    entropy = [int(seed) % 2**64, int(identity) % 2**64, int(start) % 2**64]
+    return int(np.random.SeedSequence(entropy).generate_state(1, dtype=np.uint64)[0])
+
+
+def window_normal(generators: Sequence[torch.Generator], shape: tuple[int, ...]) -> torch.Tensor:
+    """Standard normal draws ``(len(generators) * shape[0], *shape[1:])``: each window's ``shape`` from its own
+    generator, in window order."""
+    return torch.cat([torch.randn(shape, generator=g, dtype=torch.float32) for g in generators])
 
 
 def antithetic_normal(count: int, generator: torch.Generator) -> torch.Tensor:
@@ -72,12 +88,15 @@ def sample(
     root_trajectory: torch.Tensor | None = None,
     anchor: Anchor | None = None,
     progress: Callable[[int, int], None] | None = None,
+    window_keys: Sequence[int] | None = None,
 ) -> SampleResult:
     """Draw ``config.samples`` hypotheses for each of the B windows of ``frames`` frames.
 
     ``root_trajectory`` (B, F, 3), if known, fixes the pelvis path; otherwise the
     root is solved per frame from ``rays``. ``progress(done, total)`` is called after
-    every diffusion step.
+    every diffusion step. ``window_keys`` (B,): each window's noise key (:func:`window_key`; None: the window's
+    place in the batch stands for its identity and start). The per-hypothesis draws (size, noise spread,
+    support) come from ``config.seed`` alone: hypothesis n is the same kind of body in every window.
     """
     model = prior.model
     dtype = obs.keypoints.dtype
@@ -85,10 +104,14 @@ def sample(
     schedule = DiffusionSchedule(prior.config.diffusion_steps)
     steps = network_steps(prior, config)
     generator = torch.Generator(device="cpu").manual_seed(config.seed)
-    shape = (obs.keypoints.shape[1] * config.samples, frames, prior.config.features)
+    windows = obs.keypoints.shape[1]
+    keys = [window_key(config.seed, b, 0) for b in range(windows)] if window_keys is None else list(window_keys)
+    if len(keys) != windows:
+        raise ValueError(f"{len(keys)} window keys for {windows} windows")
+    streams = [torch.Generator(device="cpu").manual_seed(key) for key in keys]  # each window's own noise
+    shape = (config.samples, frames, prior.config.features)  # one window's
     temperature = config.temperature * (prior.temperature_for(frames) if obs.keypoints.shape[0] == 1 else 1.0)
-    noise = temperature * torch.randn(shape, generator=generator, dtype=torch.float32)
-    noise = noise.to(device=device, dtype=dtype)
+    noise = (temperature * window_normal(streams, shape)).to(device=device, dtype=dtype)
     sizes = (
         torch.exp(config.size_spread * torch.randn(config.samples, generator=generator))
         if config.size_spread > 0
@@ -124,7 +147,7 @@ def sample(
         t_prev = int(steps[i + 1]) if i + 1 < len(steps) else None
         if t_prev is not None:  # the last prediction keeps its own overlap, pulled by the anchor energy, for blending
             x0 = problem.inpaint(x0)
-        fresh = torch.randn(shape, generator=generator).to(device=device, dtype=dtype) if config.eta > 0 else None
+        fresh = window_normal(streams, shape).to(device=device, dtype=dtype) if config.eta > 0 else None
         if config.solver == "dpm2m":
             x_t = schedule.dpm_solver_2m_step(x_t, x0, int(t), t_prev, *(before or (None, None)))
             before = (x0, int(t))

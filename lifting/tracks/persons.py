@@ -106,6 +106,7 @@ def lift_persons(
             root_trajectory=root,
             progress=report,
             present=~take.absent[group],
+            identities=[int(take.track_ids[p]) for p in group],
         )
         for chunk in chunks:
             t = slice(chunk.start, chunk.start + chunk.hypotheses.shape[2])

@@ -27,14 +27,13 @@ def quick_floor(
     *,
     log: JobLog,
     progress: Callable[[list[int] | str, int, int], None] | None = None,
-    lifter: Callable = lift_persons,
     height_only: bool = False,
 ) -> Floor | None:
     """The floor under a one-camera ``take`` (keypoints (1, T, P, 17, 3)) with what its estimate found (its ``meta``
     entry: :func:`platypose.lifting.floor.floor_under`), estimated under the median motions of a quick lift
     without a floor: ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest;
     None (logged) when too few standing ankles are found. ``progress(QUICK_LIFT, done, total)`` counts its
-    windows; ``lifter`` lifts them (as :func:`lift_persons`). ``height_only``: the camera's roll and pitch are the
+    windows. ``height_only``: the camera's roll and pitch are the
     scene's, only the floor's height is estimated."""
     if len(take.cameras) != 1:
         return None
@@ -49,7 +48,7 @@ def quick_floor(
         np.empty((P, sampler.samples, T), np.float32),
     )
     median = np.empty((P, T, 17, 3), np.float32)
-    lifter(
+    lift_persons(
         prior=prior,
         take=quick,
         hypotheses=hypotheses,

@@ -25,7 +25,7 @@ from platypose.lifting.sampling.sampler import SampleResult, cameras_and_rays, s
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.timebase import blend_samples, interpolate, interpolation_weights, resample_keypoints_at
 from platypose.lifting.tracks.roots import presence, seen_frames
-from platypose.lifting.tracks.windows import WindowPlan, blend_weights, continuation_anchor, plan_windows
+from platypose.lifting.tracks.windows import WindowKeys, WindowPlan, blend_weights, continuation_anchor, plan_windows
 
 CHUNK_FRAMES = 1024  # input frames per chunk at most: a long stretch nobody is in does not fill memory
 
@@ -64,6 +64,7 @@ def lift_stream(
     root_trajectory: np.ndarray | None = None,
     progress: Callable[[int, int], None] | None = None,
     present: np.ndarray | None = None,
+    identities: Sequence[int] | None = None,
 ) -> Iterator[LiftChunk]:
     """Lift P persons' keypoints ``(C, T, P, 17, 3)`` seen by ``cameras`` at ``frame_times`` ``(T,)``, in chunks.
 
@@ -87,7 +88,10 @@ def lift_stream(
     if root_trajectory is not None:
         roots = np.moveaxis(interpolate(np.moveaxis(root_trajectory, 1, 0), frame_times, clock), 1, 0)  # (P, T', 3)
     total = sum(span.plan.count for span in spans)
-    runner = _WindowRunner(prior, list(cameras), per_window, roots, sampler, windows, progress=progress, total=total)
+    keys = WindowKeys(sampler.seed, range(keypoints.shape[2]) if identities is None else identities, clock, prior.fps)
+    runner = _WindowRunner(
+        prior, list(cameras), per_window, roots, sampler, windows, keys, progress=progress, total=total
+    )
     stitchers = [StreamingStitch(s.plan, clock[s.first : s.first + s.plan.total], frame_times[s.frames]) for s in spans]
     gather = _PersonFrames(keypoints.shape[2], sampler.samples, len(frame_times), spans)
     done = [0] * len(spans)  # windows sampled per span
@@ -286,9 +290,9 @@ class StreamingStitch:
 class _WindowRunner:
     """Samples a round of windows (one per span), those of equal length and continuation state in one batch."""
 
-    def __init__(self, prior, cameras, per_window, roots, sampler, windows, *, progress, total: int) -> None:
+    def __init__(self, prior, cameras, per_window, roots, sampler, windows, keys, *, progress, total: int) -> None:
         self.prior, self.cameras, self.per_window, self.roots = prior, cameras, per_window, roots
-        self.sampler, self.windows, self.progress, self.total = sampler, windows, progress, total
+        self.sampler, self.windows, self.keys, self.progress, self.total = sampler, windows, keys, progress, total
         self.done = 0
 
     def run(self, spans: Sequence[Span], items: list) -> list[SampleResult]:
@@ -337,9 +341,9 @@ class _WindowRunner:
             before = np.concatenate([seen_frames(self._keypoints(s, w - 1), 1).T * (w > 1) for s, w, _ in windows])
             before = torch.as_tensor(before, dtype=dtype, device=device)  # the same in the windows before them
             held = Anchor(joints, mask, self.windows.anchor_weight, seen, landing(mask, seen, before))
-        return sample(
-            self.prior, obs, None if root is not None else rays, self.sampler, F, root_trajectory=root, anchor=held
-        )
+        keys = [self.keys.key(span.person, span.start(w)) for span, w, _ in windows]
+        rays = None if root is not None else rays
+        return sample(self.prior, obs, rays, self.sampler, F, root_trajectory=root, anchor=held, window_keys=keys)
 
 
 def only_viewer(keypoints: np.ndarray) -> int | None:

@@ -11,9 +11,12 @@ and a bridge has to jump.)
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+from platypose.lifting.sampling.sampler import window_key
 
 
 @dataclass(frozen=True)
@@ -111,3 +114,20 @@ def continuation_anchor(previous: np.ndarray, plan: WindowPlan) -> tuple[np.ndar
     mask = np.zeros(length)
     mask[: anchored_frames(plan)] = 1.0
     return anchor, mask
+
+
+@dataclass(frozen=True)
+class WindowKeys:
+    """The noise keys of a lift's windows: the sampler's ``seed``, each person's identity (``identities`` (P,)) and
+    each window's first frame on the prior's ``clock`` (seconds, at ``fps``), counted from time 0, so that a piece of
+    a take keys a window as the whole take does."""
+
+    seed: int
+    identities: Sequence[int]
+    clock: np.ndarray
+    fps: float
+
+    def key(self, person: int, start: int) -> int:
+        """The key (:func:`platypose.lifting.sampling.sampler.window_key`) of ``person``'s window starting at
+        clock frame ``start``."""
+        return window_key(self.seed, int(self.identities[person]), int(round(float(self.clock[start]) * self.fps)))

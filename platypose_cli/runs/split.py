@@ -152,8 +152,9 @@ class SplitLifter:
         make_piece_folder(self.folder)
         plan = PiecePlan(self.folder)
 
-        def task(n: int) -> tuple[list[int], Path, tuple]:
-            """Piece n's persons present, its file, and the task that lifts it."""
+        def task(n: int) -> tuple[list[int], Path, tuple, np.ndarray]:
+            """Piece n's persons present, its file, the task that lifts it, and where the piece has each of them (its
+            own presence, (p, t))."""
             t = pieces[n].lifted
             who = [p for p in range(absent.shape[0]) if not absent[p, t].all()]
             piece = {
@@ -168,16 +169,17 @@ class SplitLifter:
             path = self.folder / f"lift.{key}.npz"
             # the piece's own presence: a gap at its edge is not lifted through (its other end lies outside)
             inputs = Take.on_clock(**piece, sampler=sampler, windows=windows)
-            return who, path, (lift_piece, (self.prior, inputs, str(path)))
+            return who, path, (lift_piece, (self.prior, inputs, str(path))), ~inputs.absent
 
         def name(n: int) -> str:
             return f"{n} (frames {pieces[n].lifted.start}-{pieces[n].lifted.stop - 1})"
 
-        tasks, todo, paths, persons = [], [], [], []
+        tasks, todo, paths, persons, presences = [], [], [], [], []
         for n in range(len(pieces)):
-            who, path, work = task(n)
+            who, path, work, present = task(n)
             paths.append(path)
             persons.append(who)
+            presences.append(present)
             if who and os.path.lexists(path) and (why := plan.why_not(path)) is not None:
                 self._drop(plan, path, f"piece {name(n)}: {path}: {why}")
             if who and not os.path.lexists(path):
@@ -203,11 +205,12 @@ class SplitLifter:
             self.log(f"{len(tasks)} piece(s) lifted {piece_times(seconds, time.perf_counter() - started)}")
 
         def load(n: int) -> tuple[np.ndarray, np.ndarray]:
-            """Piece n's arrays, checked; a piece that fails the checks is removed and lifted once more."""
-            who, path = persons[n], paths[n]
+            """Piece n's arrays, checked against the piece's own presence (a gap cut by its edge is NaN there: the
+            neighbour that holds the whole gap lifts it); a piece that fails the checks is removed and lifted once
+            more."""
+            who, path, present = persons[n], paths[n], presences[n]
             if not who:
                 return np.zeros((0, 0, 0, 17, 3), np.float32), np.zeros((0, 0, 0), np.float32)
-            present = ~absent[who][:, pieces[n].lifted]
             try:
                 return read_lift_piece(path, present, sampler.samples)
             except ValueError as err:

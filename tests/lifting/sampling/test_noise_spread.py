@@ -9,15 +9,18 @@ from ring_lifts import ring_lift, rms_px
 def test_noise_spread_covers_the_truth_as_often_as_it_claims(tiny_prior, heldout_window):
     """4 views, 2 px noise: the fits collapse onto one point per joint that misses the truth by the triangulation
     error; spread by the residuals' noise, the truth falls inside a hypotheses' ball about their median about as
-    often as the ball's share of hypotheses, and the spread adds no frame-to-frame jitter."""
-    result, _ = ring_lift(tiny_prior, heldout_window, views=4, noise_px=2.0, samples=50)
-    hyps, fitted = result.joints[0], result.fitted[0]
-    median = np.median(hyps, axis=0)
-    radius = np.linalg.norm(hyps - median, axis=-1)  # (N, F, 17)
-    truth_distance = np.linalg.norm(heldout_window - median, axis=-1)  # (F, 17)
-    for share in (0.5, 0.9):
-        covered = np.mean(truth_distance < np.quantile(radius, share, axis=0))
+    often as the ball's share of hypotheses (over three draws: one draw of one window covers 0.56-0.67 of the
+    joint-frames at the 50 % ball, 0.95-0.99 at the 90 % one), and the spread adds no frame-to-frame jitter."""
+    coverage = []
+    for seed in range(3):
+        result, _ = ring_lift(tiny_prior, heldout_window, views=4, noise_px=2.0, samples=50, seed=seed)
+        median = np.median(result.joints[0], axis=0)
+        radius = np.linalg.norm(result.joints[0] - median, axis=-1)  # (N, F, 17)
+        truth_distance = np.linalg.norm(heldout_window - median, axis=-1)  # (F, 17)
+        coverage.append([np.mean(truth_distance < np.quantile(radius, share, axis=0)) for share in (0.5, 0.9)])
+    for share, covered in zip((0.5, 0.9), np.mean(coverage, axis=0)):
         assert abs(covered - share) < 0.15, (share, covered)
+    hyps, fitted = result.joints[0], result.fitted[0]
     fitted_radius = np.linalg.norm(fitted - np.median(fitted, axis=0), axis=-1)
     assert np.mean(truth_distance < np.quantile(fitted_radius, 0.9, axis=0)) < 0.3  # collapsed: overconfident
     offsets = hyps - fitted
