@@ -97,8 +97,13 @@ def export(
     rrd_video: str = "asset",
     say: Callable[[str], None] = lambda _: None,
     warn: Callable[[str], None] | None = None,
+    playable: Mapping[str, Path] | None = None,
 ) -> list[Path]:
     """Write ``formats`` of ``result`` as ``out_dir/name*``; return the paths written. Each file is atomic.
+
+    ``playable``: videos (by camera, as ``video_paths``) already made playable for the recording (re-encoded
+    beside the lift: ``platypose.cli.runs.playable``), which it embeds in place of those of ``video_paths``; the
+    others are re-encoded while it is written, where rerun cannot play them.
 
     Progress goes to ``say``; a warning about a person's export (OpenSim IK that fits badly) to ``warn``, by default
     said as ``warning: <name>: ...`` (``lift`` keeps them in its log, summary and console).
@@ -179,5 +184,6 @@ def export(
         from platypose.exporters.rrd import write_rrd
 
         say(f"{name}: rerun recording")
-        written.append(write_rrd(result, out_dir / f"{name}.rrd", name, video_paths, rrd_video, say, who))
+        embedded = {**(video_paths or {}), **(playable or {})}
+        written.append(write_rrd(result, out_dir / f"{name}.rrd", name, embedded, rrd_video, say, who))
     return written

@@ -6,6 +6,7 @@ detected on, so images and keypoints line up in the viewer.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
 from fractions import Fraction
 from pathlib import Path
@@ -44,8 +45,9 @@ def needs_reencode(path: Path) -> bool:
     return not playable or video_info(path).rotation != 0
 
 
-def reencode_h264(src: Path, dst: Path, crf: int = 23) -> None:
-    """Re-encode ``src`` upright to H.264 MP4 at ``dst``, keeping each frame's time.
+def reencode_h264(src: Path, dst: Path, crf: int = 23, stop: threading.Event | None = None) -> bool:
+    """Re-encode ``src`` upright to H.264 MP4 at ``dst``, keeping each frame's time; False (``dst`` incomplete, for
+    the caller to discard) when ``stop`` was set before the last frame, True when done.
 
     Odd widths or heights lose their last column or row (H.264 4:2:0 needs even sizes), so pixel
     coordinates are unchanged.
@@ -59,12 +61,15 @@ def reencode_h264(src: Path, dst: Path, crf: int = 23) -> None:
         stream.options = {"preset": "ultrafast", "crf": str(crf)}
         try:
             for _, time, image in iter_timed_frames(src, fmt="rgb24"):
+                if stop is not None and stop.is_set():
+                    return False
                 frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image[:height, :width]), "rgb24")
                 frame.pts, frame.time_base = int(round(time / TIME_BASE)), TIME_BASE
                 out.mux(stream.encode(frame.reformat(format="yuv420p")))
             out.mux(stream.encode())
         except av.FFmpegError as err:
             raise InputError(f"{src}: cannot re-encode video ({getattr(err, 'strerror', None) or err})") from None
+    return True
 
 
 def jpeg_frames(path: Path, batch: int = 64, quality: int = 85) -> Iterator[tuple[np.ndarray, list[bytes]]]:

@@ -31,6 +31,7 @@ from platypose.cli.runs.locks import exclusive_lock
 from platypose.cli.runs.models import command_reader, loaded_prior
 from platypose.cli.runs.outputs import digests, export_atomically, remove_stale_outputs, staging_folder
 from platypose.cli.runs.pieces import remove_pieces
+from platypose.cli.runs.playable import PlayableCopies
 from platypose.cli.runs.records import FAILURE, MANIFEST, flag_lines, write_failure
 from platypose.cli.runs.settings import RunSettings
 from platypose.cli.terminal.console import describe_os_error
@@ -85,6 +86,15 @@ def lift_job(job: Job, settings: RunSettings, log: JobLog, staging: Path, hooks:
         write_text_atomic(settings.out / job.name / SYNC_FILE, json.dumps(result.meta["sync"], indent=1) + "\n")
     videos = {c.name: v.video for c, v in zip(result.cameras, job.views) if v.video is not None}
     return result, videos
+
+
+def playable_copies(job: Job, settings: RunSettings, staging: Path, log: JobLog) -> PlayableCopies:
+    """The job's videos made playable for its recording in ``staging``, re-encoding beside the lift where rerun
+    cannot play them; none without ``--formats rrd``."""
+    copies = PlayableCopies([v.video for v in job.views] if "rrd" in settings.formats else [], staging)
+    for video in copies.reencoding:
+        log(f"re-encoding {video.name} to H.264 for rerun, beside the lift")
+    return copies
 
 
 TRANSIENT_ERRNOS = frozenset(
@@ -146,9 +156,13 @@ def _run_locked(job: Job, settings: RunSettings, hooks: Hooks | None) -> dict:
     digest = fingerprint(job, settings)
     log_name = "log.txt"
     try:
-        with staging_folder(folder, job.name) as staging:
+        with staging_folder(folder, job.name) as staging, playable_copies(job, settings, staging, log) as copies:
             result, videos = lift_job(job, settings, log, staging, hooks)
-            written = export_atomically(result, videos, staging, folder, job.name, settings.formats, log)
+            playable = {c.name: p for c, p in zip(result.cameras, copies.paths()) if p is not None}
+            if playable:
+                seconds = f"{copies.seconds:.1f} s"
+                log(f"camera(s) {', '.join(playable)}: video re-encoded for rerun beside the lift in {seconds}")
+            written = export_atomically(result, videos, staging, folder, job.name, settings.formats, log, playable)
         stale = remove_stale_outputs(folder, job.name, written)
         if stale:
             log(f"removed output(s) of an earlier run that this run did not write: {', '.join(stale)}")

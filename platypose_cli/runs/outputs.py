@@ -116,11 +116,14 @@ def remove_stale_outputs(folder: Path, name: str, written: list[Path]) -> list[s
     return sorted(p.name for p in stale)
 
 
-def export_atomically(result, videos, staging: Path, folder: Path, name: str, formats, log: JobLog) -> list[Path]:
-    """Export into ``staging``, then move every file written into ``folder``; returns the final paths."""
+def export_atomically(
+    result, videos, staging: Path, folder: Path, name: str, formats, log: JobLog, playable=None
+) -> list[Path]:
+    """Export into ``staging``, then move every file written into ``folder``; returns the final paths. ``playable``:
+    the videos already re-encoded for the recording (:func:`platypose.exporters.export`)."""
     from platypose.exporters import export
 
-    written = export(result, staging, name, formats, videos, say=log, warn=log.warning)
+    written = export(result, staging, name, formats, videos, say=log, warn=log.warning, playable=playable)
     (folder / MANIFEST).unlink(missing_ok=True)  # the old set is no longer whole from here: see output_set
     final = []
     for path in written:
