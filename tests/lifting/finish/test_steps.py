@@ -24,3 +24,50 @@ def test_a_view_far_off_its_keypoints_is_warned_about(real_clips):
     assert len(log.warnings) == 1 and cams[1].name in log.warnings[0] and "calibration" in log.warnings[0]
     single = JobLog()
     assert report_reprojection(motion[None], keypoints[:1], cams[:1], single) == {} and not single.lines
+
+
+def test_persons_finished_on_threads_come_out_as_one_thread_makes_them(tiny_prior, data_dir):
+    """The sports2d demo's two persons lifted on the estimated floor's stand-in (z = 0 under the level default
+    camera), then finished on one thread and on two: every array, every meta entry and every log line the same
+    (each person's steps write that person's slices only)."""
+    import re
+
+    from platypose.detectors.cache import read_detections
+    from platypose.detectors.keypoints import to_our_joints
+    from platypose.detectors.tracking.tracker import track_detections
+    from platypose.lifting.calibration.defaults import default_camera
+    from platypose.lifting.finish.steps import finish_take
+    from platypose.lifting.floor import plane_floor
+    from platypose.lifting.settings import SamplerConfig, WindowSettings
+    from platypose.lifting.take import Take
+    from platypose.lifting.tracks.stream import lift_tracks
+
+    _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
+    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
+    camera = default_camera("demo", *tracks.image_size)
+    floor = plane_floor(0.0, 0.0, 1.0, 1.5, "given")  # 1.5 m under the default camera at the origin
+    config, windows = SamplerConfig(samples=3, seed=0, floor=floor.plane), WindowSettings(max_gap=1.0)
+    take = Take.on_clock(
+        tracks.keypoints[None],
+        tracks.frame_times,
+        np.arange(2),
+        [camera],
+        [None, None],
+        sampler=config,
+        windows=windows,
+    )
+    lifted = lift_tracks(tiny_prior, [camera], take.keypoints, take.times, config, windows)
+    outcomes = []
+    for workers in (1, 2):
+        hypotheses = lifted.hypotheses.copy()
+        median = np.nanmedian(hypotheses, axis=1)
+        log = JobLog()
+        finished = finish_take(
+            take, hypotheses=hypotheses, median=median, fps=30.0, floor=floor, log=log, workers=workers
+        )
+        said = [re.sub(r"made a body in [0-9.]+ s", "made a body", line) for line in log.lines]
+        outcomes.append((hypotheses, median, finished.rigid_bones, finished.plausibility, said))
+    (h1, m1, r1, p1, s1), (h2, m2, r2, p2, s2) = outcomes
+    assert np.array_equal(h1, h2, equal_nan=True) and np.array_equal(m1, m2, equal_nan=True)
+    assert r1 == r2 and p1 == p2 and s1 == s2
+    assert sum("depth steadied" in line for line in s1) == 2 and sum("made a body" in line for line in s1) == 2
