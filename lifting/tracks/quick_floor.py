@@ -1,7 +1,7 @@
 """The floor under a one-camera take, estimated before its lift: a quick ungrounded lift of the persons present
 longest, and the plane under their standing ankles. A long take is read in a few stretches spread over it
-(:func:`floor_frames`), so the quick lift costs no more for a match than for two minutes, and it is the same
-whether the take's lift is split into pieces or not."""
+(:func:`platypose.lifting.tracks.quick_floor.floor_frames`), so the quick lift costs no more for a match than for
+two minutes, and it is the same whether the take's lift is split into pieces or not."""
 
 from __future__ import annotations
 
@@ -54,7 +54,8 @@ def quick_floor(
     entry: :func:`platypose.lifting.floor.floor_under`), estimated under the median motions of a quick lift
     without a floor: ``FLOOR_PASS_SAMPLES`` hypotheses of the ``FLOOR_PASS_PERSONS`` persons present longest;
     None (logged) when too few standing ankles are found. A take longer than ``FLOOR_PASS_SECONDS`` is read in
-    the stretches of :func:`floor_frames`. ``progress(QUICK_LIFT, done, total)`` counts its windows.
+    the stretches of :func:`platypose.lifting.tracks.quick_floor.floor_frames`. ``progress(QUICK_LIFT, done,
+    total)`` counts its windows.
     ``height_only``: the camera's roll and pitch are the scene's, only the floor's height is estimated."""
     if len(take.cameras) != 1:
         return None
