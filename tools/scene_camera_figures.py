@@ -52,9 +52,9 @@ def bundled_people(video: Path) -> list[np.ndarray] | np.ndarray | None:
     return None
 
 
-def fused_row(video: Path, scene, people: np.ndarray, truth: dict, guess: bool) -> str:
+def fused_row(video: Path, scene, people: tuple[np.ndarray, np.ndarray], truth: dict, guess: bool) -> str:
     """The second row of ``--fused``: the camera fused from ``scene`` and the ``people`` of ``video`` against
-    ``truth`` (values only where it is a ``guess``), and each quantity's sources used and dropped."""
+    ``truth`` (values only where it is a ``guess``; ``people``: keypoints (T, P, 17, 3) and times (T,)), and each quantity's sources used and dropped."""
     found = assumed_camera(video.stem, video_info(video).image_size, scene, None, people)
     used = pose_of(found.camera)
     off = ""
@@ -102,8 +102,10 @@ def rows(calibration: Path, videos: list[Path], guess: bool, people: bool = Fals
             f"({truth['roll_deg']:.1f}), focal {focal}{focal_sd} ({truth['focal_px']:.0f} px); {got.segments} segments"
             + (f"; {got.focal_note}" if got.focal_note else "")
         )
-        if fused and isinstance(bundled, np.ndarray):
-            print(fused_row(video, got, bundled, truth, guess))
+        folder = video.parent / "openpose-body25b" / f"{video.stem}_json"
+        if fused and folder.is_dir():
+            tracked = read_keypoints(folder)
+            print(fused_row(video, got, (tracked.keypoints, tracked.frame_times), truth, guess))
         elif fused:
             print(f"{'  fused':<8}  not fused: no tracked people bundled (their verticals need each person's frames)")
 

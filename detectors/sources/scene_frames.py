@@ -97,7 +97,7 @@ def view_camera(path: str | Path, name: str, track: PoseTrack2D) -> AssumedCamer
         times=track.frame_times,
         focal_sd=FOCAL_HELD_SD if held else FOCAL_PRIOR_SD,
     )
-    return assumed_camera(name, size, scene, focal, track.keypoints)
+    return assumed_camera(name, size, scene, focal, (track.keypoints, track.frame_times))
 
 
 def _seconds(path: str | Path, indices: np.ndarray) -> np.ndarray:

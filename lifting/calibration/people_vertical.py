@@ -1,7 +1,8 @@
 """The world's up as the people in view show it: roll and pitch at a given focal length, a check on the scene's lines.
 
-A person standing still holds their centre of mass over their support, so in a frame where they stand on straight
-legs the line from the support (the ankles' midpoint, or the straight leg's ankle when the other leg is bent or
+A person standing still holds their centre of mass over their support, so in a frame where they stand still (their
+hips moving under ``STILL_PER_S`` of their support-to-hips length a second: a walker's centre of mass runs ahead of
+the foot on the ground, up to 15 degrees) on a straight leg the line from the support (the ankles' midpoint, or the straight leg's ankle when the other leg is bent or
 lifted) to the hips' midpoint (near the centre of mass) is upright and points at the vertical vanishing point. The
 camera's pitch and roll at a given focal length are those whose vertical vanishing point those lines point at
 best (robust least squares on the sine of each line's miss). People lean, sway and stand in their own ways, so
@@ -9,7 +10,8 @@ each person's lines share an unknown lean of ``LEAN_SD_DEG``: the standard devia
 least squares with that lean common to a person's frames and the lines' own scatter about it independent. One
 person in one place measures the roll (the direction of up there) and hardly the pitch (where lines converge):
 its spread says so, and where the pitch is not measured (a spread over ``PITCH_MEASURED_SD_DEG``, or a fit ending at
-a bound: a camera looking up 25 degrees) the roll is the one at the given pitch (the lines').
+a bound: a camera looking up 25 degrees) it is None. The roll is always the one at the given pitch (the lines'):
+a check of the lines' roll that the people's less sure pitch does not move.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ from platypose.lifting.skeleton import JOINT_INDEX
 
 SOURCE = "people (support-to-hips lines of standing frames)"
 MIN_CONFIDENCE = 0.3
+STILL_PER_S = 0.5  # hips moving under this share of the support-to-hips length a second: standing still
+STILL_WINDOW_S = 0.5  # over this time about a frame
 STRAIGHT_DEG = 20.0  # a leg bent less than this at the knee (in the image) is straight
 MAX_TILT_DEG = 45.0  # a standing person's line within this of the image's up (as the scene's upright edges)
 MIN_FRAMES, MAX_FRAMES = 20, 400  # standing person-frames needed; fitted at most (evenly spaced over the take)
@@ -59,9 +63,11 @@ def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
-def standing_lines(keypoints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def standing_lines(keypoints: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The support-to-hips segments (N, 4) px (the support first) of the person-frames of ``keypoints``
-    (T, P, 17, 3) standing on a straight leg and upright in the image, and each one's person (N,)."""
+    (T, P, 17, 3) on ``times`` (T,) s standing still (:func:`hips_speed`) on a straight leg and upright in the
+    image, and each one's person (N,). A frame where the hips are not seen at either end of the window about it is
+    not known to be still."""
     k = np.array(keypoints, np.float64)
     k[..., :2][~(np.nan_to_num(k[..., 2]) >= MIN_CONFIDENCE)] = np.nan
     xy = k[..., :2]
@@ -78,13 +84,27 @@ def standing_lines(keypoints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         support = np.where(straight.all(-1, keepdims=True), ankles.mean(-2), one)
         hips = xy[..., _HIPS, :].mean(-2)
         up = hips - support
-        standing = straight.any(-1) & (-up[..., 1] >= np.cos(np.radians(MAX_TILT_DEG)) * np.linalg.norm(up, axis=-1))
+        length = np.linalg.norm(up, axis=-1)
+        standing = straight.any(-1) & (-up[..., 1] >= np.cos(np.radians(MAX_TILT_DEG)) * length)
+        standing &= hips_speed(hips, times) < STILL_PER_S * length
     frame, person = np.nonzero(standing)
     segments = np.concatenate([support[frame, person], hips[frame, person]], axis=-1)
     if len(segments) > MAX_FRAMES:
         keep = np.linspace(0, len(segments) - 1, MAX_FRAMES).round().astype(int)
         segments, person = segments[keep], person[keep]
     return segments, person
+
+
+def hips_speed(hips: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Pixels a second (T, P) the hips ``hips`` (T, P, 2) on ``times`` (T,) s move over ``STILL_WINDOW_S`` about each
+    frame (keypoints' jitter averaged out); NaN where either end does not see them or the take is shorter."""
+    times = np.asarray(times, np.float64)
+    before = np.searchsorted(times, times - STILL_WINDOW_S / 2.0)
+    after = np.clip(np.searchsorted(times, times + STILL_WINDOW_S / 2.0, side="right") - 1, 0, len(times) - 1)
+    span = times[after] - times[before]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        speed = np.linalg.norm(hips[after] - hips[before], axis=-1) / span[:, None]
+    return np.where((span > 0)[:, None], speed, np.nan)
 
 
 def _point(params: np.ndarray, focal: float) -> np.ndarray:
@@ -124,7 +144,7 @@ def spreads(jacobian: np.ndarray, residuals: np.ndarray, person: np.ndarray) -> 
     return np.sqrt(np.clip(np.diag(covariance), 0.0, None))
 
 
-def _fit(lines: Lines, focal: float, start: np.ndarray, free: np.ndarray):
+def _fit(lines: Lines, focal: float, start: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The robust least-squares fit of the parameters ``free`` (2,) of (pitch, roll) (radians) from ``start``,
     the others held: the fitted (2,), the misses (N,) and their Jacobian (N, 2) (zero for a held one)."""
     low, high = np.radians(BOUNDS_DEG[0]), np.radians(BOUNDS_DEG[1])
@@ -155,31 +175,31 @@ def _fit(lines: Lines, focal: float, start: np.ndarray, free: np.ndarray):
 
 
 def people_vertical(
-    keypoints: np.ndarray, size: tuple[int, int], focal_px: float, start_deg: tuple[float, float] = (10.0, 0.0)
+    keypoints: np.ndarray,
+    times: np.ndarray,
+    size: tuple[int, int],
+    focal_px: float,
+    start_deg: tuple[float, float] = (10.0, 0.0),
 ) -> PeopleVertical | None:
-    """The pitch and roll at ``focal_px`` that the people of ``keypoints`` (T, P, 17, 3) in an image of ``size``
-    (height, width) show standing, fitted from ``start_deg`` (pitch, roll; the scene's, say). Where the lines do
-    not fix the pitch (the fit ends at a bound, or its spread is over ``PITCH_MEASURED_SD_DEG``: one place gives
-    one direction of up) ``pitch_deg`` is None and the roll is fitted again with the pitch held at the start's. None where fewer than ``MIN_FRAMES`` person-frames stand."""
-    segments, person = standing_lines(keypoints)
+    """The pitch and roll at ``focal_px`` that the people of ``keypoints`` (T, P, 17, 3) on ``times`` (T,) s in an
+    image of ``size`` (height, width) show standing still. The roll is the one at the pitch of ``start_deg``
+    (pitch, roll: the scene's), the check of the lines' roll: a person off the image's middle ties the two together,
+    and the people's pitch is the less sure. The pitch is fitted with the roll; where the lines do not fix it (the
+    fit ends at a bound, or its spread is over ``PITCH_MEASURED_SD_DEG``: one place gives one direction of up)
+    ``pitch_deg`` is None. None where fewer than ``MIN_FRAMES`` person-frames stand still."""
+    segments, person = standing_lines(keypoints, times)
     if len(segments) < MIN_FRAMES:
         return None
     lines = to_lines(segments, size)
     focal = focal_px / image_scale(size)
     start = np.radians(np.asarray(start_deg, np.float64))
-    params, misses, jacobian = _fit(lines, focal, start, np.array([True, True]))
-    sd = np.degrees(spreads(jacobian, misses, person))
-    bound = np.radians(BOUNDS_DEG) - params  # (2, 2): distance to each bound
-    if np.abs(bound[:, 0]).min() < np.radians(0.5) or sd[0] > PITCH_MEASURED_SD_DEG:
-        params, misses, jacobian = _fit(lines, focal, start, np.array([False, True]))
-        roll_sd = float(np.degrees(spreads(jacobian, misses, person))[1])
-        return PeopleVertical(
-            None, float(np.degrees(params[1])), {"roll_deg": roll_sd}, len(segments), len(np.unique(person))
-        )
-    return PeopleVertical(
-        float(np.degrees(params[0])),
-        float(np.degrees(params[1])),
-        {"pitch_deg": float(sd[0]), "roll_deg": float(sd[1])},
-        len(segments),
-        len(np.unique(person)),
-    )
+    both, misses, jacobian = _fit(lines, focal, start, np.array([True, True]))
+    pitch_sd = float(np.degrees(spreads(jacobian, misses, person))[0])
+    at_bound = np.abs(np.radians(BOUNDS_DEG)[:, 0] - both[0]).min() < np.radians(0.5)
+    measured = not at_bound and pitch_sd <= PITCH_MEASURED_SD_DEG
+    held, misses, jacobian = _fit(lines, focal, start, np.array([False, True]))
+    sd = {"roll_deg": float(np.degrees(spreads(jacobian, misses, person))[1])}
+    if measured:
+        sd["pitch_deg"] = pitch_sd
+    pitch = float(np.degrees(both[0])) if measured else None
+    return PeopleVertical(pitch, float(np.degrees(held[1])), sd, len(segments), len(np.unique(person)))

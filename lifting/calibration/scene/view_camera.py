@@ -59,11 +59,11 @@ def assumed_camera(
     size: tuple[int, int],
     scene: SceneCamera,
     metadata_focal: float | None = None,
-    keypoints: np.ndarray | None = None,
+    people: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> AssumedCamera:
     """The camera of view ``name`` (image ``size`` (height, width)) from its ``scene`` estimate, the focal length of
-    the video's metadata where it has one (``metadata_focal`` px) and its people (``keypoints`` (T, P, 17, 3),
-    optional) as a check on the lines' roll and pitch: each quantity the inverse-variance mean of its sources
+    the video's metadata where it has one (``metadata_focal`` px) and its ``people`` (keypoints (T, P, 17, 3) and
+    their times (T,) s; optional) as a check on the lines' roll and pitch: each quantity the inverse-variance mean of its sources
     (:func:`platypose.lifting.calibration.fusion.fuse`), a source more than 3 sigma off the others dropped and said
     so once. The lines' pitch is taken at the fused focal length."""
     if scene.problem is not None:
@@ -77,11 +77,11 @@ def assumed_camera(
     scene_pitch = scene.pitch_deg + scene.pitch_slope * float(np.log(focal_px / at))
     pitches = [Estimate(scene_pitch, scene.sd["pitch_deg"], scene.source["pitch_deg"])]
     rolls = [Estimate(scene.roll_deg, scene.sd["roll_deg"], scene.source["roll_deg"])]
-    people = None if keypoints is None else people_vertical(keypoints, size, focal_px, (scene_pitch, scene.roll_deg))
-    if people is not None:
-        rolls.append(Estimate(people.roll_deg, people.sd["roll_deg"], PEOPLE))
-        if people.pitch_deg is not None:
-            pitches.append(Estimate(people.pitch_deg, people.sd["pitch_deg"], PEOPLE))
+    upright = None if people is None else people_vertical(*people, size, focal_px, (scene_pitch, scene.roll_deg))
+    if upright is not None:
+        rolls.append(Estimate(upright.roll_deg, upright.sd["roll_deg"], PEOPLE))
+        if upright.pitch_deg is not None:
+            pitches.append(Estimate(upright.pitch_deg, upright.sd["pitch_deg"], PEOPLE))
     roll, pitch = fuse(rolls, " degrees"), fuse(pitches, " degrees")
     record = {
         "roll_deg": _entry(roll),
@@ -89,7 +89,7 @@ def assumed_camera(
         "focal_px": _entry(focal) if focal else {"value": focal_px, "sd": None, "source": PRIOR},
         "height_m": {"source": HEIGHT_SOURCE},
         "segments": scene.segments,
-        "people": {"note": "no people given"} if keypoints is None else _people(people),
+        "people": {"note": "no people given"} if people is None else _people(upright),
     }
     focal_text = f"{focal_px:.0f} px" + ("" if focal is None else f" +- {focal.sd:.0f}")
     lines = [
@@ -122,5 +122,5 @@ def _entry(fused: Fused) -> dict:
 def _people(people: PeopleVertical | None) -> dict:
     """What the people's verticals measured, for ``meta["camera"]``."""
     if people is None:
-        return {"note": f"fewer than {MIN_FRAMES} person-frames stand on a straight leg: not used"}
+        return {"note": f"fewer than {MIN_FRAMES} person-frames stand still on a straight leg: not used"}
     return {"frames": people.frames, "persons": people.persons, "pitch_measured": people.pitch_deg is not None}
