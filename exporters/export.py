@@ -158,12 +158,15 @@ def export(
     if "trc" in formats or "c3d" in formats:
         say(f"{name}: {' and '.join(f.upper() for f in formats if f in ('trc', 'c3d'))} markers")
         written += _write_markers(result, out_dir, name, formats)
-    who = ({}, {})  # per person: good frame and thumbnail (exporters.person_pictures), for report and recording
+    who = ({}, {})  # per person: good frame and thumbnail (exporters.person_pictures; an estimated camera's horizon
+    # drawn in it, exporters.horizon), for report and recording
     if "report" in formats or "rrd" in formats:
+        from platypose.exporters.horizon import reach_horizons, with_horizons
         from platypose.exporters.person_pictures import good_frames, thumbnails
 
-        frames = good_frames(result)
-        who = (frames, thumbnails(result, {k: Path(v) for k, v in (video_paths or {}).items()}, frames))
+        frames = reach_horizons(result, good_frames(result))
+        pictures = thumbnails(result, {k: Path(v) for k, v in (video_paths or {}).items()}, frames)
+        who = (frames, with_horizons(result, frames, pictures))
         unseen = sorted({result.cameras[f.camera].name for p, f in frames.items() if p not in who[1]})
         if unseen:
             say(

@@ -1,6 +1,8 @@
 """The report picture of one input (``<name>_report.png``): per person, what a coach or clinician looks at first.
 
-One row per person: leg angles and arm/trunk angles over time (the median
+Under the title, where the lift estimated its camera (no calibration), each of its quantities with its spread and
+source (:func:`platypose.exporters.horizon.camera_caption`); the person pictures then show its horizon. One row per
+person: leg angles and arm/trunk angles over time (the median
 motion's line and the hypotheses' 5-95 % band), the pelvis path seen from
 above with every camera, and both ankle heights above the lift's floor (``meta["floor"]``: the calibration's,
 given or estimated), or above the lowest ankle of the clip where the lift had none. Drawn with matplotlib's Agg
@@ -16,6 +18,7 @@ import numpy as np
 
 from platypose.exporters.angles import ANGLE_NAMES
 from platypose.exporters.frames import frame_chunks
+from platypose.exporters.horizon import camera_caption, horizon_line, horizon_place, in_thumbnail
 from platypose.exporters.result import LiftResult
 from platypose.lifting.files.atomic import atomic_path
 from platypose.lifting.skeleton import JOINT_INDEX
@@ -25,6 +28,7 @@ UPPER_ANGLES = ("trunk_flexion", "right_shoulder_elevation", "left_shoulder_elev
 _COLOURS = ("tab:red", "tab:blue", "tab:orange", "tab:cyan")
 MAX_ROWS = 8  # persons drawn (the longest present first)
 WHO_CHARS = 24  # characters per line of the caption under a thumbnail (its column is narrow)
+CAPTION_CHARS = 200  # characters per line of the estimated camera's caption under the title
 FLAG_CHARS = (64, 256)  # a row's flag text: characters per line, in all (longer is cut with "...")
 
 
@@ -68,6 +72,10 @@ def _draw_who(ax, result: LiftResult, p: int, good, picture) -> None:
         camera = result.cameras[good.camera].name
         lines += [f"{camera} frame {good.frame}", f"box {x1:.0f},{y1:.0f}-{x2:.0f},{y2:.0f} px"]
         lines += [] if picture is not None else [f"(no thumbnail: no video of {camera} given)"]
+        if picture is not None and (result.meta or {}).get("camera"):
+            seen = result.cameras[good.camera]
+            place = horizon_place(in_thumbnail(horizon_line(seen.K, seen.R), good.box, picture.shape), picture.shape)
+            lines += [] if place is None else [f"(the horizon is {place} the picture)"]
     ax.set_title("\n".join(fill(line, WHO_CHARS) for line in lines), fontsize=8)  # within the column's width
 
 
@@ -130,9 +138,15 @@ def write_report(
     prior = result.present() & ~result.seen()
     title = f"{name}: {result.num_persons} person(s), {result.num_hypotheses} hypotheses, "
     title += f"{result.num_frames} frames at {result.fps:g} fps, {len(result.cameras)} camera(s)"
+    caption = camera_caption(result.meta or {})
+    if caption and shown:
+        caption[0] = f"camera estimated without a calibration (horizon: the magenta line in the pictures): {caption[0]}"
+    elif caption:
+        caption[0] = f"camera estimated without a calibration: {caption[0]}"
     fig.suptitle(
         title + "  (lines: median motion; bands: 5-95 % of the hypotheses; angles unwrapped over time, shoulders after"
-        " ISB: elevation from hanging, docs/outputs.md)",
+        " ISB: elevation from hanging, docs/outputs.md)"
+        + "".join(f"\n{fill(line, CAPTION_CHARS)}" for line in caption),
         fontsize=11,
     )
     for row, p in enumerate(persons):

@@ -34,7 +34,7 @@ import numpy as np
 import platypose.exporters.rerun_adapter as rra
 from platypose.exporters.frames import frame_chunks
 from platypose.exporters.result import LiftResult
-from platypose.exporters.rrd_floor import log_floor_and_plausibility, log_who
+from platypose.exporters.rrd_floor import log_estimated_camera, log_floor_and_plausibility, log_who
 from platypose.exporters.video import check_video_size, jpeg_frames, needs_reencode, reencode_h264
 from platypose.exporters.video_clock import video_stamps
 from platypose.exporters.watched_writer import run_watched
@@ -379,6 +379,7 @@ def _record(
             _log_person(rec, result, p, p, label)
         reports = [person_report(result, p) or {} for p in range(result.num_persons)]
         log_floor_and_plausibility(rec, result.meta.get("floor"), reports, result.track_ids, people_centre(result))
+        log_estimated_camera(rec, result)
         log_who(rec, result, *who)
     finally:
         rra.close_recording(rec)

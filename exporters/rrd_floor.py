@@ -1,6 +1,11 @@
-"""The floor, each person's plausibility and who they are in a rerun recording (logged by :func:`exporters.rrd.write_rrd`).
+"""The floor, the estimated camera, each person's plausibility and who they are in a rerun recording (logged by
+:func:`exporters.rrd.write_rrd`).
 
 Entity paths (static, under the Z-up ``world``):
+
+- ``world/cameras/<cam>/estimate``: where the lift estimated its one camera (no calibration), a text document with
+  each quantity's value, spread and source, and each source dropped (:func:`platypose.exporters.horizon.camera_caption`);
+  ``world/cameras/<cam>/horizon``: its horizon in the camera's image (:func:`log_estimated_camera`);
 
 - ``world/floor``: the floor plane as a grid of lines (``GRID_EXTENT`` metres either way of the point of
   the floor nearest the people's mean pelvis, a line every ``GRID_STEP``), labelled with where it came from;
@@ -16,6 +21,8 @@ import json
 
 import numpy as np
 import rerun as rr
+
+from platypose.exporters.horizon import HORIZON_PX, HORIZON_RGB, camera_caption, clip_line, horizon_line
 
 GRID_EXTENT = 5.0  # metres
 GRID_STEP = 0.5  # metres
@@ -52,6 +59,26 @@ def log_floor_and_plausibility(
         flags = (report.get("flag_text") or ", ".join(report.get("flags", []))) if report.get("flags") else "none"
         text = f"flagged: {flags}\n\n```json\n{json.dumps(report, indent=2)}\n```"
         rec.log(f"world/people/p{track}/plausibility", rr.TextDocument(text, media_type="text/markdown"), static=True)
+
+
+def log_estimated_camera(rec: rr.RecordingStream, result) -> None:
+    """Log the estimated camera's record (``meta["camera"]``) as text and its horizon as a line in its image into
+    ``rec``, statically; nothing where the lift had a calibration."""
+    caption = camera_caption(result.meta or {})
+    if not caption:
+        return
+    camera = result.cameras[0]
+    entity = f"world/cameras/{camera.name}"
+    text = "\n".join(f"- {line.strip()}" for line in caption)
+    rec.log(
+        f"{entity}/estimate",
+        rr.TextDocument(f"**camera estimated without a calibration**\n\n{text}", media_type="text/markdown"),
+        static=True,
+    )
+    ends = clip_line(horizon_line(camera.K, camera.R), camera.width, camera.height)
+    if ends is not None:
+        strip = rr.LineStrips2D([ends], colors=[HORIZON_RGB], radii=[HORIZON_PX / 2], labels=["horizon"])
+        rec.log(f"{entity}/horizon", strip, static=True)
 
 
 def log_who(rec: rr.RecordingStream, result, frames: dict, pictures: dict) -> None:

@@ -7,10 +7,13 @@ the calibration is a guess (``--guess``: the sports2d demo's), only the values a
 
     python tools/scene_camera_figures.py                        # the bundled balancing cameras and the demo
     python tools/scene_camera_figures.py --people               # the same, their bundled people masked
+    python tools/scene_camera_figures.py --fused                # masked, and checked against their verticals
     python tools/scene_camera_figures.py CALIB.toml VIDEO...    # other videos
 
 With ``--people`` the bundled detections mask the people (the balancing cameras' OpenPose folders, the demo's
-MoveNet detections); the uncertainties are shown as one standard deviation.
+MoveNet detections); the uncertainties are shown as one standard deviation. With ``--fused`` the people also check
+the lines' roll and pitch (:func:`platypose.lifting.calibration.scene.view_camera.assumed_camera`, what ``lift``
+uses): a second line per video gives the fused camera against the calibration and each source used or dropped.
 """
 
 from __future__ import annotations
@@ -27,6 +30,8 @@ from platypose.detectors.sources.scene_frames import video_scene_camera
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.matching import match_views
 from platypose.lifting.calibration.pose_above_floor import pose_of
+from platypose.lifting.calibration.scene.view_camera import assumed_camera
+from platypose.media import video_info
 
 BALANCING = Path("data/video/pose2sim-balancing")
 DEMO = Path("data/video/sports2d-demo")
@@ -47,14 +52,37 @@ def bundled_people(video: Path) -> list[np.ndarray] | np.ndarray | None:
     return None
 
 
-def rows(calibration: Path, videos: list[Path], guess: bool, people: bool = False) -> None:
-    """Print one row per video (``people``: its bundled people masked)."""
+def fused_row(video: Path, scene, people: tuple[np.ndarray, np.ndarray], truth: dict, guess: bool) -> str:
+    """The second row of ``--fused``: the camera fused from ``scene`` and the ``people`` of ``video`` against
+    ``truth`` (values only where it is a ``guess``; ``people``: keypoints (T, P, 17, 3) and times (T,)), and each quantity's sources used and dropped."""
+    found = assumed_camera(video.stem, video_info(video).image_size, scene, None, people)
+    used = pose_of(found.camera)
+    off = ""
+    if not guess:
+        focal_off = f"{100 * (used['focal_px'] / truth['focal_px'] - 1):+.1f}%"
+        off = f"{used['pitch_deg'] - truth['pitch_deg']:>+10.1f}{used['roll_deg'] - truth['roll_deg']:>+10.1f}{focal_off:>10}"
+    said = []
+    for key in ("roll_deg", "pitch_deg"):
+        entry = found.record[key]
+        said += [f"{key[:-4]} {e['value']:.1f} +- {e['sd']:.1f} ({e['source']})" for e in entry["used"]]
+        said += [
+            f"{key[:-4]} {e['value']:.1f} +- {e['sd']:.1f} ({e['source']}) dropped: {e['why']}"
+            for e in entry["dropped"]
+        ]
+    people_note = found.record.get("people", {}).get("note")
+    return f"{'  fused':<8}{off:<30}{'':>8}  " + "; ".join(said + ([people_note] if people_note else []))
+
+
+def rows(calibration: Path, videos: list[Path], guess: bool, people: bool = False, fused: bool = False) -> None:
+    """Print one row per video (``people``: its bundled people masked; ``fused``: and a second row, the camera
+    fused with their verticals)."""
     cameras = load_calibration(calibration)
     for video in videos:
         name = next(iter(match_views(cameras.names, [video.stem], allow_missing=True)))
         truth = pose_of(cameras.camera(name))
         start = time.perf_counter()
-        got = video_scene_camera(video, bundled_people(video) if people else None)
+        bundled = bundled_people(video) if people or fused else None
+        got = video_scene_camera(video, bundled)
         took = time.perf_counter() - start
         if got.problem is not None:
             print(f"{video.stem:<8}{'':>10}{'':>10}{'':>10}{took:>7.1f}s  {got.problem}")
@@ -74,6 +102,12 @@ def rows(calibration: Path, videos: list[Path], guess: bool, people: bool = Fals
             f"({truth['roll_deg']:.1f}), focal {focal}{focal_sd} ({truth['focal_px']:.0f} px); {got.segments} segments"
             + (f"; {got.focal_note}" if got.focal_note else "")
         )
+        folder = video.parent / "openpose-body25b" / f"{video.stem}_json"
+        if fused and folder.is_dir():
+            tracked = read_keypoints(folder)
+            print(fused_row(video, got, (tracked.keypoints, tracked.frame_times), truth, guess))
+        elif fused:
+            print(f"{'  fused':<8}  not fused: no tracked people bundled (their verticals need each person's frames)")
 
 
 def main() -> None:
@@ -82,13 +116,14 @@ def main() -> None:
     parser.add_argument("videos", nargs="*", type=Path)
     parser.add_argument("--guess", action="store_true", help="the calibration is a guess: show values only")
     parser.add_argument("--people", action="store_true", help="mask the bundled people")
+    parser.add_argument("--fused", action="store_true", help="mask them and fuse with their verticals")
     args = parser.parse_args()
     print(f"{'view':<8}{'pitch off':>10}{'roll off':>10}{'focal off':>10}{'time':>8}  estimate")
     if args.calibration is None:
-        rows(BALANCING / "calib_pose2sim.toml", sorted(BALANCING.glob("cam0?.mp4")), False, args.people)
-        rows(DEMO / "Calib_demo.toml", [DEMO / "demo.mp4"], True, args.people)
+        rows(BALANCING / "calib_pose2sim.toml", sorted(BALANCING.glob("cam0?.mp4")), False, args.people, args.fused)
+        rows(DEMO / "Calib_demo.toml", [DEMO / "demo.mp4"], True, args.people, args.fused)
     else:
-        rows(args.calibration, args.videos, args.guess, args.people)
+        rows(args.calibration, args.videos, args.guess, args.people, args.fused)
 
 
 if __name__ == "__main__":

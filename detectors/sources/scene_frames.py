@@ -16,7 +16,7 @@ import numpy as np
 
 from platypose.detectors.types import PoseTrack2D
 from platypose.lifting.calibration.lens import METADATA, PRIOR, metadata_focal
-from platypose.lifting.calibration.scene.estimate import SceneCamera, scene_camera
+from platypose.lifting.calibration.scene.estimate import FOCAL_HELD_SD, FOCAL_PRIOR_SD, SceneCamera, scene_camera
 from platypose.lifting.calibration.scene.segments import person_boxes
 from platypose.lifting.calibration.scene.view_camera import AssumedCamera, assumed_camera
 from platypose.lifting.errors import InputError
@@ -67,32 +67,37 @@ def video_scene_camera(
     focal_source: str = PRIOR,
     count: int = SAMPLES,
     times: np.ndarray | None = None,
-    hold_focal: bool = False,
+    focal_sd: float = FOCAL_PRIOR_SD,
 ) -> SceneCamera:
     """The camera of the video at ``path`` from its scene's lines, with the people its ``keypoints`` show masked
     out (optional: per frame of the video, each (P, J, 3) x, y, confidence; an array (T, P, J, 3) will do);
-    ``focal_px`` from ``focal_source`` as in :func:`scene_camera` (``hold_focal``: trusted, the lines' own not
-    reported). ``times`` (T,): the keypoints' seconds from the video's start where they are not one per frame
+    ``focal_px`` from ``focal_source`` with its relative spread ``focal_sd`` as in :func:`scene_camera`. ``times`` (T,): the keypoints' seconds from the video's start where they are not one per frame
     (each sampled frame takes the nearest)."""
     indices, frames = sample_frames(path, count)
     boxes = None
     if keypoints is not None:
         rows = indices if times is None else _nearest(times, _seconds(path, indices))
         boxes = [person_boxes(keypoints[i]) if 0 <= i < len(keypoints) else np.zeros((0, 4)) for i in rows]
-    return scene_camera(frames, boxes, focal_px, focal_source, hold_focal)
+    return scene_camera(frames, boxes, focal_px, focal_source, focal_sd)
 
 
 def view_camera(path: str | Path, name: str, track: PoseTrack2D) -> AssumedCamera:
     """The camera a lift without ``--cams`` assumes for the one video at ``path`` (view ``name``) whose people
-    ``track`` holds: the scene's roll and pitch (its people masked), the focal length of the video's metadata,
-    else of the lines, else the lens prior (:func:`platypose.lifting.calibration.scene.view_camera.assumed_camera`)."""
+    ``track`` holds: the scene's roll and pitch (its people masked) checked against the people's, the focal length
+    of the video's metadata and of the lines fused, else the lens prior
+    (:func:`platypose.lifting.calibration.scene.view_camera.assumed_camera`)."""
     size = track.image_size
     focal = metadata_focal(video_tags(path), size)
     held = focal is not None
     scene = video_scene_camera(
-        path, track.keypoints, focal, METADATA if held else PRIOR, times=track.frame_times, hold_focal=held
+        path,
+        track.keypoints,
+        focal,
+        METADATA if held else PRIOR,
+        times=track.frame_times,
+        focal_sd=FOCAL_HELD_SD if held else FOCAL_PRIOR_SD,
     )
-    return assumed_camera(name, size, scene, focal)
+    return assumed_camera(name, size, scene, focal, (track.keypoints, track.frame_times))
 
 
 def _seconds(path: str | Path, indices: np.ndarray) -> np.ndarray:

@@ -43,7 +43,7 @@ def test_a_lift_without_cams_uses_the_scene_and_calib_estimate_gives_it_back(
     assert abs(used["pitch_deg"] - truth["pitch_deg"]) < 2.0 and abs(used["roll_deg"] - truth["roll_deg"]) < 2.0
     assert abs(used["focal_px"] / truth["focal_px"] - 1) < 0.10
     record = lifted.meta["camera"]
-    assert record["pitch_deg"]["source"] == VERTICAL_SOURCE and record["focal_px"]["source"] == FOCAL_SOURCE
+    assert record["pitch_deg"]["used"][0]["source"] == VERTICAL_SOURCE and record["focal_px"]["source"] == FOCAL_SOURCE
     assert record["pitch_deg"]["value"] == pytest.approx(used["pitch_deg"], abs=1e-6)
     assert sum("camera from the scene's lines" in note for note in lifted.meta["notes"]) == 1
     assert "estimated world" in lifted.meta["floor"]["frame"]
@@ -99,3 +99,50 @@ def test_the_video_metadata_focal_length_comes_first():
     found = assumed_camera("v", (1080, 1920), scene, metadata_focal=1234.0)
     assert found.camera.K[0, 0] == 1234.0 and found.record["focal_px"]["source"] == METADATA
     assert not any(NOT_MEASURED in line for line in found.lines)
+
+
+def _recorded(path: Path, entity: str) -> dict:
+    """The columns of the static chunk of ``entity`` in the rerun recording at ``path``, read by rerun's own reader."""
+    from rerun.chunk import RrdReader
+
+    (chunk,) = [c for c in RrdReader(path).stream() if c.entity_path == entity]
+    return chunk.to_record_batch().to_pydict()
+
+
+def test_the_report_and_the_recording_show_the_estimated_camera(tiny_default_prior, data_dir, tmp_path, run_cli):
+    """cam02 lifted without --cams: the report's person picture shows the camera's horizon (read back by OpenCV: a
+    straight magenta line in the picture's column) under a caption naming each quantity, and the recording holds the
+    estimate as text, the horizon in the camera's image (on the line where the camera sees points at its height)
+    and the same horizon in the person's thumbnail (read back by rerun's own reader)."""
+    video = data_dir / BALANCING / "cam02.mp4"
+    args = ["--persons", "largest", "--samples", FLOOR_PASS_SAMPLES, "--formats", "npz,report,rrd"]
+    code, _, stderr = run_cli("lift", video, *args, "--out", tmp_path)
+    assert code == 0, stderr
+    result = platypose.load_result(tmp_path / "cam02" / "cam02.npz")
+    record, camera = result.meta["camera"], result.cameras[0]
+
+    report = cv2.imread(str(tmp_path / "cam02" / "cam02_report.png"))
+    ys, xs = np.nonzero(np.all(report == (255, 0, 255), axis=-1))
+    assert len(xs) > 40 and xs.max() < 0.15 * report.shape[1]  # in the pictures' column
+    fitted = np.polyfit(xs, ys, 1)
+    assert np.abs(np.polyval(fitted, xs) - ys).max() < 3.0  # one straight line
+    roll = np.degrees(np.arctan(fitted[0]))  # the picture keeps its aspect: the horizon's tilt is the roll's
+    assert roll == pytest.approx(record["roll_deg"]["value"], abs=2.0)
+
+    text = _recorded(tmp_path / "cam02" / "cam02.rrd", "/world/cameras/cam02/estimate")["TextDocument:text"][0][0]
+    for key in ("roll_deg", "pitch_deg", "focal_px"):
+        assert record[key]["source"] in text
+    assert f"roll {record['roll_deg']['value']:.1f} +- {record['roll_deg']['sd']:.1f} deg" in text
+    strips = _recorded(tmp_path / "cam02" / "cam02.rrd", "/world/cameras/cam02/horizon")["LineStrips2D:strips"]
+    ends = np.array(strips[0][0])
+    rvec = cv2.Rodrigues(np.asarray(camera.R, np.float64))[0]
+    ahead = camera.R[2] * [1.0, 1.0, 0.0]  # the optical axis, levelled
+    ahead /= np.linalg.norm(ahead)
+    side = np.cross(ahead, [0.0, 0.0, 1.0])
+    far = camera.center + 1000.0 * ahead + np.outer([-200.0, 200.0], side)  # ahead, at the camera's height
+    seen, _ = cv2.projectPoints(far, rvec, np.asarray(camera.t, np.float64), np.asarray(camera.K), None)
+    seen = seen.reshape(-1, 2)
+    normal = np.array([seen[1, 1] - seen[0, 1], seen[0, 0] - seen[1, 0]])
+    assert np.abs((ends - seen[0]) @ normal / np.linalg.norm(normal)).max() < 2.0
+    thumbnail = _recorded(tmp_path / "cam02" / "cam02.rrd", "/who/p0/thumbnail")["Image:buffer"][0][0]
+    assert (np.asarray(thumbnail).reshape(-1, 3) == (255, 0, 255)).all(axis=1).sum() > 20

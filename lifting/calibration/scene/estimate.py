@@ -9,7 +9,9 @@ again, each time without the segments the horizontal points explain among the ve
 edges running away from the camera look upright in the image). The vertical point gives the roll whatever the
 focal length, and the pitch with it; the two horizontal points give the focal length where both are finite and
 well supported. Where they are not, the pitch is the vertical point's at the given focal length (a lens prior or
-the video's metadata, its spread ``FOCAL_PRIOR_SD`` widening the pitch's) and the focal length is "not measured".
+the video's metadata, its spread widening the pitch's) and the focal length is "not measured". Either way the
+estimate says how the pitch moves with the focal length (``pitch_slope``), so a focal length fused from several
+sources (:mod:`platypose.lifting.calibration.scene.view_camera`) gets the pitch that goes with it.
 Frames whose lines are not the median's mean a moving camera (:mod:`platypose.lifting.calibration.scene.motion`): no estimate.
 """
 
@@ -36,6 +38,7 @@ FOCAL_RANGE = (1 / 3, 3.0)  # the focal length searched, times the given one
 FOCAL_MEASURED_SD = 0.10  # the lines measure the focal length when its relative sd is under this
 FOCAL_PRIOR_SD = 0.3  # relative spread of a focal length the lines did not measure
 FOCAL_HELD_SD = 0.05  # relative spread of a trusted one (the video's metadata: zoom, stabilisation's crop)
+SLOPE_STEP = 0.05  # log focal either side of the pitch's focal length where the pitch's slope is taken
 MIN_SD_DEG, MIN_FOCAL_SD = 0.3, 0.02  # floors: the principal point, lens distortion, not quite square scenes
 MOTION_FRAMES = 6
 RIVALS = 4  # the best solutions the bootstrap chooses among
@@ -51,7 +54,9 @@ NOT_MEASURED = "focal length not measured"
 class SceneCamera:
     """What the scene's lines say of the camera. ``problem`` set: nothing (why: no line detector, no lines,
     camera moves). Else roll and pitch (degrees), and the focal length (px) or None with ``focal_note`` saying
-    why it was not measured; ``sd`` holds each quantity's standard deviation and ``source`` where it came from."""
+    why it was not measured; ``sd`` holds each quantity's standard deviation and ``source`` where it came from.
+    The pitch is at the focal length ``focal_at`` (px: the lines' own, or the one given); ``pitch_slope``: degrees
+    of pitch per unit of log focal length about it (the vertical vanishing point's)."""
 
     roll_deg: float | None = None
     pitch_deg: float | None = None
@@ -61,6 +66,8 @@ class SceneCamera:
     segments: int = 0
     problem: str | None = None
     focal_note: str | None = None
+    focal_at: float | None = None
+    pitch_slope: float = 0.0
 
 
 def scene_camera(
@@ -68,13 +75,13 @@ def scene_camera(
     boxes: list[np.ndarray] | None = None,
     focal_px: float | None = None,
     focal_source: str = PRIOR,
-    hold_focal: bool = False,
+    focal_sd: float = FOCAL_PRIOR_SD,
 ) -> SceneCamera:
     """The camera of grey ``frames`` (each (H, W) uint8, spread over one take) whose people stand in ``boxes``
     (per frame (K, 4) px ``x0, y0, x1, y1``; optional). ``focal_px`` (from ``focal_source``; default the lens
     prior) is the pitch's focal length where the lines do not measure one, and the centre of the search;
-    ``hold_focal``: a trusted focal length (the video's metadata): the pitch is taken at it, the lines' own is not
-    reported (nor a note)."""
+    ``focal_sd``: its relative spread (the lens prior's ``FOCAL_PRIOR_SD``, the video's metadata's
+    ``FOCAL_HELD_SD``), which widens the pitch's where the lines do not measure the focal length."""
     detect = line_detector()
     if detect is None:
         return SceneCamera(problem=NO_DETECTOR)
@@ -93,11 +100,11 @@ def scene_camera(
             found = ", ".join(f"{100 * s:.0f}" for s in shares)
             return SceneCamera(problem=f"camera moves: frames keep {found} % of their long lines in the median")
     segments = segments[lengths(segments) >= MIN_LENGTH * diagonal]
-    return _solve(segments, size, focal_px, focal_source, hold_focal)
+    return _solve(segments, size, focal_px, focal_source, focal_sd)
 
 
 def _solve(
-    segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_source: str, hold_focal: bool
+    segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_source: str, focal_sd: float
 ) -> SceneCamera:
     """:func:`scene_camera` from the scene's segments (N, 4)."""
     scale = image_scale(size)
@@ -113,22 +120,18 @@ def _solve(
     relative_sd = float(fit_sd[3])
     inside = FOCAL_RANGE[0] * 1.05 < fitted.focal / prior < FOCAL_RANGE[1] / 1.05
     measured = min(counts[:2]) >= manhattan.MIN_SEGMENTS and relative_sd < FOCAL_MEASURED_SD and inside
-    measured &= not hold_focal
     sources = {"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE}
     note = None
     if measured:
         pitch_sd = np.degrees(fit_sd[0])
         sources["focal_px"] = FOCAL_SOURCE
+        slope = _pitch_slope(lines, fitted, fitted.focal)
     else:
         held = manhattan.fit(lines, fitted.labels, fitted.params, held_focal=prior)
-        relative = FOCAL_HELD_SD if hold_focal else FOCAL_PRIOR_SD
-        wide = [
-            manhattan.fit(lines, fitted.labels, held.params, held_focal=prior * np.exp(s * relative)) for s in (-1, 1)
-        ]
-        widened = abs(wide[1].params[0] - wide[0].params[0]) / 2.0
-        pitch_sd = float(np.degrees(np.hypot(held.sd[0], widened)))
+        slope = _pitch_slope(lines, held, prior)
+        pitch_sd = float(np.hypot(np.degrees(held.sd[0]), slope * focal_sd))
         sources["pitch_deg"] = f"{VERTICAL_SOURCE} at the focal length of the {focal_source}"
-        note = None if hold_focal else f"{NOT_MEASURED}: {_why_not(counts, relative_sd)}"
+        note = f"{NOT_MEASURED}: {_why_not(counts, relative_sd)}"
         fitted = held
     pitch, roll = np.degrees(fitted.params[:2])
     sd = {
@@ -147,7 +150,19 @@ def _solve(
         source=sources,
         segments=int(sum(counts)),
         focal_note=note,
+        focal_at=fitted.focal * scale,
+        pitch_slope=slope,
     )
+
+
+def _pitch_slope(lines: Lines, fitted: manhattan.Fit, focal: float) -> float:
+    """Degrees of pitch per unit of log focal length about ``focal`` (normalised): the vertical vanishing point of
+    ``fitted``'s lines at ``SLOPE_STEP`` either side."""
+    pitches = [
+        manhattan.fit(lines, fitted.labels, fitted.params, held_focal=focal * np.exp(s * SLOPE_STEP)).params[0]
+        for s in (-1, 1)
+    ]
+    return float(np.degrees(pitches[1] - pitches[0]) / (2 * SLOPE_STEP))
 
 
 def _solutions(lines: Lines, prior: float, min_length_px: float) -> list[manhattan.Fit]:

@@ -1,10 +1,15 @@
-"""The camera a one-view lift without ``--cams`` stands on: roll and pitch from the scene's lines, the focal length
-from the most trusted source that has one, the height (and floor) left to the people.
+"""The camera a one-view lift without ``--cams`` stands on: roll and pitch from the scene's lines checked against the
+people's verticals, the focal length fused from the sources that measure it, the height (and floor) left to the
+people.
 
-Focal length, in this order of trust: the video's metadata (:func:`platypose.lifting.calibration.lens.lens_focal`;
-the lines then give the pitch at it), the two horizontal vanishing points
-(:func:`platypose.lifting.calibration.scene.estimate.scene_camera`), the lens prior (said once: "focal length not
-measured"). Where the scene gives nothing (no line detector, no lines, a moving camera) the lift assumes what it
+Each quantity is the inverse-variance mean of its sources (:mod:`platypose.lifting.calibration.fusion`), a source
+more than 3 sigma off the others dropped (of two, the less trusted) and said so once, in the log and in
+``meta["camera"]``. Roll and pitch: the scene's vertical vanishing point, then the people standing
+(:mod:`platypose.lifting.calibration.people_vertical`; a check on the lines, never the only roll: without the lines
+the fallback below is used). Focal length, in this order of trust: the video's metadata
+(:func:`platypose.lifting.calibration.lens.metadata_focal`, 5 %), the two horizontal vanishing points
+(:func:`platypose.lifting.calibration.scene.estimate.scene_camera`), else the lens prior (said once: "focal length
+not measured"); the lines' pitch is moved to the focal length chosen. Where the scene gives nothing (no line detector, no lines, a moving camera) the lift assumes what it
 always did: a level camera at the origin with the field-of-view prior
 (:func:`platypose.lifting.calibration.defaults.default_camera`), its floor's pitch searched under the people.
 """
@@ -13,10 +18,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from platypose.lifting.calibration.defaults import default_camera
+from platypose.lifting.calibration.fusion import Estimate, Fused, fuse
 from platypose.lifting.calibration.lens import METADATA, PRIOR, prior_focal
+from platypose.lifting.calibration.people_vertical import MIN_FRAMES, PeopleVertical, people_vertical
+from platypose.lifting.calibration.people_vertical import SOURCE as PEOPLE
 from platypose.lifting.calibration.pose_above_floor import pitched, posed_camera
-from platypose.lifting.calibration.scene.estimate import SceneCamera
+from platypose.lifting.calibration.scene.estimate import FOCAL_HELD_SD, SceneCamera
 from platypose.lifting.camera import Camera
 
 HEIGHT_SOURCE = "people (stance ankles on one floor, adult stature for scale)"
@@ -45,38 +55,72 @@ def fallback_camera(name: str, size: tuple[int, int], why: str) -> AssumedCamera
 
 
 def assumed_camera(
-    name: str, size: tuple[int, int], scene: SceneCamera, metadata_focal: float | None = None
+    name: str,
+    size: tuple[int, int],
+    scene: SceneCamera,
+    metadata_focal: float | None = None,
+    people: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> AssumedCamera:
-    """The camera of view ``name`` (image ``size`` (height, width)) from its ``scene`` estimate, with the focal
-    length of the video's metadata where it has one (``metadata_focal`` px; the scene's pitch is then its)."""
+    """The camera of view ``name`` (image ``size`` (height, width)) from its ``scene`` estimate, the focal length of
+    the video's metadata where it has one (``metadata_focal`` px) and its ``people`` (keypoints (T, P, 17, 3) and
+    their times (T,) s; optional) as a check on the lines' roll and pitch: each quantity the inverse-variance mean of its sources
+    (:func:`platypose.lifting.calibration.fusion.fuse`), a source more than 3 sigma off the others dropped and said
+    so once. The lines' pitch is taken at the fused focal length."""
     if scene.problem is not None:
         return fallback_camera(name, size, scene.problem)
-    if metadata_focal is not None:
-        focal, focal_sd, focal_source = metadata_focal, None, METADATA
-    elif scene.focal_px is not None:
-        focal, focal_sd, focal_source = scene.focal_px, scene.sd["focal_px"], scene.source["focal_px"]
-    else:
-        focal, focal_sd, focal_source = prior_focal(size), None, PRIOR
+    focals = [Estimate(metadata_focal, FOCAL_HELD_SD * metadata_focal, METADATA)] if metadata_focal else []
+    if scene.focal_px is not None:
+        focals.append(Estimate(scene.focal_px, scene.sd["focal_px"], scene.source["focal_px"]))
+    focal = fuse(focals, " px") if focals else None
+    focal_px = prior_focal(size) if focal is None else focal.value
+    at = scene.focal_at if scene.focal_at is not None else focal_px
+    scene_pitch = scene.pitch_deg + scene.pitch_slope * float(np.log(focal_px / at))
+    pitches = [Estimate(scene_pitch, scene.sd["pitch_deg"], scene.source["pitch_deg"])]
+    rolls = [Estimate(scene.roll_deg, scene.sd["roll_deg"], scene.source["roll_deg"])]
+    upright = None if people is None else people_vertical(*people, size, focal_px, (scene_pitch, scene.roll_deg))
+    if upright is not None:
+        rolls.append(Estimate(upright.roll_deg, upright.sd["roll_deg"], PEOPLE))
+        if upright.pitch_deg is not None:
+            pitches.append(Estimate(upright.pitch_deg, upright.sd["pitch_deg"], PEOPLE))
+    roll, pitch = fuse(rolls, " degrees"), fuse(pitches, " degrees")
     record = {
-        "roll_deg": _entry(scene.roll_deg, scene.sd["roll_deg"], scene.source["roll_deg"]),
-        "pitch_deg": _entry(scene.pitch_deg, scene.sd["pitch_deg"], scene.source["pitch_deg"]),
-        "focal_px": _entry(focal, focal_sd, focal_source),
+        "roll_deg": _entry(roll),
+        "pitch_deg": _entry(pitch),
+        "focal_px": _entry(focal) if focal else {"value": focal_px, "sd": None, "source": PRIOR},
         "height_m": {"source": HEIGHT_SOURCE},
         "segments": scene.segments,
+        "people": {"note": "no people given"} if people is None else _people(upright),
     }
-    focal_text = f"{focal:.0f} px" + ("" if focal_sd is None else f" +- {focal_sd:.0f}")
+    focal_text = f"{focal_px:.0f} px" + ("" if focal is None else f" +- {focal.sd:.0f}")
     lines = [
-        f"camera from the scene's lines ({scene.segments} segments): rolled {scene.roll_deg:.1f} +- "
-        f"{scene.sd['roll_deg']:.1f} degrees, {pitched(scene.pitch_deg, scene.sd['pitch_deg'])} "
-        f"({scene.source['pitch_deg']}); focal length {focal_text} ({focal_source}); height from the "
-        f"{HEIGHT_SOURCE}"
+        f"camera from the scene's lines ({scene.segments} segments): rolled {roll.value:.1f} +- {roll.sd:.1f} "
+        f"degrees ({roll.source}), {pitched(pitch.value, pitch.sd)} ({pitch.source}); focal length {focal_text} "
+        f"({PRIOR if focal is None else focal.source}); height from the {HEIGHT_SOURCE}"
     ]
-    if scene.focal_note is not None and metadata_focal is None:
+    if focal is None and scene.focal_note is not None:
         record["focal_note"] = scene.focal_note
         lines.append(f"{scene.focal_note}; the {PRIOR} is used")
-    camera = posed_camera(name, size, focal, scene.pitch_deg, scene.roll_deg, 0.0)
+    for quantity, fused in (("roll", roll), ("pitch", pitch), ("focal length", focal)):
+        for dropped, why in fused.dropped if fused else ():
+            lines.append(f"{quantity}: {dropped.source} ({dropped.value:.1f} +- {dropped.sd:.1f}) dropped: {why}")
+    camera = posed_camera(name, size, focal_px, pitch.value, roll.value, 0.0)
     return AssumedCamera(camera, True, record, tuple(lines))
 
 
-def _entry(value: float, sd: float | None, source: str) -> dict:
-    return {"value": float(value), "sd": None if sd is None else float(sd), "source": source}
+def _entry(fused: Fused) -> dict:
+    """A fused quantity for ``meta["camera"]``: value, sd, source (the used ones joined), each source used and
+    each dropped with why."""
+    return {
+        "value": float(fused.value),
+        "sd": float(fused.sd),
+        "source": fused.source,
+        "used": [e.as_dict() for e in fused.used],
+        "dropped": [{**e.as_dict(), "why": why} for e, why in fused.dropped],
+    }
+
+
+def _people(people: PeopleVertical | None) -> dict:
+    """What the people's verticals measured, for ``meta["camera"]``."""
+    if people is None:
+        return {"note": f"fewer than {MIN_FRAMES} person-frames stand still on a straight leg: not used"}
+    return {"frames": people.frames, "persons": people.persons, "pitch_measured": people.pitch_deg is not None}
