@@ -152,13 +152,11 @@ def lift_windows(
     frame_by_frame: bool,
     batch_windows: int = 8,
     rigid: bool = True,
-    hidden: np.ndarray | None = None,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` for true windows ``(B, F, 17, 3)`` seen by ``cameras``; ``rigid``: made
     rigid as ``platypose lift`` makes its output (not the frame-by-frame baseline), not yet held within the joint
-    limits (:func:`finished_windows` does that, after their answer). ``hidden`` (F,): frames no camera sees (a
-    detection gap: no keypoints, no reprojection energy; the prior fills them)."""
-    keypoints = window_keypoints(cameras, windows, noise_px, config.seed, hidden)
+    limits (:func:`finished_windows` does that, after their answer)."""
+    keypoints = window_keypoints(cameras, windows, noise_px, config.seed)
     pixels, confidence = keypoints[..., :2], keypoints[..., 2]
     B, F = windows.shape[:2]
     if frame_by_frame:
@@ -174,7 +172,7 @@ def lift_windows(
     if frame_by_frame:
         joints = joints.reshape(B, F, config.samples, 17, 3).transpose(0, 2, 1, 3, 4)
     elif rigid:
-        joints = rigid_windows(joints, cameras, prior.fps, config.floor, keypoints, hidden, limits=False)
+        joints = rigid_windows(joints, cameras, prior.fps, config.floor, keypoints, limits=False)
     return joints
 
 
@@ -200,19 +198,16 @@ def rigid_windows(
     fps: float,
     floor: tuple[float, float, float, float] | None,
     keypoints: np.ndarray | None,
-    hidden: np.ndarray | None = None,
     limits: bool = True,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.finish.rigid.rigid_paths`, each
     hypothesis on its own shape over its window, :func:`lifting.finish.rigid.person_shape`; with several views and
     the ``keypoints`` ``(C, B, F, 17, 3)`` they saw, first shifted as their answer's lasting offsets from those ask,
-    :func:`lifting.finish.measured.steady_shift`), every view seeing every joint but on the ``hidden`` frames (F,),
+    :func:`lifting.finish.measured.steady_shift`), every view seeing every joint,
     none taken under ``floor`` (the sampler's plane, or None); ``limits`` as ``rigid_paths``'s."""
     ground = None if floor is None else plane_floor(*floor, "evaluation")
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
-    if hidden is not None:
-        seen[hidden] = False
     out = np.empty_like(hypotheses)
     for b, window in enumerate(np.asarray(hypotheses, np.float64)):
         if keypoints is not None and len(cameras) > 1:
@@ -228,17 +223,16 @@ def finished_windows(
     fps: float,
     floor: tuple[float, float, float, float] | None,
     rigid: bool,
-    hidden: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The hypotheses and the motion a lift would export for windows of :func:`lift_windows`'s hypotheses ``(B, N, F,
     17, 3)``, as :func:`lifting.finish.rigid.rigid_person` finishes them: the answer ``(B, F, 17, 3)``
     (:func:`lifting.finish.representative.median_motion`, made rigid on its own shape), then the hypotheses held
-    within the joint limits; ``hidden`` frames (F,) unseen. Not ``rigid``: both as they are."""
+    within the joint limits. Not ``rigid``: both as they are."""
     members = [agreeing(np.asarray(h, np.float64)) for h in hypotheses]
     answers = np.stack([median_motion(np.asarray(h, np.float64), m) for h, m in zip(hypotheses, members)])
     if not rigid:
         return hypotheses, answers
-    answers = rigid_windows(answers[:, None], cameras, fps, floor, None, hidden)[:, 0]
+    answers = rigid_windows(answers[:, None], cameras, fps, floor, None)[:, 0]
     hypotheses = within_limits(np.asarray(hypotheses, np.float64))
     flexion = [median_flexion(h, m) for h, m in zip(hypotheses, members)]
     return hypotheses, np.stack([answer_arms(a, f, fps, len(cameras)) for a, f in zip(answers, flexion)])
