@@ -32,7 +32,6 @@ from platypose.exporters.result import LiftResult
 from platypose.lifting.calibration import Calibration
 from platypose.lifting.camera import CODEC_BLOCK, SIZE_TOLERANCE, Camera, codec_padded
 from platypose.lifting.errors import InputError
-from platypose.lifting.finish.steps import finish_take
 from platypose.lifting.floor import Floor, FloorToEstimate
 from platypose.lifting.job_log import JobLog
 from platypose.lifting.prior.model import PriorBundle
@@ -40,16 +39,12 @@ from platypose.lifting.settings import TakeSettings
 from platypose.lifting.take import Take
 from platypose.lifting.tracks.persons import lift_persons
 from platypose.lifting.tracks.quick_floor import quick_floor
+from platypose.lifting.tracks.take_lift import lift_and_finish, numpy_arrays
 
 if TYPE_CHECKING:
     from platypose.lifting.calibration.scene.view_camera import AssumedCamera
 
 Reader = Callable[[Path], ViewRead]  # a view's source -> its tracks and how they were obtained
-
-
-def numpy_arrays(shape: tuple[int, ...], name: str) -> np.ndarray:
-    """An in-memory float32 array for one of the result's long arrays (``name``: hypotheses, median, energy)."""
-    return np.empty(shape, np.float32)
 
 
 def run_take(
@@ -271,21 +266,11 @@ def lift_take(
     height and pitch), which ``meta["floor"]["frame"]`` says.
     """
     log = log if log is not None else JobLog()
-    fps = take.frame_rate(prior.fps)
     if isinstance(floor, FloorToEstimate):
         on = everyone if everyone is not None else take
         floor = quick_floor(prior, on, log=log, progress=progress, height_only=floor.height_only)  # whole: one floor
-    if floor is not None:
-        take = replace(take, sampler=replace(take.sampler, floor=floor.plane))
-        log(f"floor ({floor.source}): {' '.join(f'{v:g}' for v in floor.plane)} (n . x + d = 0), grounding on")
-    started = time.perf_counter()
-    (P, T), N = take.absent.shape, take.sampler.samples
-    hypotheses = arrays((P, N, T, 17, 3), "hypotheses")
-    median = arrays((P, T, 17, 3), "median")
-    energy = arrays((P, N, T), "energy")
-    lifter(prior=prior, take=take, hypotheses=hypotheses, median=median, energy=energy, progress=progress)
-    log(f"lifted {N} hypotheses in {time.perf_counter() - started:.1f} s")
-    finished = finish_take(take, hypotheses=hypotheses, median=median, fps=fps, floor=floor, log=log)
+    lifted = lift_and_finish(prior, take, floor=floor, log=log, arrays=arrays, progress=progress, lifter=lifter)
+    finished = lifted.finished
     meta = {
         "prior_sha256": prior.checksum,
         "reprojection_px": finished.reprojection_px,
@@ -295,14 +280,14 @@ def lift_take(
         "notes": list(log.notes),
     }
     return LiftResult(
-        hypotheses=hypotheses,
-        median=median,
+        hypotheses=lifted.hypotheses,
+        median=lifted.median,
         keypoints2d=np.moveaxis(take.keypoints, 2, 1),
         frame_times=take.times,
-        fps=fps,
+        fps=lifted.fps,
         track_ids=take.track_ids,
         cameras=finished.cameras,
-        energy=energy,
+        energy=lifted.energy,
         meta=meta,
     )
 

@@ -90,7 +90,7 @@ def compare(uncut_path: Path, cut_path: Path, track: int) -> None:
     second = after < frames[-1] + 1 + round(cut.fps)
     print(
         f"p{track}: {len(frames)} gap frames; every joint inside the cut lift's 5-95 % band in "
-        f"{100 * inside.all(-1).mean():.0f} % of them ({100 * inside.mean():.0f} % of joints); pelvis after the gap "
+        f"{100 * inside.all(-1).mean():.0f} % of them ({100 * inside.mean():.1f} % of joints); pelvis after the gap "
         f"{distance[second].max(initial=0):.2f} m from the uncut lift (largest over 1 s), "
         f"{distance.max(initial=0):.2f} m (rest of the track)"
     )

@@ -20,10 +20,14 @@ from platypose.lifting.finish.measured import measure, steady_shift
 from platypose.lifting.finish.representative import agreeing, median_flexion, median_motion
 from platypose.lifting.finish.rigid import answer_arms, person_shape, rigid_paths
 from platypose.lifting.floor import plane_floor
+from platypose.lifting.job_log import JobLog
 from platypose.lifting.offline import metrics
 from platypose.lifting.prior.model import PriorBundle
 from platypose.lifting.sampling.sampler import cameras_and_rays, sample
-from platypose.lifting.settings import SamplerConfig
+from platypose.lifting.settings import SamplerConfig, WindowSettings
+from platypose.lifting.take import Take
+from platypose.lifting.tracks.persons import root_paths
+from platypose.lifting.tracks.take_lift import lift_and_finish
 
 METRIC_NAMES = (
     "minMPJPE",
@@ -148,13 +152,11 @@ def lift_windows(
     frame_by_frame: bool,
     batch_windows: int = 8,
     rigid: bool = True,
-    hidden: np.ndarray | None = None,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` for true windows ``(B, F, 17, 3)`` seen by ``cameras``; ``rigid``: made
     rigid as ``platypose lift`` makes its output (not the frame-by-frame baseline), not yet held within the joint
-    limits (:func:`finished_windows` does that, after their answer). ``hidden`` (F,): frames no camera sees (a
-    detection gap: no keypoints, no reprojection energy; the prior fills them)."""
-    keypoints = window_keypoints(cameras, windows, noise_px, config.seed, hidden)
+    limits (:func:`finished_windows` does that, after their answer)."""
+    keypoints = window_keypoints(cameras, windows, noise_px, config.seed)
     pixels, confidence = keypoints[..., :2], keypoints[..., 2]
     B, F = windows.shape[:2]
     if frame_by_frame:
@@ -170,7 +172,7 @@ def lift_windows(
     if frame_by_frame:
         joints = joints.reshape(B, F, config.samples, 17, 3).transpose(0, 2, 1, 3, 4)
     elif rigid:
-        joints = rigid_windows(joints, cameras, prior.fps, config.floor, keypoints, hidden, limits=False)
+        joints = rigid_windows(joints, cameras, prior.fps, config.floor, keypoints, limits=False)
     return joints
 
 
@@ -196,19 +198,16 @@ def rigid_windows(
     fps: float,
     floor: tuple[float, float, float, float] | None,
     keypoints: np.ndarray | None,
-    hidden: np.ndarray | None = None,
     limits: bool = True,
 ) -> np.ndarray:
     """Hypotheses ``(B, N, F, 17, 3)`` made rigid as a lift's output is (:func:`lifting.finish.rigid.rigid_paths`, each
     hypothesis on its own shape over its window, :func:`lifting.finish.rigid.person_shape`; with several views and
     the ``keypoints`` ``(C, B, F, 17, 3)`` they saw, first shifted as their answer's lasting offsets from those ask,
-    :func:`lifting.finish.measured.steady_shift`), every view seeing every joint but on the ``hidden`` frames (F,),
+    :func:`lifting.finish.measured.steady_shift`), every view seeing every joint,
     none taken under ``floor`` (the sampler's plane, or None); ``limits`` as ``rigid_paths``'s."""
     ground = None if floor is None else plane_floor(*floor, "evaluation")
     centres = np.stack([cam.center for cam in cameras])
     seen = np.ones((hypotheses.shape[2], 17, len(cameras)), dtype=bool)
-    if hidden is not None:
-        seen[hidden] = False
     out = np.empty_like(hypotheses)
     for b, window in enumerate(np.asarray(hypotheses, np.float64)):
         if keypoints is not None and len(cameras) > 1:
@@ -224,17 +223,16 @@ def finished_windows(
     fps: float,
     floor: tuple[float, float, float, float] | None,
     rigid: bool,
-    hidden: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The hypotheses and the motion a lift would export for windows of :func:`lift_windows`'s hypotheses ``(B, N, F,
     17, 3)``, as :func:`lifting.finish.rigid.rigid_person` finishes them: the answer ``(B, F, 17, 3)``
     (:func:`lifting.finish.representative.median_motion`, made rigid on its own shape), then the hypotheses held
-    within the joint limits; ``hidden`` frames (F,) unseen. Not ``rigid``: both as they are."""
+    within the joint limits. Not ``rigid``: both as they are."""
     members = [agreeing(np.asarray(h, np.float64)) for h in hypotheses]
     answers = np.stack([median_motion(np.asarray(h, np.float64), m) for h, m in zip(hypotheses, members)])
     if not rigid:
         return hypotheses, answers
-    answers = rigid_windows(answers[:, None], cameras, fps, floor, None, hidden)[:, 0]
+    answers = rigid_windows(answers[:, None], cameras, fps, floor, None)[:, 0]
     hypotheses = within_limits(np.asarray(hypotheses, np.float64))
     flexion = [median_flexion(h, m) for h, m in zip(hypotheses, members)]
     return hypotheses, np.stack([answer_arms(a, f, fps, len(cameras)) for a, f in zip(answers, flexion)])
@@ -258,8 +256,9 @@ def evaluate(
 
     With ``config.floor`` set (a level floor), every window stands on it (the clips' floor is z = 0) and is
     moved only along it. ``rigid``: hypotheses made rigid as the lift's output is (:mod:`lifting.finish.rigid`).
-    ``gap_s`` > 0: each window is also lifted with a centred gap of that many seconds no camera sees, scored
-    apart on the frames inside the gap and on those outside it (:func:`gap_rows`).
+    ``gap_s`` > 0: each window is also lifted as ``lift`` lifts a take, once seen throughout and once with a centred
+    gap of that many seconds no camera sees, scored apart on the frames inside the gap and on those outside it
+    (:func:`gap_rows`; always finished as a take is, whatever ``rigid``).
     """
     target = look_target(cameras)
     height = floor_height(config.floor)
@@ -284,7 +283,7 @@ def evaluate(
                     progress(format_row(row))
             if gap_s > 0 and frames > 2:
                 for row in gap_rows(
-                    prior, cameras, truth, clip_of_window, replace(config, samples=samples), noise_px, rigid, gap_s
+                    prior, cameras, truth, clip_of_window, replace(config, samples=samples), noise_px, gap_s
                 ):
                     rows.append(row)
                     if progress:
@@ -302,6 +301,37 @@ def centred_gap(frames: int, gap_s: float, fps: float) -> np.ndarray:
     return hidden
 
 
+def lift_as_take(
+    prior: PriorBundle,
+    cameras: Sequence[Camera],
+    truth: np.ndarray,
+    config: SamplerConfig,
+    noise_px: float,
+    hidden: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """True windows ``(B, F, 17, 3)`` seen by ``cameras`` (none on the ``hidden`` frames ``(F,)``) lifted as a take of
+    B persons on the prior's clock is: their root paths decided as ``lift`` decides them
+    (:func:`platypose.lifting.tracks.persons.root_paths`), sampled through the take's windows and their anchors,
+    placement across gaps included, and finished on ``config.floor`` (steady depth, bodies): the one path ``lift``
+    runs (:func:`platypose.lifting.tracks.take_lift.lift_and_finish`). The hypotheses
+    ``(B, N, F, 17, 3)`` and the motion the take exports, its median ``(B, F, 17, 3)``."""
+    B, F = truth.shape[:2]
+    keypoints = np.moveaxis(window_keypoints(cameras, truth, noise_px, config.seed, hidden), 1, 2)  # (C, F, B, 17, 3)
+    times = np.arange(F) / prior.fps
+    take = Take.on_clock(
+        keypoints,
+        times,
+        np.arange(B),
+        cameras,
+        root_paths(keypoints, times, cameras),
+        sampler=config,
+        windows=WindowSettings(),
+    )
+    floor = None if config.floor is None else plane_floor(*config.floor, "evaluation")
+    lifted = lift_and_finish(prior, take, floor=floor, log=JobLog())
+    return np.asarray(lifted.hypotheses), np.asarray(lifted.median)
+
+
 def gap_rows(
     prior: PriorBundle,
     cameras: Sequence[Camera],
@@ -309,19 +339,21 @@ def gap_rows(
     clip_of_window: np.ndarray,
     config: SamplerConfig,
     noise_px: float,
-    rigid: bool,
     gap_s: float,
 ) -> list[EvalRow]:
-    """Windows ``truth`` ``(B, F, 17, 3)`` lifted with a centred gap (:func:`centred_gap`) no camera sees; two rows,
-    the metrics on the frames inside the gap ("gap inside") and on those outside it ("gap outside"), each labelled
-    with the seconds the gap hid (at most the window less its first and last frame)."""
-    began = time.time()
+    """Windows ``truth`` ``(B, F, 17, 3)`` lifted as a take is (:func:`lift_as_take`), once seen throughout ("take")
+    and once with a centred gap (:func:`centred_gap`) no camera sees; three rows: the take's metrics, and those of
+    the take with the gap on the frames inside the gap ("gap inside") and on those outside it ("gap outside"), each
+    labelled with the seconds the gap hid (at most the window less its first and last frame)."""
     F = truth.shape[1]
+    began = time.time()
+    hyps, answers = lift_as_take(prior, cameras, truth, config, noise_px)
+    values = score_windows(hyps, truth, clip_of_window, answers)
+    rows = [EvalRow("take", len(cameras), F, config.samples, len(truth), values, time.time() - began)]
     hidden = centred_gap(F, gap_s, prior.fps)
-    hyps = lift_windows(prior, cameras, truth, config, noise_px, False, rigid=rigid, hidden=hidden)
-    hyps, answers = finished_windows(hyps, cameras, prior.fps, config.floor, rigid, hidden)
-    seconds = time.time() - began
-    rows, used = [], hidden.sum() / prior.fps  # the seconds hidden: less than asked where the window is shorter
+    began = time.time()
+    hyps, answers = lift_as_take(prior, cameras, truth, config, noise_px, hidden)
+    seconds, used = time.time() - began, hidden.sum() / prior.fps  # used: less than asked where the window is shorter
     for name, frames in (("gap inside", hidden), ("gap outside", ~hidden)):
         values = score_windows(hyps[:, :, frames], truth[:, frames], clip_of_window, answers[:, frames])
         rows.append(EvalRow(f"{name} {used:g}s", len(cameras), F, config.samples, len(truth), values, seconds))

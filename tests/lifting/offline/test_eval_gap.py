@@ -6,9 +6,19 @@ import json
 
 import numpy as np
 
+from platypose.lifting.floor import CALIBRATED_FLOOR
 from platypose.lifting.offline.camera_rigs import ring_cameras
-from platypose.lifting.offline.evaluation import centred_gap, lift_windows, look_target, place_window
-from platypose.lifting.settings import SamplerConfig
+from platypose.lifting.offline.evaluation import (
+    centred_gap,
+    lift_as_take,
+    look_target,
+    place_window,
+    window_keypoints,
+)
+from platypose.lifting.settings import SamplerConfig, WindowSettings
+from platypose.lifting.take import Take
+from platypose.lifting.tracks.persons import root_paths
+from platypose.pipeline import lift_take
 
 WALK = "motion/deepmimic/humanoid3d_walk.txt"
 
@@ -25,15 +35,33 @@ def test_frames_inside_the_gap_give_the_lift_nothing(tiny_prior, heldout_window)
     energy there), and differ from a lift that sees those frames."""
     cameras = ring_cameras(4)[:1]
     hidden = centred_gap(16, 0.2, tiny_prior.fps)
-    config = SamplerConfig(samples=4, seed=5)
-    truth = place_window(heldout_window, look_target(cameras))[None]
+    config = SamplerConfig(samples=4, seed=5, floor=CALIBRATED_FLOOR.plane)
+    truth = place_window(heldout_window, look_target(cameras), 0.0)[None]
     moved = truth.copy()
     moved[:, hidden] += [0.5, -0.3, 0.2]  # a different motion inside the gap only
-    a = lift_windows(tiny_prior, cameras, truth, config, 0.0, False, hidden=hidden)
-    b = lift_windows(tiny_prior, cameras, moved, config, 0.0, False, hidden=hidden)
+    a, _ = lift_as_take(tiny_prior, cameras, truth, config, 0.0, hidden)
+    b, _ = lift_as_take(tiny_prior, cameras, moved, config, 0.0, hidden)
     np.testing.assert_array_equal(a, b)
-    seen = lift_windows(tiny_prior, cameras, moved, config, 0.0, False)
+    seen, _ = lift_as_take(tiny_prior, cameras, moved, config, 0.0)
     assert np.abs(seen[:, :, hidden] - b[:, :, hidden]).max() > 0.1
+
+
+def test_the_gap_rows_lift_a_window_as_lift_lifts_a_take(tiny_prior, heldout_window):
+    """``eval --gap`` goes through the take path a real lift of a take with a gap runs (windows, anchors, placement
+    across the gap, steady depth, bodies): its hypotheses and answer are those of :func:`platypose.pipeline.lift_take`
+    on the same keypoints (it lifted each window alone before)."""
+    cameras = ring_cameras(4)[:1]
+    hidden = centred_gap(16, 0.2, tiny_prior.fps)
+    config = SamplerConfig(samples=4, seed=3, floor=CALIBRATED_FLOOR.plane)
+    truth = np.stack([place_window(heldout_window, look_target(cameras), 0.0)] * 2)
+    hypotheses, answer = lift_as_take(tiny_prior, cameras, truth, config, 0.0, hidden)
+    keypoints = np.moveaxis(window_keypoints(cameras, truth, 0.0, config.seed, hidden), 1, 2)
+    times = np.arange(16) / tiny_prior.fps
+    roots = root_paths(keypoints, times, cameras)
+    take = Take.on_clock(keypoints, times, np.arange(2), cameras, roots, sampler=config, windows=WindowSettings())
+    lifted = lift_take(tiny_prior, take, floor=CALIBRATED_FLOOR)
+    np.testing.assert_allclose(hypotheses, lifted.hypotheses, atol=1e-5)
+    np.testing.assert_allclose(answer, lifted.median, atol=1e-5)
 
 
 def test_eval_gap_adds_rows_inside_and_outside_the_gap(run_cli, prior_file, data_dir, tmp_path):
@@ -45,9 +73,10 @@ def test_eval_gap_adds_rows_inside_and_outside_the_gap(run_cli, prior_file, data
     table = json.loads(out_json.read_text())
     assert table["gap_s"] == 0.2
     rows = {r["method"]: r for r in table["rows"]}
-    assert list(rows) == ["platypose", "gap inside 0.2s", "gap outside 0.2s"]
+    assert list(rows) == ["platypose", "take", "gap inside 0.2s", "gap outside 0.2s"]
     assert all(r["frames"] == 16 and r["windows"] == 2 and r["samples"] == 6 for r in rows.values())
-    plain, inside, outside = (rows[m]["values"] for m in rows)
+    plain, take, inside, outside = (rows[m]["values"] for m in rows)
+    assert take["minMPSPE"] < 15.0  # the take path seeing every frame
     assert outside["minMPSPE"] < 15.0  # mm: 4 views, exact 2D on the seen frames
     assert inside["minMPSPE"] > 2 * outside["minMPSPE"]  # unseen: only the prior there
     assert inside["minMPSPE"] > plain["minMPSPE"]
