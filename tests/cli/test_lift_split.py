@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from demo_tracks import demo_take, demo_tracks
 
 from platypose.cli.runs.batch import run_batch
 from platypose.cli.runs.job import run_job
@@ -49,16 +50,6 @@ class InProcess:
             self.ran.append(names[i])
             each(i)
         return results
-
-
-def real_tracks(data_dir):
-    """The demo's MoveNet detections tracked (2 persons, 230 frames at 30 fps)."""
-    from platypose.detectors.cache import read_detections
-    from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking.tracker import track_detections
-
-    _, detections, indices = read_detections(data_dir / DEMO / "movenet-detections.npz")
-    return track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
 
 
 def seed_detections(data_dir, video: Path, folder: Path) -> None:
@@ -103,8 +94,8 @@ def test_persons_keep_their_hypotheses_through_a_crossing_at_a_seam(data_dir, ti
     from platypose.lifting.take import Take
     from platypose.lifting.tracks.persons import lift_persons
 
-    walker = real_tracks(data_dir).keypoints[:, 1]
-    times = real_tracks(data_dir).frame_times
+    walker = demo_tracks().keypoints[:, 1]
+    times = demo_tracks().frame_times
     mirror = walker.copy()
     mirror[..., 0] = 1768 - walker[..., 0]
     keypoints = np.stack([walker, mirror], axis=1)[None]  # (1, T, 2, 17, 3)
@@ -378,7 +369,7 @@ def test_a_gap_cut_by_a_pieces_edge_is_lifted_by_the_neighbour(data_dir, tiny_pr
     from platypose.lifting.calibration import load_calibration
     from platypose.lifting.take import Take
 
-    tracks = real_tracks(data_dir)
+    tracks = demo_tracks()
     keypoints, times = tracks.keypoints[:, 1:2].copy()[None], tracks.frame_times
     keypoints[0, 75:95] = np.nan
     keypoints[0, 75:95, ..., 2] = 0.0
@@ -402,24 +393,11 @@ def test_a_split_take_stands_on_the_unsplit_takes_floor(data_dir, tiny_prior, pr
     plane and the same world (lifted in pieces, the 60 s clip's floor came out 2.7 cm lower, and everyone moved
     5-14 cm along their rays)."""
     from platypose.cli.runs.split import SplitLifter
-    from platypose.lifting.calibration.defaults import default_camera
     from platypose.lifting.floor import FloorToEstimate
-    from platypose.lifting.take import Take
     from platypose.lifting.tracks.persons import lift_persons
     from platypose.pipeline import lift_take
 
-    tracks = real_tracks(data_dir)
-    camera = default_camera("demo", *tracks.image_size)
-    windows, config = WindowSettings(max_gap=1.0), SamplerConfig(samples=2, seed=0)
-    take = Take.on_clock(
-        tracks.keypoints[None],
-        tracks.frame_times,
-        np.arange(2),
-        [camera],
-        [None, None],
-        sampler=config,
-        windows=windows,
-    )
+    take = demo_take(SamplerConfig(samples=2, seed=0), WindowSettings(max_gap=1.0))
     split = SplitLifter(InProcess(), PriorSettings(path=prior_file), 3.0, tmp_path, JobLog())
     floors = [
         lift_take(tiny_prior, take, floor=FloorToEstimate(), lifter=lifter).meta["floor"]

@@ -1,6 +1,7 @@
 """The per-view reprojection report of `platypose lift`: a view far off its keypoints is named in a warning."""
 
 import numpy as np
+from demo_tracks import demo_take
 
 from platypose.lifting.camera import project
 from platypose.lifting.finish.steps import report_reprojection
@@ -26,36 +27,21 @@ def test_a_view_far_off_its_keypoints_is_warned_about(real_clips):
     assert report_reprojection(motion[None], keypoints[:1], cams[:1], single) == {} and not single.lines
 
 
-def test_persons_finished_on_threads_come_out_as_one_thread_makes_them(tiny_prior, data_dir):
+def test_persons_finished_on_threads_come_out_as_one_thread_makes_them(tiny_prior):
     """The sports2d demo's two persons lifted on the estimated floor's stand-in (z = 0 under the level default
     camera), then finished on one thread and on two: every array, every meta entry and every log line the same
     (each person's steps write that person's slices only)."""
     import re
 
-    from platypose.detectors.cache import read_detections
-    from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking.tracker import track_detections
-    from platypose.lifting.calibration.defaults import default_camera
     from platypose.lifting.finish.steps import finish_take
     from platypose.lifting.floor import plane_floor
     from platypose.lifting.settings import SamplerConfig, WindowSettings
-    from platypose.lifting.take import Take
     from platypose.lifting.tracks.stream import lift_tracks
 
-    _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
-    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
-    camera = default_camera("demo", *tracks.image_size)
     floor = plane_floor(0.0, 0.0, 1.0, 1.5, "given")  # 1.5 m under the default camera at the origin
     config, windows = SamplerConfig(samples=3, seed=0, floor=floor.plane), WindowSettings(max_gap=1.0)
-    take = Take.on_clock(
-        tracks.keypoints[None],
-        tracks.frame_times,
-        np.arange(2),
-        [camera],
-        [None, None],
-        sampler=config,
-        windows=windows,
-    )
+    take = demo_take(config, windows)
+    camera = take.cameras[0]
     lifted = lift_tracks(tiny_prior, [camera], take.keypoints, take.times, config, windows)
     outcomes = []
     for workers in (1, 2):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from demo_tracks import demo_take
 
 from platypose.lifting.tracks import quick_floor as quick_module
 from platypose.lifting.tracks.quick_floor import FLOOR_PASS_SECONDS, floor_frames
@@ -25,23 +26,10 @@ def test_the_quick_lift_of_a_long_take_costs_what_two_minutes_cost(tiny_prior, m
     """A take longer than the quick lift reads (the limit made 12 s here, to keep the test quick; 120 s in use): a
     7.7 s take of two people repeated three times is read for 12 s, in 6 stretches, and the floor is still found
     under their standing ankles."""
-    from platypose.data import VIDEO_DIR
-    from platypose.detectors.cache import read_detections
-    from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking.tracker import track_detections
-    from platypose.lifting.calibration.defaults import default_camera
     from platypose.lifting.job_log import JobLog
     from platypose.lifting.settings import SamplerConfig, WindowSettings
-    from platypose.lifting.take import Take
 
-    _, detections, indices = read_detections(VIDEO_DIR / "sports2d-demo/movenet-detections.npz")
-    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
-    repeats = 3
-    keypoints = np.concatenate([tracks.keypoints] * repeats)[None]  # (1, 20 T, 2, 17, 3)
-    times = np.arange(keypoints.shape[1]) / 30.0
-    config, windows = SamplerConfig(samples=2, seed=0), WindowSettings(max_gap=1.0)
-    camera = default_camera("demo", *tracks.image_size)
-    take = Take.on_clock(keypoints, times, np.arange(2), [camera], [None, None], sampler=config, windows=windows)
+    take = demo_take(SamplerConfig(samples=2, seed=0), WindowSettings(max_gap=1.0), repeats=3)
     lifted = []
     original = quick_module.lift_persons
 

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from demo_tracks import demo_tracks
 
 from platypose.lifting.sampling.placement import Anchor
 from platypose.lifting.sampling.sampler import cameras_and_rays, sample, window_key
@@ -17,13 +18,9 @@ from platypose.lifting.tracks.windows import continuation_anchor, cut, plan_wind
 def sports_demo(data_dir):
     """Real MoveNet tracks of the Sports2D demo (C=1, T=230, P=2): the man is lost for 1.5 s while he jumps down,
     the woman walks in after 1.3 s and out before the end; the demo's default camera."""
-    from platypose.detectors.cache import read_detections
-    from platypose.detectors.keypoints import to_our_joints
-    from platypose.detectors.tracking.tracker import track_detections
     from platypose.lifting.calibration.defaults import default_camera
 
-    _, detections, indices = read_detections(data_dir / "video/sports2d-demo/movenet-detections.npz")
-    tracks = track_detections([to_our_joints(p, "coco17") for p in detections], indices / 30.0, (994, 1768), "demo")
+    tracks = demo_tracks()
     return tracks.keypoints[None], tracks.frame_times, default_camera("demo", *tracks.image_size)
 
 
