@@ -91,19 +91,26 @@ def test_with_runtime_swaps_only_the_network(network) -> None:
         with_runtime(bundle, "int8")
 
 
-def test_auto_runtime_picks_what_this_machine_runs_fast(network) -> None:
-    """auto is bfloat16 or float32, decided once per process by timing both; a GPU keeps float32."""
+def test_auto_runtime_follows_the_cpus_flags_not_a_timing(network, tmp_path, monkeypatch) -> None:
+    """auto is bfloat16 on a CPU with AMX-BF16 (its flag in /proc/cpuinfo), else float32, and so the same on a
+    machine whatever its load; a GPU and a system without the list keep float32."""
+    import platypose.lifting.prior.runtime as runtime_module
+
     bundle = PriorBundle(network, Normalizer(mean=torch.zeros(51).numpy(), std=torch.ones(51).numpy()))
-    picked = auto_runtime("cpu")
-    assert picked in ("float32", "bfloat16") and auto_runtime("cpu") == picked
-    assert (
-        resolve_runtime("auto", torch.device("cpu")) == picked
-        and resolve_runtime("onnx", torch.device("cpu")) == "onnx"
-    )
-    assert auto_runtime("cuda") == "float32"
-    chosen = with_runtime(bundle, "auto")
-    assert (chosen is bundle) if picked == "float32" else isinstance(chosen.model, BFloat16Denoiser)
-    assert PriorSettings().runtime == "auto"
+    flags = {"amx": "flags\t\t: fpu avx2 avx512f avx512_bf16 amx_bf16 amx_tile\n", "avx": "flags\t\t: fpu avx2\n"}
+    for name, text in flags.items():
+        (tmp_path / name).write_text(text)
+    picked = {}
+    for name in (*flags, "missing"):
+        monkeypatch.setattr(runtime_module, "CPU_FLAGS", tmp_path / name)
+        auto_runtime.cache_clear()
+        picked[name] = auto_runtime("cpu")
+        assert resolve_runtime("auto", torch.device("cpu")) == picked[name] and auto_runtime("cuda") == "float32"
+        chosen = with_runtime(bundle, "auto")
+        assert (chosen is bundle) if picked[name] == "float32" else isinstance(chosen.model, BFloat16Denoiser)
+    auto_runtime.cache_clear()
+    assert picked == {"amx": "bfloat16", "avx": "float32", "missing": "float32"}
+    assert resolve_runtime("onnx", torch.device("cpu")) == "onnx" and PriorSettings().runtime == "auto"
 
 
 def test_device_choice() -> None:
