@@ -58,7 +58,7 @@ def finish_take(
     (None: one per core this process may use): each writes its own person's slices only, so the arrays come out
     as one thread makes them, and numpy leaves the interpreter lock while it computes (docs/results.md: two
     threads finished the 60 s clip's nine persons in 0.67 of one thread's time, arrays identical)."""
-    workers = len(os.sched_getaffinity(0)) if workers is None else workers
+    workers = usable_cores() if workers is None else workers
     keypoints, track_ids, cameras = take.keypoints, take.track_ids, list(take.cameras)
     steady = len(cameras) == 1 and floor is not None  # one grounded view: steady each solved root's depth
 
@@ -107,3 +107,8 @@ def finish_take(
         cameras = [camera]
         log(f"outputs in the {floor_entry['frame']}")
     return FinishedTake(tuple(cameras), floor_entry, report, persons, rigid)
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system has one, as Linux does; else all)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)

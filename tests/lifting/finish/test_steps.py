@@ -57,3 +57,15 @@ def test_persons_finished_on_threads_come_out_as_one_thread_makes_them(tiny_prio
     assert np.array_equal(h1, h2, equal_nan=True) and np.array_equal(m1, m2, equal_nan=True)
     assert r1 == r2 and p1 == p2 and s1 == s2
     assert sum("depth steadied" in line for line in s1) == 2 and sum("made a body" in line for line in s1) == 2
+
+
+def test_usable_cores_where_the_system_has_no_affinity(monkeypatch):
+    """Linux says which cores the process may use; macOS and Windows have no such call: all cores then."""
+    import os
+
+    from platypose.lifting.finish.steps import usable_cores
+
+    assert usable_cores() == len(os.sched_getaffinity(0)) >= 1
+    monkeypatch.delattr(os, "sched_getaffinity")
+    monkeypatch.setattr(os, "cpu_count", lambda: 12)
+    assert usable_cores() == 12
