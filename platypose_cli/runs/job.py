@@ -162,7 +162,9 @@ def _run_locked(job: Job, settings: RunSettings, hooks: Hooks | None) -> dict:
             if playable:
                 seconds = f"{copies.seconds:.1f} s"
                 log(f"camera(s) {', '.join(playable)}: video re-encoded for rerun beside the lift in {seconds}")
-            written = export_atomically(result, videos, staging, folder, job.name, settings.formats, log, playable)
+            written = export_atomically(
+                result, videos, staging, folder, job.name, settings.formats, log, playable=playable
+            )
         stale = remove_stale_outputs(folder, job.name, written)
         if stale:
             log(f"removed output(s) of an earlier run that this run did not write: {', '.join(stale)}")

@@ -117,7 +117,7 @@ def remove_stale_outputs(folder: Path, name: str, written: list[Path]) -> list[s
 
 
 def export_atomically(
-    result, videos, staging: Path, folder: Path, name: str, formats, log: JobLog, playable=None
+    result, videos, staging: Path, folder: Path, name: str, formats, log: JobLog, *, playable=None
 ) -> list[Path]:
     """Export into ``staging``, then move every file written into ``folder``; returns the final paths. ``playable``:
     the videos already re-encoded for the recording (:func:`platypose.exporters.export`)."""
