@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -82,8 +83,12 @@ def finish_take(
 
     indices = range(len(track_ids))
     if workers > 1 and len(track_ids) > 1:
-        with ThreadPoolExecutor(min(workers, len(track_ids)), thread_name_prefix="platypose-finish") as pool:
-            done = list(pool.map(person, indices))
+        # warnings.catch_warnings is not thread-safe: the steps' own "ignore RuntimeWarning" (an absent frame's median
+        # of nothing is NaN) would race between the threads and let warnings through; set once here, around them
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            with ThreadPoolExecutor(min(workers, len(track_ids)), thread_name_prefix="platypose-finish") as pool:
+                done = list(pool.map(person, indices))
     else:
         done = [person(p) for p in indices]
     for said in (said for said, _, _, _ in done if said is not None):

@@ -52,9 +52,12 @@ def test_persons_finished_on_threads_come_out_as_one_thread_makes_them(tiny_prio
             warnings.simplefilter("ignore", RuntimeWarning)  # frames where a person is absent: all NaN
             median = np.nanmedian(hypotheses, axis=1)
         log = JobLog()
-        finished = finish_take(
-            take, hypotheses=hypotheses, median=median, fps=30.0, floor=floor, log=log, workers=workers
-        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            finished = finish_take(
+                take, hypotheses=hypotheses, median=median, fps=30.0, floor=floor, log=log, workers=workers
+            )
+        assert not [w for w in caught if issubclass(w.category, RuntimeWarning)]  # none let through by the threads
         said = [re.sub(r"made a body in [0-9.]+ s", "made a body", line) for line in log.lines]
         outcomes.append((hypotheses, median, finished.rigid_bones, finished.plausibility, said))
     (h1, m1, r1, p1, s1), (h2, m2, r2, p2, s2) = outcomes
