@@ -4,8 +4,9 @@
 Entity paths (static, under the Z-up ``world``):
 
 - ``world/cameras/<cam>/estimate``: where the lift estimated its one camera (no calibration), a text document with
-  each quantity's value, spread and source, and each source dropped (:func:`platypose.exporters.horizon.camera_caption`);
-  ``world/cameras/<cam>/horizon``: its horizon in the camera's image (:func:`log_estimated_camera`);
+  each quantity's value, spread and source, and each source dropped
+  (:func:`platypose.exporters.horizon.camera_caption`); ``world/cameras/<cam>/horizon``: its horizon in the camera's
+  image (:func:`log_estimated_camera`);
 
 - ``world/floor``: the floor plane as a grid of lines (``GRID_EXTENT`` metres either way of the point of
   the floor nearest the people's mean pelvis, a line every ``GRID_STEP``), labelled with where it came from;

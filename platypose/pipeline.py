@@ -261,9 +261,9 @@ def lift_take(
     (per person, :func:`platypose.lifting.finish.rigid.rigid_person`: every hypothesis and the median get one length
     per bone over the clip); the caller adds its own. ``lifter`` lifts the persons (:func:`lift_persons`, or the same
     spread over pieces: ``platypose.cli.runs.split.SplitLifter``); the floor's quick lift is always the whole take's
-    (:func:`lift_persons`), so a split take stands on the floor and in the world of the unsplit one. With an estimated floor every output is moved into
-    the estimated world (:mod:`platypose.lifting.finish.world`: z = 0 the floor, z up, the camera at its estimated
-    height and pitch), which ``meta["floor"]["frame"]`` says.
+    (:func:`lift_persons`), so a split take stands on the floor and in the world of the unsplit one. With an estimated
+    floor every output is moved into the estimated world (:mod:`platypose.lifting.finish.world`: z = 0 the floor, z up,
+    the camera at its estimated height and pitch), which ``meta["floor"]["frame"]`` says.
     """
     log = log if log is not None else JobLog()
     if isinstance(floor, FloorToEstimate):

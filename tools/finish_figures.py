@@ -44,9 +44,8 @@ def main() -> None:
             seconds = time.perf_counter() - began
             first = first or (h, m)
             same = np.array_equal(h, first[0], equal_nan=True) and np.array_equal(m, first[1], equal_nan=True)
-            print(
-                f"workers {workers}: {seconds:.2f} s, arrays {'identical to' if same else 'DIFFERENT from'} the first run's"
-            )
+            arrays = "identical to" if same else "DIFFERENT from"
+            print(f"workers {workers}: {seconds:.2f} s, arrays {arrays} the first run's")
 
 
 if __name__ == "__main__":

@@ -54,13 +54,15 @@ def bundled_people(video: Path) -> list[np.ndarray] | np.ndarray | None:
 
 def fused_row(video: Path, scene, people: tuple[np.ndarray, np.ndarray], truth: dict, guess: bool) -> str:
     """The second row of ``--fused``: the camera fused from ``scene`` and the ``people`` of ``video`` against
-    ``truth`` (values only where it is a ``guess``; ``people``: keypoints (T, P, 17, 3) and times (T,)), and each quantity's sources used and dropped."""
+    ``truth`` (values only where it is a ``guess``; ``people``: keypoints (T, P, 17, 3) and times (T,)), and each
+    quantity's sources used and dropped."""
     found = assumed_camera(video.stem, video_info(video).image_size, scene, None, people)
     used = pose_of(found.camera)
     off = ""
     if not guess:
         focal_off = f"{100 * (used['focal_px'] / truth['focal_px'] - 1):+.1f}%"
-        off = f"{used['pitch_deg'] - truth['pitch_deg']:>+10.1f}{used['roll_deg'] - truth['roll_deg']:>+10.1f}{focal_off:>10}"
+        pitch_off, roll_off = used["pitch_deg"] - truth["pitch_deg"], used["roll_deg"] - truth["roll_deg"]
+        off = f"{pitch_off:>+10.1f}{roll_off:>+10.1f}{focal_off:>10}"
     said = []
     for key in ("roll_deg", "pitch_deg"):
         entry = found.record[key]

@@ -71,8 +71,9 @@ def video_scene_camera(
 ) -> SceneCamera:
     """The camera of the video at ``path`` from its scene's lines, with the people its ``keypoints`` show masked
     out (optional: per frame of the video, each (P, J, 3) x, y, confidence; an array (T, P, J, 3) will do);
-    ``focal_px`` from ``focal_source`` with its relative spread ``focal_sd`` as in :func:`scene_camera`. ``times`` (T,): the keypoints' seconds from the video's start where they are not one per frame
-    (each sampled frame takes the nearest)."""
+    ``focal_px`` from ``focal_source`` with its relative spread ``focal_sd`` as in :func:`scene_camera`. ``times``
+    (T,): the keypoints' seconds from the video's start where they are not one per frame (each sampled frame takes
+    the nearest)."""
     indices, frames = sample_frames(path, count)
     boxes = None
     if keypoints is not None:

@@ -2,8 +2,9 @@
 
 A person standing still holds their centre of mass over their support, so in a frame where they stand still (their
 hips moving under ``STILL_PER_S`` of their support-to-hips length a second: a walker's centre of mass runs ahead of
-the foot on the ground, up to 15 degrees) on a straight leg the line from the support (the ankles' midpoint, or the straight leg's ankle when the other leg is bent or
-lifted) to the hips' midpoint (near the centre of mass) is upright and points at the vertical vanishing point. The
+the foot on the ground, up to 15 degrees) on a straight leg the line from the support (the ankles' midpoint, or the
+straight leg's ankle when the other leg is bent or lifted) to the hips' midpoint (near the centre of mass) is
+upright and points at the vertical vanishing point. The
 camera's pitch and roll at a given focal length are those whose vertical vanishing point those lines point at
 best (robust least squares on the sine of each line's miss). People lean, sway and stand in their own ways, so
 each person's lines share an unknown lean of ``LEAN_SD_DEG``: the standard deviations are those of generalised
@@ -124,10 +125,10 @@ def _residuals(params: np.ndarray, lines: Lines, focal: float) -> np.ndarray:
 
 def spreads(jacobian: np.ndarray, residuals: np.ndarray, person: np.ndarray) -> np.ndarray:
     """Standard deviations (2,) of the fitted (pitch, roll) (radians) from the ``jacobian`` (N, 2) of the lines'
-    misses (a held parameter's column zero), the misses (N,) and each
-    line's person (N,): generalised least squares where each person's lines share a lean (``LEAN_SD_DEG``, or the
-    spread of the persons' median misses where two or more disagree more) and scatter about it independently (their robust spread about their median); a direction the lines do not fix
-    (or a held parameter) comes out at ``MAX_SD_DEG``."""
+    misses (a held parameter's column zero), the misses (N,) and each line's person (N,): generalised least squares
+    where each person's lines share a lean (``LEAN_SD_DEG``, or the spread of the persons' median misses where two
+    or more disagree more) and scatter about it independently (their robust spread about their median); a direction
+    the lines do not fix (or a held parameter) comes out at ``MAX_SD_DEG``."""
     persons = np.unique(person)
     medians = np.array([np.median(residuals[person == p]) for p in persons])
     lean = np.sin(np.radians(LEAN_SD_DEG)) ** 2

@@ -119,11 +119,11 @@ CPU_FLAGS = Path("/proc/cpuinfo")  # Linux's list of what this CPU does in hardw
 
 @functools.cache
 def auto_runtime(device_type: str = "cpu") -> str:
-    """``bfloat16`` on a CPU that multiplies bfloat16 matrices in hardware (Intel's AMX-BF16 tiles, flag
-    ``amx_bf16`` in ``/proc/cpuinfo``: a product of the network's shape, 2048 x 256 by 256 x 768, ran 7.6-11.6 times
-    as fast in bfloat16 as in float32 on the 2-core VM's), else
-    ``float32`` (and always on a GPU). Read from the CPU's flags, not timed: a timing taken on a busy machine picked
-    either, and a lift's result then depended on the machine's load (two runs of one lift 0.5-0.7 m apart)."""
+    """``bfloat16`` on a CPU that multiplies bfloat16 matrices in hardware (Intel's AMX-BF16 tiles, flag ``amx_bf16`` in
+    ``/proc/cpuinfo``: a product of the network's shape, 2048 x 256 by 256 x 768, ran 7.6-11.6 times as fast in bfloat16
+    as in float32 on such a CPU), else ``float32`` (and always on a GPU). Read from the CPU's flags, not timed: a timing
+    taken on a busy machine picked either, and a lift's result then depended on the machine's load (two runs of one lift
+    0.5-0.7 m apart)."""
     if device_type != "cpu":
         return "float32"
     try:

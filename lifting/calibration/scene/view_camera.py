@@ -9,9 +9,9 @@ more than 3 sigma off the others dropped (of two, the less trusted) and said so 
 the fallback below is used). Focal length, in this order of trust: the video's metadata
 (:func:`platypose.lifting.calibration.lens.metadata_focal`, 5 %), the two horizontal vanishing points
 (:func:`platypose.lifting.calibration.scene.estimate.scene_camera`), else the lens prior (said once: "focal length
-not measured"); the lines' pitch is moved to the focal length chosen. Where the scene gives nothing (no line detector, no lines, a moving camera) the lift assumes what it
-always did: a level camera at the origin with the field-of-view prior
-(:func:`platypose.lifting.calibration.defaults.default_camera`), its floor's pitch searched under the people.
+not measured"); the lines' pitch is moved to the focal length chosen. Where the scene gives nothing (no line detector,
+no lines, a moving camera) the lift assumes what it always did: a level camera at the origin with the field-of-view
+prior (:func:`platypose.lifting.calibration.defaults.default_camera`), its floor's pitch searched under the people.
 """
 
 from __future__ import annotations
@@ -61,11 +61,11 @@ def assumed_camera(
     metadata_focal: float | None = None,
     people: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> AssumedCamera:
-    """The camera of view ``name`` (image ``size`` (height, width)) from its ``scene`` estimate, the focal length of
-    the video's metadata where it has one (``metadata_focal`` px) and its ``people`` (keypoints (T, P, 17, 3) and
-    their times (T,) s; optional) as a check on the lines' roll and pitch: each quantity the inverse-variance mean of its sources
-    (:func:`platypose.lifting.calibration.fusion.fuse`), a source more than 3 sigma off the others dropped and said
-    so once. The lines' pitch is taken at the fused focal length."""
+    """The camera of view ``name`` (image ``size`` (height, width)) from its ``scene`` estimate, the focal length of the
+    video's metadata where it has one (``metadata_focal`` px) and its ``people`` (keypoints (T, P, 17, 3) and their
+    times (T,) s; optional) as a check on the lines' roll and pitch: each quantity the inverse-variance mean of its
+    sources (:func:`platypose.lifting.calibration.fusion.fuse`), a source more than 3 sigma off the others dropped and
+    said so once. The lines' pitch is taken at the fused focal length."""
     if scene.problem is not None:
         return fallback_camera(name, size, scene.problem)
     focals = [Estimate(metadata_focal, FOCAL_HELD_SD * metadata_focal, METADATA)] if metadata_focal else []
