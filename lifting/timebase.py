@@ -36,9 +36,14 @@ def interpolation_weights(times: np.ndarray, new_times: np.ndarray) -> tuple[np.
 
 
 def blend_samples(values: np.ndarray, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """``(1 - w) * values[idx] + w * values[idx + 1]`` along the first axis, ``(len(idx), ...)``."""
+    """``(1 - w) * values[idx] + w * values[idx + 1]`` along the first axis, ``(len(idx), ...)``.
+
+    A sample of weight 0 takes no part: at a sample's own time a NaN or inf neighbour neither spreads nor warns.
+    """
     w = w.reshape(-1, *([1] * (values.ndim - 1)))
-    return (1 - w) * values[idx] + w * values[idx + 1]
+    before = np.where(w < 1, values[idx], 0.0)
+    after = np.where(w > 0, values[idx + 1], 0.0)
+    return (1 - w) * before + w * after
 
 
 def resample(values: np.ndarray, fps: float, new_fps: float) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 Pixels are undistorted with ``cv2.undistortPoints`` first, so the linear system is built in
 normalised camera coordinates where every view has a comparable scale. A point seen (confidence
-> 0) by fewer than ``min_views`` cameras comes back as NaN.
+> 0) by fewer than ``min_views`` cameras, or whose rays meet only at infinity, comes back as NaN.
 """
 
 from __future__ import annotations
@@ -50,7 +50,9 @@ def _dlt(flat: np.ndarray, weight: np.ndarray, cameras: Sequence[Camera], min_vi
     homogeneous = np.linalg.svd(A)[2][:, -1, :]  # (N, 4)
     with np.errstate(divide="ignore", invalid="ignore"):
         points = homogeneous[:, :3] / homogeneous[:, 3:4]
-    points[usable.sum(axis=0) < min_views] = np.nan
+    # a point at infinity (rays that never meet, homogeneous w = 0) is no point: NaN, never +-inf, which later
+    # interpolation would multiply by zero weights
+    points[(usable.sum(axis=0) < min_views) | ~np.isfinite(points).all(axis=-1)] = np.nan
     return points
 
 

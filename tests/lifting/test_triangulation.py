@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -79,3 +80,26 @@ def test_pose2sim_keypoints_reproject_near_12_px(data_dir: Path, cameras):
     assert np.nanmedian(points[:, 15:17, 2]) < 0.3 and 1.3 < np.nanmedian(points[:, 0, 2]) < 1.6
     # every view takes part in every frame: no view was dropped to lower the error
     assert ((keypoints[..., 2] > 0).mean(axis=-1) >= 0.5).all()
+
+
+def test_rays_meeting_only_at_infinity_are_nan_and_interpolate_without_a_warning():
+    """Two cameras side by side, both seeing the point at their principal point: the rays are parallel, the DLT's
+    homogeneous w is 0. The point is NaN (it was +-inf, and the lift's root interpolation then warned on inf * 0)."""
+    from platypose.lifting.camera import Camera
+    from platypose.lifting.timebase import interpolate
+    from platypose.lifting.tracks.roots import fill_gaps
+
+    K = np.array([[1000.0, 0.0, 960.0], [0.0, 1000.0, 540.0], [0.0, 0.0, 1.0]])
+    left, right = Camera("left", (1080, 1920), K), Camera("right", (1080, 1920), K, t=np.array([-1.0, 0.0, 0.0]))
+    centre = np.array([960.0, 540.0])
+    met = project(np.array([0.5, 0.1, 4.0]), left), project(np.array([0.5, 0.1, 4.0]), right)
+    pixels = np.stack([np.stack([met[0], centre, met[0]]), np.stack([met[1], centre, met[1]])])[:, :, None]  # (2,3,1,2)
+    points = triangulate(pixels, np.ones((2, 3, 1)), [left, right])[:, 0]  # (3 frames, 3)
+    assert np.isnan(points[1]).all()
+    np.testing.assert_allclose(points[[0, 2]], [[0.5, 0.1, 4.0]] * 2, atol=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        path = interpolate(points, np.arange(3.0), np.array([0.0, 0.5, 2.0]))
+        filled = fill_gaps(points, np.arange(3.0))
+    np.testing.assert_allclose(path[[0, 2]], [[0.5, 0.1, 4.0]] * 2, atol=1e-9)
+    np.testing.assert_allclose(filled[1], [0.5, 0.1, 4.0], atol=1e-9)
