@@ -1,13 +1,14 @@
 """The estimated camera's horizon in the person pictures, and the words that say how that camera was found.
 
 The horizon is where the world's horizontal plane through the camera meets the image: the vanishing line of a
-level floor, ``l = K^-T R z`` (the pixel ``(x, y)`` is on it where ``l . (x, y, 1) = 0``; lens distortion left
-out, the estimated camera has none). Every point at the camera's height lies on it, so it crosses a standing
-person at that height: a horizon tilted against the room's verticals, or far from where the camera's height is on
-the people, shows a wrong roll or pitch at a glance. It is drawn (``HORIZON_RGB``, ``HORIZON_PX`` wide) into each
-person's thumbnail where it crosses it (:func:`with_horizons`, for the report and the recording alike; the picture
-first stretched up or down to it where that is near, :func:`reach_horizons`), and
-:func:`camera_caption` says each quantity's value, spread and source (``meta["camera"]``).
+level floor, ``l = K^-T R z`` (the pixel ``(x, y)`` of the undistorted image is on it where ``l . (x, y, 1) = 0``),
+and through a lens's distortion (the scene's, for a wide lens) the curve that line bends to (:func:`horizon_curve`,
+a polyline of pixels). Every point at the camera's height lies on it, so it crosses a standing person at that
+height: a horizon tilted against the room's verticals, or far from where the camera's height is on the people,
+shows a wrong roll or pitch at a glance. It is drawn (``HORIZON_RGB``, ``HORIZON_PX`` wide) into each person's
+thumbnail where it crosses it (:func:`with_horizons`, for the report and the recording alike; the picture first
+stretched up or down to it where that is near, :func:`reach_horizons`), and :func:`camera_caption` says each
+quantity's value, spread and source (``meta["camera"]``).
 """
 
 from __future__ import annotations
@@ -16,9 +17,13 @@ from dataclasses import replace
 
 import numpy as np
 
+from platypose.lifting.camera import Camera, project, undistort_normalized
+
 HORIZON_RGB = (255, 0, 255)
 HORIZON_PX = 2
 HORIZON_REACH = 0.5  # a person's picture is stretched by up to this share of its height to show the horizon
+HORIZON_SAMPLES = 65  # points of a distorted horizon's polyline
+BORDER_SAMPLES = 33  # points per side of the image whose undistorted place bounds what the lens shows
 QUANTITIES = (("roll_deg", "roll", "deg", 1), ("pitch_deg", "pitch (down)", "deg", 1), ("focal_px", "focal", "px", 0))
 
 
@@ -49,53 +54,100 @@ def clip_line(line: np.ndarray, width: float, height: float) -> np.ndarray | Non
     return None if np.allclose(ends[0], ends[1]) else ends
 
 
-def in_thumbnail(line: np.ndarray, box: tuple[float, float, float, float], shape: tuple[int, ...]) -> np.ndarray:
-    """``line`` (3,) in image pixels as a line (3,) in the pixels of the thumbnail of ``shape`` (H, W, ...) that
+def horizon_curve(camera: Camera) -> np.ndarray | None:
+    """The horizon of ``camera`` as its image shows it, the part inside the image: pixels (M, 2) along it (its two
+    ends for a lens without distortion, ``HORIZON_SAMPLES`` points along the bent line through one with), or None
+    where it misses the image."""
+    line = horizon_line(camera.K, camera.R)
+    if not np.any(camera.dist):
+        return clip_line(line, camera.width, camera.height)
+    x0, y0, x1, y1 = _undistorted_extent(camera)
+    shifted = line + np.array([0.0, 0.0, line[0] * x0 + line[1] * y0])  # the line with (x0, y0) as the origin
+    ends = clip_line(shifted, x1 - x0, y1 - y0)
+    if ends is None:
+        return None
+    straight = np.linspace(ends[0], ends[1], HORIZON_SAMPLES) + np.array([x0, y0])
+    rays = np.column_stack([straight, np.ones(len(straight))]) @ np.linalg.inv(camera.K).T
+    bent = project(rays, replace(camera, R=np.eye(3), t=np.zeros(3)))
+    inside = (bent >= -1.0).all(axis=1) & (bent[:, 0] <= camera.width + 1.0) & (bent[:, 1] <= camera.height + 1.0)
+    return bent[inside] if inside.sum() >= 2 else None
+
+
+def _undistorted_extent(camera: Camera) -> tuple[float, float, float, float]:
+    """The box ``x0, y0, x1, y1`` (undistorted pixels) around where the image's border lies once undistorted."""
+    along = np.linspace(0.0, 1.0, BORDER_SAMPLES)
+    width, height = camera.width, camera.height
+    border = np.concatenate(
+        [
+            np.column_stack([along * width, np.zeros_like(along)]),
+            np.column_stack([along * width, np.full_like(along, height)]),
+        ]
+        + [
+            np.column_stack([np.zeros_like(along), along * height]),
+            np.column_stack([np.full_like(along, width), along * height]),
+        ]
+    )
+    normalised = undistort_normalized(border, camera.K, camera.dist)
+    straight = np.column_stack([normalised, np.ones(len(normalised))]) @ camera.K.T
+    return (*straight[:, :2].min(axis=0), *straight[:, :2].max(axis=0))
+
+
+def in_thumbnail(points: np.ndarray, box: tuple[float, float, float, float], shape: tuple[int, ...]) -> np.ndarray:
+    """Image pixels ``points`` (M, 2) in the pixels of the thumbnail of ``shape`` (H, W, ...) that
     :func:`platypose.exporters.person_pictures.crop` cut from ``box`` (its rows and columns spread evenly over the
     box's)."""
     x1, y1, x2, y2 = (int(round(v)) for v in box)
     rows, cols = max(y2 - y1, 1), max(x2 - x1, 1)
-    scale_y = (rows - 1) / max(shape[0] - 1, 1)
-    scale_x = (cols - 1) / max(shape[1] - 1, 1)
-    to_image = np.array([[scale_x, 0.0, x1], [0.0, scale_y, y1], [0.0, 0.0, 1.0]])
-    mapped = to_image.T @ np.asarray(line, np.float64)
-    return mapped / max(float(np.hypot(mapped[0], mapped[1])), 1e-12)
+    scale = np.array([(cols - 1) / max(shape[1] - 1, 1), (rows - 1) / max(shape[0] - 1, 1)])
+    return (np.asarray(points, np.float64) - np.array([x1, y1])) / np.maximum(scale, 1e-12)
 
 
-def draw_horizon(picture: np.ndarray, line: np.ndarray) -> np.ndarray:
-    """A copy of ``picture`` (H, W, 3) uint8 with ``line`` (3,) (its pixels) drawn where it crosses it."""
+def draw_horizon(picture: np.ndarray, points: np.ndarray | None) -> np.ndarray:
+    """A copy of ``picture`` (H, W, 3) uint8 with the horizon's ``points`` (M, 2) (its pixels; None: none) drawn
+    where it crosses it."""
     import cv2
 
     drawn = np.ascontiguousarray(picture).copy()
-    ends = clip_line(line, picture.shape[1] - 1, picture.shape[0] - 1)
-    if ends is not None:
-        (xa, ya), (xb, yb) = np.round(ends).astype(int)
-        cv2.line(drawn, (int(xa), int(ya)), (int(xb), int(yb)), HORIZON_RGB, HORIZON_PX, cv2.LINE_8)
+    if points is not None:  # ends within the image the curve was cut to, so a few picture sizes away at most
+        pixels = np.round(points).astype(np.int32)
+        cv2.polylines(drawn, [pixels.reshape(-1, 1, 2)], False, HORIZON_RGB, HORIZON_PX, cv2.LINE_8)
     return drawn
 
 
-def horizon_place(line: np.ndarray, shape: tuple[int, ...]) -> str | None:
-    """Where ``line`` (3,) (a thumbnail's pixels) is against a picture of ``shape`` (H, W, ...): None where it
-    crosses it, else "above", "below" or "beside" it."""
+def horizon_place(points: np.ndarray | None, shape: tuple[int, ...]) -> str | None:
+    """Where the horizon's ``points`` (M, 2) (a thumbnail's pixels) are against a picture of ``shape`` (H, W, ...):
+    None where they cross it, else "above", "below" or "beside" it."""
     height, width = shape[0] - 1, shape[1] - 1
-    if clip_line(line, width, height) is not None:
-        return None
-    a, b, c = line
-    if abs(b) < 1e-12:
+    if points is None or len(points) < 2:
         return "beside"
-    return "above" if -(a * width / 2 + c) / b < 0 else "below"
+    over = _heights_over(points, 0.0, width)
+    if over is None:
+        return "beside"
+    if (over >= 0.0).any() and (over <= height).any():
+        return None
+    return "above" if (over < 0.0).all() else "below"
 
 
-def reach_horizon(line: np.ndarray, box: tuple[float, float, float, float], size: tuple[int, int]) -> tuple:
-    """``box`` (x1, y1, x2, y2) px of an image of ``size`` (height, width) stretched up or down so that ``line``
-    (3,) crosses it from side to side, where that takes at most ``HORIZON_REACH`` of its height more and stays in
-    the image; as it is otherwise."""
+def _heights_over(points: np.ndarray, left: float, right: float) -> np.ndarray | None:
+    """The curve ``points`` (M, 2)'s y at ``left``, at ``right`` and at its points between (x sorted), or None where
+    it does not span that stretch."""
+    order = np.argsort(points[:, 0])
+    x, y = points[order, 0], points[order, 1]
+    if x[0] > left + 1e-9 or x[-1] < right - 1e-9:
+        return None
+    between = y[(x > left) & (x < right)]
+    return np.concatenate([np.interp([left, right], x, y), between])
+
+
+def reach_horizon(points: np.ndarray | None, box: tuple[float, float, float, float], size: tuple[int, int]) -> tuple:
+    """``box`` (x1, y1, x2, y2) px of an image of ``size`` (height, width) stretched up or down so that the horizon's
+    ``points`` (M, 2) cross it from side to side, where that takes at most ``HORIZON_REACH`` of its height more and
+    stays in the image; as it is otherwise."""
     x1, y1, x2, y2 = box
-    a, b, c = line
-    if abs(b) < 1e-12:
+    over = None if points is None or len(points) < 2 else _heights_over(np.asarray(points, np.float64), x1, x2)
+    if over is None:
         return box
-    ends = [-(a * x + c) / b for x in (x1, x2)]
-    low, high = min(ends) - HORIZON_PX, max(ends) + HORIZON_PX
+    low, high = over.min() - HORIZON_PX, over.max() + HORIZON_PX
     reach = HORIZON_REACH * (y2 - y1)
     if low < y1 and y1 - low <= reach and low >= 0.0:
         y1 = low
@@ -113,7 +165,7 @@ def reach_horizons(result, frames: dict) -> dict:
     stretched = {}
     for p, good in frames.items():
         camera = result.cameras[good.camera]
-        box = reach_horizon(horizon_line(camera.K, camera.R), good.box, tuple(camera.size))
+        box = reach_horizon(horizon_curve(camera), good.box, tuple(camera.size))
         stretched[p] = replace(good, box=tuple(float(v) for v in box))
     return stretched
 
@@ -125,8 +177,8 @@ def with_horizons(result, frames: dict, pictures: dict[int, np.ndarray]) -> dict
         return pictures
     drawn = {}
     for p, picture in pictures.items():
-        camera = result.cameras[frames[p].camera]
-        drawn[p] = draw_horizon(picture, in_thumbnail(horizon_line(camera.K, camera.R), frames[p].box, picture.shape))
+        curve = horizon_curve(result.cameras[frames[p].camera])
+        drawn[p] = draw_horizon(picture, None if curve is None else in_thumbnail(curve, frames[p].box, picture.shape))
     return drawn
 
 
@@ -150,6 +202,9 @@ def camera_caption(meta: dict) -> list[str]:
             )
     if "focal_note" in record:
         lines.append(record["focal_note"])
+    lens = record.get("distortion")
+    if lens is not None:
+        lines.append(f"lens distortion k {lens['value']:+.2f} ({lens['source']})" if lens["value"] else lens["source"])
     height = (meta.get("floor") or {}).get("camera_height_m")
     if height is not None:
         lines.append(f"height {height:.2f} m ({record['height_m']['source']})")

@@ -18,7 +18,7 @@ import numpy as np
 
 from platypose.exporters.angles import ANGLE_NAMES
 from platypose.exporters.frames import frame_chunks
-from platypose.exporters.horizon import camera_caption, horizon_line, horizon_place, in_thumbnail
+from platypose.exporters.horizon import camera_caption, horizon_curve, horizon_place, in_thumbnail
 from platypose.exporters.result import LiftResult
 from platypose.lifting.files.atomic import atomic_path
 from platypose.lifting.skeleton import JOINT_INDEX
@@ -74,7 +74,10 @@ def _draw_who(ax, result: LiftResult, p: int, good, picture) -> None:
         lines += [] if picture is not None else [f"(no thumbnail: no video of {camera} given)"]
         if picture is not None and (result.meta or {}).get("camera"):
             seen = result.cameras[good.camera]
-            place = horizon_place(in_thumbnail(horizon_line(seen.K, seen.R), good.box, picture.shape), picture.shape)
+            curve = horizon_curve(seen)
+            place = horizon_place(
+                None if curve is None else in_thumbnail(curve, good.box, picture.shape), picture.shape
+            )
             lines += [] if place is None else [f"(the horizon is {place} the picture)"]
     ax.set_title("\n".join(fill(line, WHO_CHARS) for line in lines), fontsize=8)  # within the column's width
 

@@ -23,7 +23,7 @@ import json
 import numpy as np
 import rerun as rr
 
-from platypose.exporters.horizon import HORIZON_PX, HORIZON_RGB, camera_caption, clip_line, horizon_line
+from platypose.exporters.horizon import HORIZON_PX, HORIZON_RGB, camera_caption, horizon_curve
 
 GRID_EXTENT = 5.0  # metres
 GRID_STEP = 0.5  # metres
@@ -63,7 +63,7 @@ def log_floor_and_plausibility(
 
 
 def log_estimated_camera(rec: rr.RecordingStream, result) -> None:
-    """Log the estimated camera's record (``meta["camera"]``) as text and its horizon as a line in its image into
+    """Log the estimated camera's record (``meta["camera"]``) as text and its horizon as a line (a curve through a bending lens) in its image into
     ``rec``, statically; nothing where the lift had a calibration."""
     caption = camera_caption(result.meta or {})
     if not caption:
@@ -76,9 +76,9 @@ def log_estimated_camera(rec: rr.RecordingStream, result) -> None:
         rr.TextDocument(f"**camera estimated without a calibration**\n\n{text}", media_type="text/markdown"),
         static=True,
     )
-    ends = clip_line(horizon_line(camera.K, camera.R), camera.width, camera.height)
-    if ends is not None:
-        strip = rr.LineStrips2D([ends], colors=[HORIZON_RGB], radii=[HORIZON_PX / 2], labels=["horizon"])
+    curve = horizon_curve(camera)
+    if curve is not None:
+        strip = rr.LineStrips2D([curve], colors=[HORIZON_RGB], radii=[HORIZON_PX / 2], labels=["horizon"])
         rec.log(f"{entity}/horizon", strip, static=True)
 
 

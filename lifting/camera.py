@@ -1,4 +1,4 @@
-"""The camera model: OpenCV pinhole with k1 k2 p1 p2 k3 distortion.
+"""The camera model: OpenCV pinhole with k1 k2 p1 p2 k3 (k4 k5 k6: the rational model) distortion.
 
 ``x_cam = R @ X_world + t``; ``(x, y) = x_cam[:2] / x_cam[2]``; distortion as in
 OpenCV; ``u = fx * x_d + cx``, ``v = fy * y_d + cy``. Projection equals
@@ -18,6 +18,12 @@ SIZE_TOLERANCE = 0.02  # calibrated vs actual image size: relative difference ta
 MAX_TIME_OFFSET_S = 24 * 3600.0  # a camera's clock offset larger than a day is no clock difference of one take
 
 
+DIST_TERMS = 8  # OpenCV's k1 k2 p1 p2 k3 k4 k5 k6; a shorter list is padded with zeros
+# cv2.undistortPoints' fixed-point iterations (OpenCV's default is 5, too few for a wide lens's corners); a point
+# converged to 1e-12 stops early, so a lens without distortion costs nothing more
+UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-12)
+
+
 @dataclass(frozen=True)
 class Camera:
     """One calibrated camera. ``size`` is (height, width) in pixels; world units are metres."""
@@ -25,16 +31,16 @@ class Camera:
     name: str
     size: tuple[int, int]
     K: np.ndarray
-    dist: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    dist: np.ndarray = field(default_factory=lambda: np.zeros(DIST_TERMS))
     R: np.ndarray = field(default_factory=lambda: np.eye(3))
     t: np.ndarray = field(default_factory=lambda: np.zeros(3))
     time_offset_s: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "K", np.asarray(self.K, dtype=np.float64).reshape(3, 3))
-        dist = np.zeros(5)
+        dist = np.zeros(DIST_TERMS)
         given = np.asarray(self.dist, dtype=np.float64).ravel()
-        dist[: min(len(given), 5)] = given[:5]
+        dist[: min(len(given), DIST_TERMS)] = given[:DIST_TERMS]
         object.__setattr__(self, "dist", dist)
         object.__setattr__(self, "R", np.asarray(self.R, dtype=np.float64).reshape(3, 3))
         object.__setattr__(self, "t", np.asarray(self.t, dtype=np.float64).reshape(3))
@@ -71,11 +77,19 @@ def codec_padded(calibrated: Sequence[int], video: Sequence[int]) -> bool:
     return all(c in (v, coded_size(v)) for c, v in zip(calibrated, video))
 
 
+def written_distortion(dist: np.ndarray) -> np.ndarray:
+    """The coefficients a calibration file holds for ``dist``: k1 k2 p1 p2 k3, and the rational model's k4 k5 k6
+    only where the camera has them (so the files of cameras without stay as other tools write them)."""
+    dist = np.asarray(dist, np.float64)
+    return dist if np.any(dist[5:] != 0) else dist[:5]
+
+
 def _distort(x: np.ndarray | torch.Tensor, y: np.ndarray | torch.Tensor, dist) -> tuple:
-    """OpenCV radial-tangential distortion of normalised coordinates (works for numpy and torch)."""
-    k1, k2, p1, p2, k3 = (dist[..., i] for i in range(5))
+    """OpenCV radial-tangential distortion of normalised coordinates, the rational model's denominator included
+    (works for numpy and torch)."""
+    k1, k2, p1, p2, k3, k4, k5, k6 = (dist[..., i] for i in range(DIST_TERMS))
     r2 = x * x + y * y
-    radial = 1 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2
+    radial = (1 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2) / (1 + k4 * r2 + k5 * r2 * r2 + k6 * r2 * r2 * r2)
     xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
     yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
     return xd, yd
@@ -99,14 +113,14 @@ def undistort_normalized(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray) ->
     flat = np.ascontiguousarray(np.reshape(pixels, (-1, 1, 2)), dtype=np.float64)
     if flat.shape[0] == 0:
         return np.zeros(np.shape(pixels))
-    return cv2.undistortPoints(flat, K, dist).reshape(np.shape(pixels))
+    return cv2.undistortPoints(flat, K, dist, criteria=UNDISTORT_CRITERIA).reshape(np.shape(pixels))
 
 
 @dataclass(frozen=True)
 class CameraBatch:
     """Several cameras stacked as torch tensors, for batched differentiable projection.
 
-    Shapes: ``K`` (C, 3, 3), ``dist`` (C, 5), ``R`` (C, 3, 3), ``t`` (C, 3), ``size`` (C, 2) as (h, w).
+    Shapes: ``K`` (C, 3, 3), ``dist`` (C, 8), ``R`` (C, 3, 3), ``t`` (C, 3), ``size`` (C, 2) as (h, w).
     """
 
     K: torch.Tensor
@@ -155,7 +169,7 @@ class CameraBatch:
         z = cam[..., 2].clamp(min=1e-6)
         x = cam[..., 0] / z
         y = cam[..., 1] / z
-        dist = self.dist.reshape(*shape, 5)
+        dist = self.dist.reshape(*shape, DIST_TERMS)
         xd, yd = _distort(x, y, dist)
         K = self.K.reshape(*shape, 3, 3)
         u = K[..., 0, 0] * xd + K[..., 0, 1] * yd + K[..., 0, 2]

@@ -204,13 +204,21 @@ def view_cameras(
 
 def _assumed_camera(name: str, source: Path, track: PoseTrack2D) -> AssumedCamera | None:
     """The camera of the one uncalibrated view ``name`` from its video's scene
-    (:func:`platypose.detectors.sources.scene_frames.view_camera`), or None where its keypoints came without a video."""
+    (:func:`platypose.detectors.sources.scene_frames.view_camera`): the video detected, or for keypoints the video
+    they were made from where it lies beside them (:func:`platypose.detectors.sources.video.sibling_video`) at their
+    image size; None where there is no such video."""
+    from platypose.detectors.sources.keypoint_source import is_keypoint_source
     from platypose.detectors.sources.scene_frames import view_camera
-    from platypose.detectors.sources.video import VIDEO_SUFFIXES
+    from platypose.detectors.sources.video import VIDEO_SUFFIXES, sibling_video
 
-    if not (Path(source).is_file() and Path(source).suffix.lower() in VIDEO_SUFFIXES):
+    video = Path(source)
+    if is_keypoint_source(video):
+        video = sibling_video(video)
+        if video is None or _video_size(video) != tuple(track.image_size):  # keypoints on other pixels: not its scene
+            return None
+    if not (video.is_file() and video.suffix.lower() in VIDEO_SUFFIXES):
         return None
-    return view_camera(source, name, track)
+    return view_camera(video, name, track)
 
 
 def check_image_size(camera: Camera, image_size: tuple[int, int], source: str, log: JobLog) -> None:

@@ -63,13 +63,18 @@ def render(
     yaw: float = 0.0,
     height: float = 1.8,
     size: tuple[int, int] = (1080, 1920),
+    distortion: float = 0.0,
 ) -> np.ndarray:
     """The ``edges`` (world points, m) turned ``yaw`` degrees about the camera's vertical, drawn as 2 px lines on a
-    grey image (H, W) uint8 seen by the camera ``height`` m up, pitched, rolled, of ``focal`` px."""
+    grey image (H, W) uint8 seen by the camera ``height`` m up, pitched, rolled, of ``focal`` px; with OpenCV's
+    radial ``distortion`` k1 (radii over the focal length), each edge bent by it."""
     camera = posed_camera("scene", size, focal, pitch, roll, height)
     c, s = np.cos(np.radians(yaw)), np.sin(np.radians(yaw))
     turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     image = np.full(size, 40, np.uint8)
+    if distortion:
+        _draw_bent(image, edges, camera, turn, distortion)
+        return image
     for p, q in edges:
         a, b = (camera.R @ (turn @ np.array(p, float)) + camera.t, camera.R @ (turn @ np.array(q, float)) + camera.t)
         if a[2] < 0.2 and b[2] < 0.2:
@@ -84,3 +89,21 @@ def render(
         if ok:
             cv2.line(image, start, end, 220, 2, cv2.LINE_AA)
     return image
+
+
+def _draw_bent(image: np.ndarray, edges, camera, turn: np.ndarray, k1: float) -> None:
+    """Each edge sampled at 200 points, projected with OpenCV's radial distortion ``k1`` and drawn as a polyline
+    (a barrel lens's points past where its distortion folds back are left out, as no lens shows them)."""
+    height, width = image.shape
+    for p, q in edges:
+        points = np.linspace(np.array(p, float), np.array(q, float), 200) @ turn.T @ camera.R.T + camera.t
+        points = points[points[:, 2] > 0.2]
+        ratios = points[:, :2] / points[:, 2:]
+        radius2 = (ratios**2).sum(axis=1, keepdims=True)
+        if k1 < 0:
+            keep = radius2[:, 0] < 0.95 / (-3 * k1)
+            ratios, radius2 = ratios[keep], radius2[keep]
+        pixels = ratios * (1 + k1 * radius2) * camera.K[0, 0] + camera.K[:2, 2]
+        pixels = pixels[(pixels >= 0).all(axis=1) & (pixels[:, 0] < width) & (pixels[:, 1] < height)]
+        if len(pixels) >= 2:
+            cv2.polylines(image, [np.round(pixels * 16).astype(np.int32)[:, None]], False, 220, 2, cv2.LINE_AA, shift=4)

@@ -9,6 +9,7 @@ the calibration is a guess (``--guess``: the sports2d demo's), only the values a
     python tools/scene_camera_figures.py --people               # the same, their bundled people masked
     python tools/scene_camera_figures.py --fused                # masked, and checked against their verticals
     python tools/scene_camera_figures.py CALIB.toml VIDEO...    # other videos
+    python tools/scene_camera_figures.py --bend -0.4 -0.2 0.1   # the balancing cameras through known lenses
 
 With ``--people`` the bundled detections mask the people (the balancing cameras' OpenPose folders, the demo's
 MoveNet detections); the uncertainties are shown as one standard deviation. With ``--fused`` the people also check
@@ -26,10 +27,12 @@ import numpy as np
 
 from platypose.detectors.cache import read_detections
 from platypose.detectors.sources.keypoint_source import read_keypoints
-from platypose.detectors.sources.scene_frames import video_scene_camera
+from platypose.detectors.sources.scene_frames import sample_frames, video_scene_camera
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.calibration.matching import match_views
 from platypose.lifting.calibration.pose_above_floor import pose_of
+from platypose.lifting.calibration.scene.distortion import bent_image
+from platypose.lifting.calibration.scene.estimate import scene_camera
 from platypose.lifting.calibration.scene.view_camera import assumed_camera
 from platypose.media import video_info
 
@@ -101,8 +104,8 @@ def rows(calibration: Path, videos: list[Path], guess: bool, people: bool = Fals
         print(
             f"{video.stem:<8}{off}{took:>7.1f}s  pitch {got.pitch_deg:.1f} +- {got.sd['pitch_deg']:.1f} "
             f"(calibration {truth['pitch_deg']:.1f}), roll {got.roll_deg:.1f} +- {got.sd['roll_deg']:.1f} "
-            f"({truth['roll_deg']:.1f}), focal {focal}{focal_sd} ({truth['focal_px']:.0f} px); {got.segments} segments"
-            + (f"; {got.focal_note}" if got.focal_note else "")
+            f"({truth['roll_deg']:.1f}), focal {focal}{focal_sd} ({truth['focal_px']:.0f} px); {got.segments} segments; "
+            f"lens distortion k {got.distortion:+.2f}" + (f"; {got.focal_note}" if got.focal_note else "")
         )
         folder = video.parent / "openpose-body25b" / f"{video.stem}_json"
         if fused and folder.is_dir():
@@ -112,6 +115,32 @@ def rows(calibration: Path, videos: list[Path], guess: bool, people: bool = Fals
             print(f"{'  fused':<8}  not fused: no tracked people bundled (their verticals need each person's frames)")
 
 
+def bent_rows(calibration: Path, videos: list[Path], bends: list[float]) -> None:
+    """Print one row per video and lens: 8 of its frames bent by the division model's ``k`` (zoomed to fill the
+    frame: :func:`platypose.lifting.calibration.scene.distortion.bent_image`), the distortion found, and pitch, roll
+    and focal length against the calibration's (its focal length times the zoom)."""
+    cameras = load_calibration(calibration)
+    for video in videos:
+        truth = pose_of(cameras.camera(next(iter(match_views(cameras.names, [video.stem], allow_missing=True)))))
+        _, frames = sample_frames(video, 8)
+        for k in bends:
+            bent = [bent_image(frame, k) for frame in frames]
+            start = time.perf_counter()
+            got = scene_camera([image for image, _ in bent])
+            took = time.perf_counter() - start
+            if got.problem is not None:
+                print(f"{video.stem:<8}{'':>30}{took:>7.1f}s  k {k:+.2f}: {got.problem}")
+                continue
+            focal = (
+                "" if got.focal_px is None else f"{100 * (got.focal_px / (truth['focal_px'] * bent[0][1]) - 1):+.1f}%"
+            )
+            print(
+                f"{video.stem:<8}{got.pitch_deg - truth['pitch_deg']:>+10.1f}{got.roll_deg - truth['roll_deg']:>+10.1f}"
+                f"{focal:>10}{took:>7.1f}s  lens k {k:+.2f} (zoom {bent[0][1]:.2f}): found {got.distortion:+.3f}"
+                + (f"; {got.focal_note}" if got.focal_note else "")
+            )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("calibration", nargs="?", type=Path)
@@ -119,9 +148,15 @@ def main() -> None:
     parser.add_argument("--guess", action="store_true", help="the calibration is a guess: show values only")
     parser.add_argument("--people", action="store_true", help="mask the bundled people")
     parser.add_argument("--fused", action="store_true", help="mask them and fuse with their verticals")
+    parser.add_argument(
+        "--bend", type=float, nargs="+", metavar="K", help="bend 8 frames of each by these lenses (division model k)"
+    )
     args = parser.parse_args()
     print(f"{'view':<8}{'pitch off':>10}{'roll off':>10}{'focal off':>10}{'time':>8}  estimate")
-    if args.calibration is None:
+    if args.bend:
+        calibration = args.calibration or BALANCING / "calib_pose2sim.toml"
+        bent_rows(calibration, args.videos or sorted(BALANCING.glob("cam0?.mp4")), args.bend)
+    elif args.calibration is None:
         rows(BALANCING / "calib_pose2sim.toml", sorted(BALANCING.glob("cam0?.mp4")), False, args.people, args.fused)
         rows(DEMO / "Calib_demo.toml", [DEMO / "demo.mp4"], True, args.people, args.fused)
     else:

@@ -18,7 +18,7 @@ from platypose.lifting.calibration.validate import (
     read_json,
 )
 from platypose.lifting.calibration.world import unit_scale, up_vector
-from platypose.lifting.camera import Camera
+from platypose.lifting.camera import Camera, written_distortion
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.atomic import write_text_atomic
 
@@ -87,7 +87,7 @@ def camera_to_dict(camera: Camera) -> dict[str, Any]:
         "name": camera.name,
         "size": list(camera.size),
         "K": camera.K.tolist(),
-        "dist": camera.dist.tolist(),
+        "dist": written_distortion(camera.dist).tolist(),
         "R": camera.R.tolist(),
         "t": camera.t.tolist(),
         "time_offset_s": float(camera.time_offset_s),

@@ -2,7 +2,7 @@
 writes the Pose2Sim layout.
 
 Pose2Sim / anipose / FreeMoCap: ``[cam_N]`` (or any name) tables with ``name``, ``size`` [width,
-height], ``matrix`` 3x3, ``distortions`` [k1 k2 p1 p2 (k3)], ``rotation`` (Rodrigues, world ->
+height], ``matrix`` 3x3, ``distortions`` [k1 k2 p1 p2 (k3 (k4 k5 k6))], ``rotation`` (Rodrigues, world ->
 camera), ``translation``, ``fisheye``, plus ``[metadata]``; FreeMoCap's metadata names a charuco
 board. Caliscope ``camera_array.toml`` / ``config.toml``: ``[cameras.N]`` tables with ``cam_id``,
 ``size``, ``matrix``, ``distortions``, ``rotation`` (3x3 or Rodrigues, world -> camera),
@@ -37,7 +37,7 @@ from platypose.lifting.calibration.validate import (
     check_intrinsics,
     read_calibration_bytes,
 )
-from platypose.lifting.camera import Camera
+from platypose.lifting.camera import Camera, written_distortion
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.atomic import write_text_atomic
 
@@ -129,7 +129,7 @@ def write_toml(path: Path, cameras: list[Camera], comments: list[str] = ()) -> N
             f"name = {_string(camera.name)}",
             f"size = [ {camera.width:.1f}, {camera.height:.1f}]",
             "matrix = [ " + ", ".join(_numbers(row) for row in np.asarray(camera.K, np.float64)) + "]",
-            f"distortions = {_numbers(np.asarray(camera.dist, np.float64))}",
+            f"distortions = {_numbers(written_distortion(camera.dist))}",
             f"rotation = {_numbers(rotation)}",
             f"translation = {_numbers(np.asarray(camera.t, np.float64))}",
             "fisheye = false",

@@ -12,7 +12,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from platypose.lifting.camera import MAX_TIME_OFFSET_S, Camera
+from platypose.lifting.camera import DIST_TERMS, MAX_TIME_OFFSET_S, Camera
 from platypose.lifting.errors import InputError
 from platypose.lifting.files.reads import read_regular
 
@@ -87,13 +87,15 @@ def as_size(value: object, source: str, what: str) -> tuple[int, int]:
 
 
 def as_distortion(value: object, source: str, what: str) -> np.ndarray:
-    """OpenCV distortion ``k1 k2 p1 p2 [k3]``: 4 or 5 values; more are accepted only if the extra ones are zero."""
+    """OpenCV distortion ``k1 k2 p1 p2 [k3 [k4 k5 k6]]``: 4, 5 or 8 values (the rational model's k4-k6); more
+    (OpenCV's thin-prism and tilt terms) are accepted only if the extra ones are zero."""
     n = np.asarray(value, dtype=object).size
     arr = as_array(value, (n,), source, what)
-    if n not in (0, 4, 5) and not (n > 5 and np.all(arr[5:] == 0)):
-        raise InputError(f"{source}: {what} has {n} coefficients; supported: k1 k2 p1 p2 [k3]")
-    check_distortion(arr[:5], source, what)
-    return arr[:5]
+    kept = n if n in (0, 4, 5, DIST_TERMS) else DIST_TERMS if n > DIST_TERMS else 5  # the rest must be zeros
+    if n in (1, 2, 3) or np.any(arr[kept:] != 0):
+        raise InputError(f"{source}: {what} has {n} coefficients; supported: k1 k2 p1 p2 [k3 [k4 k5 k6]]")
+    check_distortion(arr[:DIST_TERMS], source, what)
+    return arr[:DIST_TERMS]
 
 
 def check_distortion(dist: np.ndarray, source: str, what: str) -> None:

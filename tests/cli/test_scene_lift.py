@@ -3,6 +3,7 @@ the people), says which source gave each once, and ``calib estimate`` writes tha
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import cv2
@@ -57,6 +58,22 @@ def test_a_lift_without_cams_uses_the_scene_and_calib_estimate_gives_it_back(
     assert np.allclose(back.cameras[0].R, lifted.cameras[0].R, atol=1e-9)
     assert np.allclose(back.cameras[0].center, lifted.cameras[0].center, atol=1e-3)
     assert np.allclose(back.cameras[0].K, lifted.cameras[0].K, atol=1e-6)
+
+
+def test_keypoints_with_their_video_beside_them_stand_on_its_scene(tiny_default_prior, data_dir, tmp_path):
+    """cam02's OpenPose folder with cam02.mp4 one folder up (as the bundled take is laid out): the scene's camera,
+    as for the video; the same folder alone (fps and size given) has no scene to see: the level camera of before."""
+    take = tmp_path / "take"
+    shutil.copytree(data_dir / BALANCING / "openpose-body25b" / "cam02_json", take / "openpose" / "cam02_json")
+    shutil.copy(data_dir / BALANCING / "cam02.mp4", take / "cam02.mp4")
+    truth = pose_of(load_calibration(data_dir / BALANCING / "calib_pose2sim.toml").camera("cam_02"))
+    lifted = platypose.lift(take / "openpose" / "cam02_json", **SETTINGS)
+    used = pose_of(lifted.cameras[0])
+    assert abs(used["pitch_deg"] - truth["pitch_deg"]) < 2.0 and abs(used["roll_deg"] - truth["roll_deg"]) < 2.0
+    assert sum("camera from the scene's lines" in note for note in lifted.meta["notes"]) == 1
+    (take / "cam02.mp4").unlink()
+    alone = platypose.lift(take / "openpose" / "cam02_json", fps=60.0, image_size=(1920, 1080), **SETTINGS)
+    assert not any("camera from the scene's lines" in note for note in alone.meta["notes"])
 
 
 def test_without_a_line_detector_the_lift_falls_back_and_says_so(tiny_default_prior, data_dir, monkeypatch):

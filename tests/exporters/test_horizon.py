@@ -13,6 +13,7 @@ from platypose.exporters.horizon import (
     camera_caption,
     clip_line,
     draw_horizon,
+    horizon_curve,
     horizon_line,
     horizon_place,
     in_thumbnail,
@@ -62,7 +63,7 @@ def test_a_person_picture_shows_the_horizon_where_it_crosses_and_cv2_reads_it_ba
     horizon_y = -(line[0] * 900 + line[2]) / line[1]
     box = (800.0, horizon_y - 100.0, 1000.0, horizon_y + 400.0)  # the horizon crosses its top fifth
     picture = crop(image, box)
-    drawn = draw_horizon(picture, in_thumbnail(line, box, picture.shape))
+    drawn = draw_horizon(picture, in_thumbnail(horizon_curve(camera), box, picture.shape))
     assert np.array_equal(picture, np.full_like(picture, 120))  # the picture given is not drawn on
     cv2.imwrite(str(tmp_path / "p.png"), cv2.cvtColor(drawn, cv2.COLOR_RGB2BGR))
     found = magenta(cv2.imread(str(tmp_path / "p.png")))
@@ -86,13 +87,44 @@ def test_a_picture_is_stretched_to_a_horizon_near_it_and_not_to_a_far_one():
     line = horizon_line(camera.K, camera.R)
     horizon_y = -line[2] / line[1]
     near = (800.0, horizon_y + 100.0, 1000.0, horizon_y + 500.0)
-    stretched = reach_horizon(line, near, SIZE)
+    curve = horizon_curve(camera)
+    stretched = reach_horizon(curve, near, SIZE)
     assert stretched[1] < horizon_y and stretched[1] > horizon_y - 5 and stretched[3] == near[3]
     far = (800.0, horizon_y + 300.0, 1000.0, horizon_y + 500.0)  # 300 px away, the box 200 px high
-    assert reach_horizon(line, far, SIZE) == far
+    assert reach_horizon(curve, far, SIZE) == far
     picture = crop(np.zeros((*SIZE, 3), np.uint8), far)
-    assert horizon_place(in_thumbnail(line, far, picture.shape), picture.shape) == "above"
+    assert horizon_place(in_thumbnail(curve, far, picture.shape), picture.shape) == "above"
+    assert horizon_place(in_thumbnail(curve, near, picture.shape), picture.shape) == "above"
+    assert horizon_place(in_thumbnail(curve, stretched, picture.shape), picture.shape) is None
     assert clip_line(np.array([0.0, 1.0, 10.0]), 100.0, 50.0) is None  # y = -10: above a 100 x 50 image
+
+
+def test_through_a_barrel_lens_the_horizon_bends_where_the_camera_sees_points_at_its_height(tmp_path):
+    """A wide lens (the scene's distortion k = -0.4 as OpenCV's rational model): the horizon is a curve through
+    where OpenCV projects points 1 km away at the camera's height (within a pixel), bowed 20 px and more off its
+    chord, and it is drawn so (read back with OpenCV: every drawn pixel within 2 px of the curve)."""
+    from dataclasses import replace
+
+    from platypose.lifting.calibration.scene.distortion import opencv_coefficients
+
+    straight = posed_camera("v", SIZE, 1100.0, 20.0, 6.0, 1.6)
+    camera = replace(straight, dist=opencv_coefficients(-0.4, SIZE, 1100.0))
+    curve = horizon_curve(camera)
+    rvec = cv2.Rodrigues(camera.R)[0]
+    far = np.array([[x, 1000.0, 1.6] for x in np.linspace(-600.0, 600.0, 25)])
+    pixels = cv2.projectPoints(far, rvec, camera.t, camera.K, camera.dist)[0][:, 0]
+    pixels = pixels[(pixels >= 0).all(1) & (pixels[:, 0] < SIZE[1]) & (pixels[:, 1] < SIZE[0])]
+    assert len(pixels) >= 10
+    dense = np.concatenate([np.linspace(a, b, 50) for a, b in zip(curve[:-1], curve[1:])])
+    assert np.linalg.norm(pixels[:, None] - dense[None], axis=-1).min(axis=1).max() < 1.0
+    chord = curve[-1] - curve[0]
+    rel = curve - curve[0]
+    off = np.abs(chord[0] * rel[:, 1] - chord[1] * rel[:, 0]) / np.linalg.norm(chord)
+    assert off.max() > 20.0
+    picture = draw_horizon(np.full((*SIZE, 3), 120, np.uint8), curve)
+    cv2.imwrite(str(tmp_path / "h.png"), cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
+    drawn = magenta(cv2.imread(str(tmp_path / "h.png")))
+    assert len(drawn) >= SIZE[1] and np.linalg.norm(drawn[:, None] - dense[None], axis=-1).min(axis=1).max() < 2.0
 
 
 def test_the_caption_names_each_quantity_with_its_spread_source_and_what_was_dropped():

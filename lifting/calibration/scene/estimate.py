@@ -3,7 +3,8 @@ and sources, or why not.
 
 Steps (:func:`scene_camera`): the frames' median image (people walking through vanish from it; boxes of people
 who stay are masked, as are the frame's black border rows and columns), its line segments
-(:mod:`platypose.lifting.calibration.scene.segments`), the vertical vanishing point (:mod:`platypose.lifting.calibration.scene.vertical`), two orthogonal horizontal vanishing points
+(:mod:`platypose.lifting.calibration.scene.segments`), undistorted by the lens distortion under which the scene
+explains most of them (:mod:`platypose.lifting.calibration.scene.distortion`), the vertical vanishing point (:mod:`platypose.lifting.calibration.scene.vertical`), two orthogonal horizontal vanishing points
 searched along the horizon with the focal length (:mod:`platypose.lifting.calibration.scene.manhattan`), all three fitted together. Then twice
 again, each time without the segments the horizontal points explain among the vertical's candidates (long floor
 edges running away from the camera look upright in the image). The vertical point gives the roll whatever the
@@ -17,12 +18,12 @@ Frames whose lines are not the median's mean a moving camera (:mod:`platypose.li
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from platypose.lifting.calibration.lens import PRIOR, prior_focal
-from platypose.lifting.calibration.scene import manhattan, motion, spread, vertical
+from platypose.lifting.calibration.scene import distortion, manhattan, motion, spread, vertical
 from platypose.lifting.calibration.scene.lines import Lines, image_scale, to_lines
 from platypose.lifting.calibration.scene.segments import (
     content_mask,
@@ -56,7 +57,9 @@ class SceneCamera:
     camera moves). Else roll and pitch (degrees), and the focal length (px) or None with ``focal_note`` saying
     why it was not measured; ``sd`` holds each quantity's standard deviation and ``source`` where it came from.
     The pitch is at the focal length ``focal_at`` (px: the lines' own, or the one given); ``pitch_slope``: degrees
-    of pitch per unit of log focal length about it (the vertical vanishing point's)."""
+    of pitch per unit of log focal length about it (the vertical vanishing point's). ``distortion``: the lens's
+    radial distortion, the division model's ``k`` (:mod:`platypose.lifting.calibration.scene.distortion`; 0: none
+    seen), under which every other quantity was measured."""
 
     roll_deg: float | None = None
     pitch_deg: float | None = None
@@ -68,6 +71,7 @@ class SceneCamera:
     focal_note: str | None = None
     focal_at: float | None = None
     pitch_slope: float = 0.0
+    distortion: float = 0.0
 
 
 def scene_camera(
@@ -106,11 +110,20 @@ def scene_camera(
 def _solve(
     segments: np.ndarray, size: tuple[int, int], focal_px: float, focal_source: str, focal_sd: float
 ) -> SceneCamera:
-    """:func:`scene_camera` from the scene's segments (N, 4)."""
+    """:func:`scene_camera` from the scene's segments (N, 4): first the lens distortion under which the scene
+    explains most of them (:func:`platypose.lifting.calibration.scene.distortion.straightest`), then its camera."""
     scale = image_scale(size)
-    lines = to_lines(segments, size)
     prior = focal_px / scale
-    solutions = _solutions(lines, prior, MIN_LENGTH * np.hypot(*size))
+    min_length_px = MIN_LENGTH * np.hypot(*size)
+
+    def share(k: float) -> float:  # one round: enough to rank the distortions, a third of the work
+        lines = _undistorted_lines(segments, size, k)
+        solutions = _solutions(lines, prior, min_length_px, rounds=1)
+        return manhattan.explained(lines, solutions[0].params) / lines.length.sum() if solutions else 0.0
+
+    bend = distortion.straightest(share)[0]
+    lines = _undistorted_lines(segments, size, bend)
+    solutions = _solutions(lines, prior, min_length_px)
     if not solutions:
         return SceneCamera(problem=NO_LINES, segments=len(segments))
     fitted = solutions[0]
@@ -121,6 +134,8 @@ def _solve(
     inside = FOCAL_RANGE[0] * 1.05 < fitted.focal / prior < FOCAL_RANGE[1] / 1.05
     measured = min(counts[:2]) >= manhattan.MIN_SEGMENTS and relative_sd < FOCAL_MEASURED_SD and inside
     sources = {"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE}
+    if bend != 0.0:
+        sources["distortion"] = distortion.SOURCE
     note = None
     if measured:
         pitch_sd = np.degrees(fit_sd[0])
@@ -152,7 +167,14 @@ def _solve(
         focal_note=note,
         focal_at=fitted.focal * scale,
         pitch_slope=slope,
+        distortion=bend,
     )
+
+
+def _undistorted_lines(segments: np.ndarray, size: tuple[int, int], k: float) -> Lines:
+    """The segments (N, 4) px undistorted by the division model's ``k`` as :class:`Lines`, each weighed by its
+    length as seen (undistorting stretches the image's edges, which must not count as more lines explained)."""
+    return replace(to_lines(distortion.undistort_segments(segments, size, k), size), length=lengths(segments))
 
 
 def _pitch_slope(lines: Lines, fitted: manhattan.Fit, focal: float) -> float:
@@ -165,14 +187,14 @@ def _pitch_slope(lines: Lines, fitted: manhattan.Fit, focal: float) -> float:
     return float(np.degrees(pitches[1] - pitches[0]) / (2 * SLOPE_STEP))
 
 
-def _solutions(lines: Lines, prior: float, min_length_px: float) -> list[manhattan.Fit]:
+def _solutions(lines: Lines, prior: float, min_length_px: float, rounds: int = ROUNDS) -> list[manhattan.Fit]:
     """The distinct cameras fitted from every candidate vertical point, the one explaining the most line length
-    first. ``ROUNDS`` rounds, each finding the candidates again without the lines the best so far puts on the
+    first. ``rounds`` rounds, each finding the candidates again without the lines the best so far puts on the
     horizontal directions (long floor edges running away from the camera look upright in the image)."""
     dropped = np.zeros(len(lines), bool)
     found: list[tuple[float, manhattan.Fit]] = []
     tried: list[np.ndarray] = []  # vertical points searched already: a later round's same point is not again
-    for _ in range(ROUNDS):
+    for _ in range(rounds):
         kept = np.nonzero(~dropped)[0]
         for candidate in vertical.find_verticals(lines.take(kept), prior, min_length_px):
             if any(vertical.same_point(candidate.point, point, prior) for point in tried):

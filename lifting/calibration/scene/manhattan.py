@@ -33,6 +33,7 @@ FOCAL_STEPS, YAW_STEP_DEG = 60, 1.0
 SEARCH_LINES = 250
 LABEL_TOLERANCE_DEG = 2.0  # a segment belongs to the direction whose point it misses by less than this
 MIN_SEGMENTS = 4  # a horizontal direction needs this many segments to count
+LOG_FOCAL_BOUND = 10.0  # normalised focal lengths beyond exp(+-10) are no camera's
 
 
 @dataclass(frozen=True)
@@ -59,8 +60,10 @@ def camera_rotation(params: np.ndarray) -> np.ndarray:
 
 
 def points_of(params: np.ndarray) -> np.ndarray:
-    """The vanishing points (3, 3) of the world's x, y and z (rows) for ``params``."""
-    return vanishing_point(camera_rotation(params).T, float(np.exp(params[3])))
+    """The vanishing points (3, 3) of the world's x, y and z (rows) for ``params`` (a log focal length past
+    ``LOG_FOCAL_BOUND``, which a least-squares trial step on a degenerate set can take, is held there)."""
+    log_focal = float(np.clip(params[3], -LOG_FOCAL_BOUND, LOG_FOCAL_BOUND))
+    return vanishing_point(camera_rotation(params).T, float(np.exp(log_focal)))
 
 
 def _horizontal_pairs(vertical: np.ndarray, focal: float, yaws: np.ndarray) -> np.ndarray:

@@ -1,6 +1,7 @@
 """The camera a one-view lift without ``--cams`` stands on: roll and pitch from the scene's lines checked against the
 people's verticals, the focal length fused from the sources that measure it, the height (and floor) left to the
-people.
+people. The lens's radial distortion is the scene's (:mod:`platypose.lifting.calibration.scene.distortion`), as OpenCV
+coefficients on the camera; the people's keypoints are undistorted by it before they check the lines.
 
 Each quantity is the inverse-variance mean of its sources (:mod:`platypose.lifting.calibration.fusion`), a source
 more than 3 sigma off the others dropped (of two, the less trusted) and said so once, in the log and in
@@ -16,7 +17,7 @@ prior (:func:`platypose.lifting.calibration.defaults.default_camera`), its floor
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -26,6 +27,9 @@ from platypose.lifting.calibration.lens import METADATA, PRIOR, prior_focal
 from platypose.lifting.calibration.people_vertical import MIN_FRAMES, PeopleVertical, people_vertical
 from platypose.lifting.calibration.people_vertical import SOURCE as PEOPLE
 from platypose.lifting.calibration.pose_above_floor import pitched, posed_camera
+from platypose.lifting.calibration.scene.distortion import NONE_SEEN as LENS_NONE
+from platypose.lifting.calibration.scene.distortion import SOURCE as LENS_SOURCE
+from platypose.lifting.calibration.scene.distortion import opencv_coefficients, undistort_pixels
 from platypose.lifting.calibration.scene.estimate import FOCAL_HELD_SD, SceneCamera
 from platypose.lifting.camera import Camera
 
@@ -77,6 +81,10 @@ def assumed_camera(
     scene_pitch = scene.pitch_deg + scene.pitch_slope * float(np.log(focal_px / at))
     pitches = [Estimate(scene_pitch, scene.sd["pitch_deg"], scene.source["pitch_deg"])]
     rolls = [Estimate(scene.roll_deg, scene.sd["roll_deg"], scene.source["roll_deg"])]
+    if people is not None and scene.distortion != 0.0:
+        keypoints = np.array(people[0], np.float64)
+        keypoints[..., :2] = undistort_pixels(keypoints[..., :2], size, scene.distortion)
+        people = (keypoints, people[1])
     upright = None if people is None else people_vertical(*people, size, focal_px, (scene_pitch, scene.roll_deg))
     if upright is not None:
         rolls.append(Estimate(upright.roll_deg, upright.sd["roll_deg"], PEOPLE))
@@ -88,6 +96,7 @@ def assumed_camera(
         "pitch_deg": _entry(pitch),
         "focal_px": _entry(focal) if focal else {"value": focal_px, "sd": None, "source": PRIOR},
         "height_m": {"source": HEIGHT_SOURCE},
+        "distortion": _distortion(scene.distortion, size, focal_px),
         "segments": scene.segments,
         "people": {"note": "no people given"} if people is None else _people(upright),
     }
@@ -95,7 +104,8 @@ def assumed_camera(
     lines = [
         f"camera from the scene's lines ({scene.segments} segments): rolled {roll.value:.1f} +- {roll.sd:.1f} "
         f"degrees ({roll.source}), {pitched(pitch.value, pitch.sd)} ({pitch.source}); focal length {focal_text} "
-        f"({PRIOR if focal is None else focal.source}); height from the {HEIGHT_SOURCE}"
+        f"({PRIOR if focal is None else focal.source}); height from the {HEIGHT_SOURCE}; "
+        + (LENS_NONE if scene.distortion == 0.0 else f"lens distortion k = {scene.distortion:+.2f} ({LENS_SOURCE})")
     ]
     if focal is None and scene.focal_note is not None:
         record["focal_note"] = scene.focal_note
@@ -104,7 +114,20 @@ def assumed_camera(
         for dropped, why in fused.dropped if fused else ():
             lines.append(f"{quantity}: {dropped.source} ({dropped.value:.1f} +- {dropped.sd:.1f}) dropped: {why}")
     camera = posed_camera(name, size, focal_px, pitch.value, roll.value, 0.0)
+    camera = replace(camera, dist=opencv_coefficients(scene.distortion, size, focal_px))
     return AssumedCamera(camera, True, record, tuple(lines))
+
+
+def _distortion(k: float, size: tuple[int, int], focal_px: float) -> dict:
+    """The lens distortion for ``meta["camera"]``: the division model's ``k`` and the camera's OpenCV coefficients."""
+    if k == 0.0:
+        return {"value": 0.0, "source": LENS_NONE, "opencv": [0.0] * 5}
+    return {
+        "value": k,
+        "model": "division: undistorted = distorted / (1 + k r^2), r over half the image diagonal",
+        "source": LENS_SOURCE,
+        "opencv": opencv_coefficients(k, size, focal_px).tolist(),
+    }
 
 
 def _entry(fused: Fused) -> dict:

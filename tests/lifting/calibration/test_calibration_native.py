@@ -63,6 +63,37 @@ def test_written_file_read_back_with_json(pose2sim, tmp_path):
     assert "assumed Z up" in data["meta"]["assumptions"][0]
 
 
+@pytest.mark.parametrize("suffix", [".json", ".toml"])
+def test_a_rational_lens_round_trips_and_projects_as_opencv(tmp_path, suffix):
+    """OpenCV's rational model (k4 k5 k6, what a wide lens's camera from the scene carries) is written, read back
+    exactly, and projects as cv2.projectPoints; a camera without it is written with 5 coefficients as before."""
+    from platypose.lifting.calibration import Calibration
+    from platypose.lifting.calibration.toml_format import write_toml
+    from platypose.lifting.camera import Camera, project
+
+    dist = np.array([-0.52, 0.31, 0.0, 0.0, -0.04, -0.11, 0.12, -0.01])
+    wide = Camera("wide", (1080, 1920), [[900.0, 0, 960.0], [0, 900.0, 540.0], [0, 0, 1]], dist, t=[0.1, 0.2, 3.0])
+    plain = Camera("plain", (1080, 1920), wide.K, [0.01, -0.02, 0.0, 0.0, 0.003], t=[0.5, 0.0, 3.0])
+    path = tmp_path / f"calib{suffix}"
+    if suffix == ".json":
+        save_calibration(path, Calibration(cameras=[wide, plain], meta={"world_up": "z", "units": "m"}))
+    else:
+        write_toml(path, [wide, plain])
+    again = load_calibration(path)
+    assert np.array_equal(again.cameras[0].dist, dist)
+    assert np.array_equal(again.cameras[1].dist, np.append(plain.dist[:5], [0.0, 0.0, 0.0]))
+    if suffix == ".json":
+        written = [camera["dist"] for camera in json.loads(path.read_text())["cameras"]]
+    else:
+        tomllib = pytest.importorskip("tomllib")  # the standard library's reader (Python 3.11+)
+        written = [table["distortions"] for table in tomllib.loads(path.read_text()).values()]
+    assert [len(values) for values in written] == [8, 5]  # read back by the standard library's readers
+    points = np.random.default_rng(0).uniform([-2, -1, 2], [2, 1, 6], (50, 3))
+    read = again.cameras[0]  # in the world the reader settled on (a .toml states none)
+    expected = cv2.projectPoints(points, cv2.Rodrigues(read.R)[0], read.t, read.K, dist)[0][:, 0]
+    assert np.allclose(project(points, read), expected, atol=1e-6)
+
+
 def test_rvec_and_time_offset(tmp_path):
     path = tmp_path / "c.json"
     path.write_text(_native_text(GOOD_CAMERA))

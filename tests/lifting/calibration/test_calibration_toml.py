@@ -41,7 +41,7 @@ def test_pose2sim_values(data_dir: Path):
     cam = cal.cameras[2]
     assert cam.size == (1920, 1088)  # file says [width, height] = [1088, 1920]
     assert cam.K[0, 0] == 1681.598388671875 and cam.K[0, 2] == 513.20837403125
-    assert np.array_equal(cam.dist, [-0.000729765625, 0.00215034375, -8.46875e-06, -8.078125e-06, 0.0])
+    assert np.array_equal(cam.dist, [-0.000729765625, 0.00215034375, -8.46875e-06, -8.078125e-06, 0.0, 0.0, 0.0, 0.0])
     assert np.allclose(cam.R, cv2.Rodrigues(np.array([0.8109654899999995, -2.1972129299999996, 1.3760277799999996]))[0])
     # lab cameras stand 1.6-2.2 m high and look down: the file's world is Z up
     assert all(1.6 < c.center[2] < 2.2 and c.R[2, 2] < 0 for c in cal.cameras)

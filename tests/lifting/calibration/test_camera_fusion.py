@@ -4,6 +4,7 @@ verticals on synthetic people, a synthetic view whose people are 5 sigma off its
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -13,6 +14,7 @@ from platypose.lifting.calibration.lens import METADATA
 from platypose.lifting.calibration.people_vertical import MIN_FRAMES, people_vertical, standing_lines
 from platypose.lifting.calibration.people_vertical import SOURCE as PEOPLE
 from platypose.lifting.calibration.pose_above_floor import pose_of, posed_camera
+from platypose.lifting.calibration.scene.distortion import undistort_pixels
 from platypose.lifting.calibration.scene.estimate import FOCAL_SOURCE, VERTICAL_SOURCE, SceneCamera
 from platypose.lifting.calibration.scene.view_camera import assumed_camera
 from platypose.lifting.skeleton import JOINT_INDEX
@@ -160,3 +162,48 @@ def test_the_lab_cameras_fused_with_their_people_stay_within_the_targets(calibra
     assert said[0] == VERTICAL_SOURCE and (PEOPLE in said) == still
     assert still or "stand still" in found.record["people"]["note"]
     assert all("sigma off" in e["why"] for e in roll["dropped"])
+
+
+def test_the_scenes_lens_distortion_is_on_the_camera_and_said():
+    """A scene straightened by the division model's k = -0.3 (a wide lens's barrel): the camera carries OpenCV
+    coefficients that bend a ray to the pixel the model undistorts from (within 2 px across the image), meta and
+    the log say it; the people's keypoints are undistorted before they check the lines' roll (a camera rolled 2
+    degrees: not dropped)."""
+    scene = SceneCamera(
+        roll_deg=2.0,
+        pitch_deg=15.0,
+        focal_px=1500.0,
+        sd={"roll_deg": 0.3, "pitch_deg": 0.3, "focal_px": 30.0},
+        source={"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE, "focal_px": FOCAL_SOURCE},
+        focal_at=1500.0,
+        distortion=-0.3,
+    )
+    camera = posed_camera("v", SIZE, 1500.0, 15.0, 2.0, 2.5)
+    people = standing_people(camera, [(-2.0, 6.0), (2.0, 8.0)])
+    seen = people.copy()  # the same people through the lens: each pixel where the model bends it
+    seen[..., :2] = _division_distort(people[..., :2], SIZE, -0.3)
+    found = assumed_camera("v", SIZE, scene, people=(seen, TIMES))
+    assert found.record["distortion"]["value"] == -0.3 and np.any(found.camera.dist[5:] != 0)  # the rational model
+    assert any("lens distortion k = -0.30" in line for line in found.lines)
+    assert not found.record["roll_deg"]["dropped"]
+    grid = np.stack(np.meshgrid(np.linspace(20, SIZE[1] - 20, 9), np.linspace(20, SIZE[0] - 20, 7)), -1).reshape(-1, 2)
+    straight = undistort_pixels(grid, SIZE, -0.3)
+    rays = np.linalg.solve(found.camera.K, np.column_stack([straight, np.ones(len(grid))]).T).T
+    bent = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), found.camera.K, found.camera.dist)[0][:, 0]
+    assert np.abs(bent - grid).max() < 2.0
+
+
+def _division_distort(pixels: np.ndarray, size: tuple[int, int], k: float) -> np.ndarray:
+    """Pixels (..., 2) bent by the division model's ``k`` (the inverse of ``undistort_pixels``, by bisection on
+    the radius)."""
+    centre = np.array([size[1], size[0]], np.float64) / 2
+    scale = np.hypot(*size) / 2
+    straight = (pixels - centre) / scale
+    radius = np.linalg.norm(straight, axis=-1, keepdims=True)
+    low, high = np.zeros_like(radius), np.full_like(radius, 1.5)
+    for _ in range(60):
+        middle = (low + high) / 2
+        too_far = middle / (1 + k * middle**2) > radius
+        high, low = np.where(too_far, middle, high), np.where(too_far, low, middle)
+    ratio = np.where(radius > 0, low / np.maximum(radius, 1e-12), 1.0)
+    return straight * ratio * scale + centre
