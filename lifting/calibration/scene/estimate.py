@@ -43,6 +43,7 @@ SLOPE_STEP = 0.05  # log focal either side of the pitch's focal length where the
 MIN_SD_DEG, MIN_FOCAL_SD = 0.3, 0.02  # floors: the principal point, lens distortion, not quite square scenes
 MOTION_FRAMES = 6
 RIVALS = 4  # the best solutions the bootstrap chooses among
+GRID_CANDIDATES = 2  # vertical points tried for each distortion of the search (the final camera tries them all)
 SAME_SOLUTION = (np.radians(0.5), np.radians(0.5), 0.03)  # solutions closer in pitch, roll, log focal are one
 VERTICAL_SOURCE = "scene lines (vertical vanishing point)"
 FOCAL_SOURCE = "scene lines (two orthogonal horizontal vanishing points)"
@@ -116,9 +117,9 @@ def _solve(
     prior = focal_px / scale
     min_length_px = MIN_LENGTH * np.hypot(*size)
 
-    def share(k: float) -> float:  # one round: enough to rank the distortions, a third of the work
+    def share(k: float) -> float:  # one round from the GRID_CANDIDATES best verticals: enough to rank distortions
         lines = _undistorted_lines(segments, size, k)
-        solutions = _solutions(lines, prior, min_length_px, rounds=1)
+        solutions = _solutions(lines, prior, min_length_px, rounds=1, candidates=GRID_CANDIDATES)
         return manhattan.explained(lines, solutions[0].params) / lines.length.sum() if solutions else 0.0
 
     bend = distortion.straightest(share)[0]
@@ -187,16 +188,19 @@ def _pitch_slope(lines: Lines, fitted: manhattan.Fit, focal: float) -> float:
     return float(np.degrees(pitches[1] - pitches[0]) / (2 * SLOPE_STEP))
 
 
-def _solutions(lines: Lines, prior: float, min_length_px: float, rounds: int = ROUNDS) -> list[manhattan.Fit]:
+def _solutions(
+    lines: Lines, prior: float, min_length_px: float, rounds: int = ROUNDS, candidates: int = vertical.CANDIDATES
+) -> list[manhattan.Fit]:
     """The distinct cameras fitted from every candidate vertical point, the one explaining the most line length
-    first. ``rounds`` rounds, each finding the candidates again without the lines the best so far puts on the
-    horizontal directions (long floor edges running away from the camera look upright in the image)."""
+    first, from the ``candidates`` best supported vertical points. ``rounds`` rounds, each finding the candidates
+    again without the lines the best so far puts on the horizontal directions (long floor edges running away from
+    the camera look upright in the image)."""
     dropped = np.zeros(len(lines), bool)
     found: list[tuple[float, manhattan.Fit]] = []
     tried: list[np.ndarray] = []  # vertical points searched already: a later round's same point is not again
     for _ in range(rounds):
         kept = np.nonzero(~dropped)[0]
-        for candidate in vertical.find_verticals(lines.take(kept), prior, min_length_px):
+        for candidate in vertical.find_verticals(lines.take(kept), prior, min_length_px, candidates):
             if any(vertical.same_point(candidate.point, point, prior) for point in tried):
                 continue
             tried.append(candidate.point)
