@@ -163,3 +163,45 @@ def test_the_report_and_the_recording_show_the_estimated_camera(tiny_default_pri
     assert np.abs((ends - seen[0]) @ normal / np.linalg.norm(normal)).max() < 2.0
     thumbnail = _recorded(tmp_path / "cam02" / "cam02.rrd", "/who/p0/thumbnail")["Image:buffer"][0][0]
     assert (np.asarray(thumbnail).reshape(-1, 3) == (255, 0, 255)).all(axis=1).sum() > 20
+
+
+def test_a_video_through_a_wide_lens_is_lifted_on_its_distortion_and_calib_estimate_keeps_it(
+    tiny_default_prior, data_dir, tmp_path, run_cli
+):
+    """cam03 as a barrel lens (the division model's k = -0.4, zoomed 1.67 times to fill the frame) would have filmed
+    it: the lift finds the lens (k within 0.03) and the rig's pitch and roll (within 2 degrees), its camera carries
+    OpenCV's rational coefficients, the log and the recording's horizon show it bent, and ``calib estimate`` writes
+    the 8 coefficients, read back as they were."""
+    from platypose.lifting.calibration.scene.distortion import bent_image
+    from platypose.media import iter_timed_frames, video_info
+
+    video = tmp_path / "wide.mp4"
+    info = video_info(data_dir / BALANCING / "cam03.mp4")
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), info.fps, info.image_size[::-1])
+    for _, _, frame in iter_timed_frames(data_dir / BALANCING / "cam03.mp4", max_frames=40):
+        writer.write(bent_image(frame, -0.4)[0])
+    writer.release()
+    truth = pose_of(load_calibration(data_dir / BALANCING / "calib_pose2sim.toml").camera("cam_03"))
+    code, _, stderr = run_cli(
+        "lift", video, "--persons", "largest", "--samples", 4, "--formats", "npz,rrd", "--out", tmp_path
+    )
+    assert code == 0, stderr
+    result = platypose.load_result(tmp_path / "wide" / "wide.npz")
+    lens = result.meta["camera"]["distortion"]
+    assert lens["value"] == pytest.approx(-0.4, abs=0.03)
+    used = pose_of(result.cameras[0])
+    assert abs(used["pitch_deg"] - truth["pitch_deg"]) < 2.0 and abs(used["roll_deg"] - truth["roll_deg"]) < 2.0
+    assert np.allclose(result.cameras[0].dist, lens["opencv"]) and np.any(result.cameras[0].dist[5:] != 0)
+    assert sum("lens distortion k = -0.4" in note for note in result.meta["notes"]) == 1
+    strip = np.array(
+        _recorded(tmp_path / "wide" / "wide.rrd", "/world/cameras/wide/horizon")["LineStrips2D:strips"][0][0]
+    )
+    chord = strip[-1] - strip[0]
+    bow = np.abs(chord[0] * (strip[:, 1] - strip[0, 1]) - chord[1] * (strip[:, 0] - strip[0, 0])) / np.linalg.norm(
+        chord
+    )
+    assert len(strip) > 10 and bow.max() > 10.0  # a curve, not a line
+    out = tmp_path / "wide.toml"
+    code, _, stderr = run_cli("calib", "estimate", video, "--persons", "largest", "--out", out)
+    assert code == 0, stderr
+    assert np.allclose(load_calibration(out).cameras[0].dist, result.cameras[0].dist, rtol=1e-6, atol=1e-9)
