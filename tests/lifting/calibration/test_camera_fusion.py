@@ -123,18 +123,24 @@ def test_people_five_sigma_off_the_lines_are_dropped_and_said_once():
     assert pose_of(found.camera)["roll_deg"] == pytest.approx(2.0)
 
 
+def lines_scene(**changes) -> SceneCamera:
+    """The scene's lines of a camera pitched 15 and rolled 2 degrees, 1500 px (spreads 0.3 degrees and 30 px),
+    with ``changes``."""
+    scene = {
+        "roll_deg": 2.0,
+        "pitch_deg": 15.0,
+        "focal_px": 1500.0,
+        "sd": {"roll_deg": 0.3, "pitch_deg": 0.3, "focal_px": 30.0},
+        "source": {"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE, "focal_px": FOCAL_SOURCE},
+        "focal_at": 1500.0,
+    }
+    return SceneCamera(**{**scene, **changes})
+
+
 def test_the_lines_pitch_follows_a_focal_length_fused_with_the_metadata():
     """Metadata 1600 px (5 %) and lines 1500 +- 30 px agree (1.3 sigma): the fused focal length is their
     inverse-variance mean, and the lines' pitch moves along its slope to it."""
-    scene = SceneCamera(
-        roll_deg=0.0,
-        pitch_deg=15.0,
-        focal_px=1500.0,
-        sd={"roll_deg": 0.3, "pitch_deg": 0.3, "focal_px": 30.0},
-        source={"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE, "focal_px": FOCAL_SOURCE},
-        focal_at=1500.0,
-        pitch_slope=4.0,
-    )
+    scene = lines_scene(roll_deg=0.0, pitch_slope=4.0)
     found = assumed_camera("v", SIZE, scene, metadata_focal=1600.0)
     focal = found.record["focal_px"]
     expected = (1600.0 / 80.0**2 + 1500.0 / 30.0**2) / (1 / 80.0**2 + 1 / 30.0**2)
@@ -169,15 +175,7 @@ def test_the_scenes_lens_distortion_is_on_the_camera_and_said():
     coefficients that bend a ray to the pixel the model undistorts from (within 2 px across the image), meta and
     the log say it; the people's keypoints are undistorted before they check the lines' roll (a camera rolled 2
     degrees: not dropped)."""
-    scene = SceneCamera(
-        roll_deg=2.0,
-        pitch_deg=15.0,
-        focal_px=1500.0,
-        sd={"roll_deg": 0.3, "pitch_deg": 0.3, "focal_px": 30.0},
-        source={"roll_deg": VERTICAL_SOURCE, "pitch_deg": VERTICAL_SOURCE, "focal_px": FOCAL_SOURCE},
-        focal_at=1500.0,
-        distortion=-0.3,
-    )
+    scene = lines_scene(distortion=-0.3)
     camera = posed_camera("v", SIZE, 1500.0, 15.0, 2.0, 2.5)
     people = standing_people(camera, [(-2.0, 6.0), (2.0, 8.0)])
     seen = people.copy()  # the same people through the lens: each pixel where the model bends it
