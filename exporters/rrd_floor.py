@@ -63,8 +63,8 @@ def log_floor_and_plausibility(
 
 
 def log_estimated_camera(rec: rr.RecordingStream, result) -> None:
-    """Log the estimated camera's record (``meta["camera"]``) as text and its horizon as a line (a curve through a bending lens) in its image into
-    ``rec``, statically; nothing where the lift had a calibration."""
+    """Log the estimated camera's record (``meta["camera"]``) as text and its horizon as a line (a curve through a
+    bending lens) in its image into ``rec``, statically; nothing where the lift had a calibration."""
     caption = camera_caption(result.meta or {})
     if not caption:
         return

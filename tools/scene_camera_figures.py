@@ -104,8 +104,9 @@ def rows(calibration: Path, videos: list[Path], guess: bool, people: bool = Fals
         print(
             f"{video.stem:<8}{off}{took:>7.1f}s  pitch {got.pitch_deg:.1f} +- {got.sd['pitch_deg']:.1f} "
             f"(calibration {truth['pitch_deg']:.1f}), roll {got.roll_deg:.1f} +- {got.sd['roll_deg']:.1f} "
-            f"({truth['roll_deg']:.1f}), focal {focal}{focal_sd} ({truth['focal_px']:.0f} px); {got.segments} segments; "
-            f"lens distortion k {got.distortion:+.2f}" + (f"; {got.focal_note}" if got.focal_note else "")
+            f"({truth['roll_deg']:.1f}), focal {focal}{focal_sd} ({truth['focal_px']:.0f} px); "
+            f"{got.segments} segments; lens distortion k {got.distortion:+.2f}"
+            + (f"; {got.focal_note}" if got.focal_note else "")
         )
         folder = video.parent / "openpose-body25b" / f"{video.stem}_json"
         if fused and folder.is_dir():

@@ -4,16 +4,18 @@ and sources, or why not.
 Steps (:func:`scene_camera`): the frames' median image (people walking through vanish from it; boxes of people
 who stay are masked, as are the frame's black border rows and columns), its line segments
 (:mod:`platypose.lifting.calibration.scene.segments`), undistorted by the lens distortion under which the scene
-explains most of them (:mod:`platypose.lifting.calibration.scene.distortion`), the vertical vanishing point (:mod:`platypose.lifting.calibration.scene.vertical`), two orthogonal horizontal vanishing points
-searched along the horizon with the focal length (:mod:`platypose.lifting.calibration.scene.manhattan`), all three fitted together. Then twice
-again, each time without the segments the horizontal points explain among the vertical's candidates (long floor
-edges running away from the camera look upright in the image). The vertical point gives the roll whatever the
-focal length, and the pitch with it; the two horizontal points give the focal length where both are finite and
-well supported. Where they are not, the pitch is the vertical point's at the given focal length (a lens prior or
-the video's metadata, its spread widening the pitch's) and the focal length is "not measured". Either way the
-estimate says how the pitch moves with the focal length (``pitch_slope``), so a focal length fused from several
-sources (:mod:`platypose.lifting.calibration.scene.view_camera`) gets the pitch that goes with it.
-Frames whose lines are not the median's mean a moving camera (:mod:`platypose.lifting.calibration.scene.motion`): no estimate.
+explains most of them (:mod:`platypose.lifting.calibration.scene.distortion`), the vertical vanishing point
+(:mod:`platypose.lifting.calibration.scene.vertical`), two orthogonal horizontal vanishing points searched along
+the horizon with the focal length (:mod:`platypose.lifting.calibration.scene.manhattan`), all three fitted
+together. Then twice again, each time without the segments the horizontal points explain among the vertical's
+candidates (long floor edges running away from the camera look upright in the image). The vertical point gives the
+roll whatever the focal length, and the pitch with it; the two horizontal points give the focal length where both
+are finite and well supported. Where they are not, the pitch is the vertical point's at the given focal length (a
+lens prior or the video's metadata, its spread widening the pitch's) and the focal length is "not measured". Either
+way the estimate says how the pitch moves with the focal length (``pitch_slope``), so a focal length fused from
+several sources (:mod:`platypose.lifting.calibration.scene.view_camera`) gets the pitch that goes with it. Frames
+whose lines are not the median's mean a moving camera (:mod:`platypose.lifting.calibration.scene.motion`): no
+estimate.
 """
 
 from __future__ import annotations

@@ -91,12 +91,13 @@ def assumed_camera(
         if upright.pitch_deg is not None:
             pitches.append(Estimate(upright.pitch_deg, upright.sd["pitch_deg"], PEOPLE))
     roll, pitch = fuse(rolls, " degrees"), fuse(pitches, " degrees")
+    lens = opencv_coefficients(scene.distortion, size, focal_px)  # the camera's, as OpenCV models it
     record = {
         "roll_deg": _entry(roll),
         "pitch_deg": _entry(pitch),
         "focal_px": _entry(focal) if focal else {"value": focal_px, "sd": None, "source": PRIOR},
         "height_m": {"source": HEIGHT_SOURCE},
-        "distortion": _distortion(scene.distortion, size, focal_px),
+        "distortion": _distortion(scene.distortion, lens),
         "segments": scene.segments,
         "people": {"note": "no people given"} if people is None else _people(upright),
     }
@@ -113,20 +114,20 @@ def assumed_camera(
     for quantity, fused in (("roll", roll), ("pitch", pitch), ("focal length", focal)):
         for dropped, why in fused.dropped if fused else ():
             lines.append(f"{quantity}: {dropped.source} ({dropped.value:.1f} +- {dropped.sd:.1f}) dropped: {why}")
-    camera = posed_camera(name, size, focal_px, pitch.value, roll.value, 0.0)
-    camera = replace(camera, dist=opencv_coefficients(scene.distortion, size, focal_px))
+    camera = replace(posed_camera(name, size, focal_px, pitch.value, roll.value, 0.0), dist=lens)
     return AssumedCamera(camera, True, record, tuple(lines))
 
 
-def _distortion(k: float, size: tuple[int, int], focal_px: float) -> dict:
-    """The lens distortion for ``meta["camera"]``: the division model's ``k`` and the camera's OpenCV coefficients."""
+def _distortion(k: float, coefficients: np.ndarray) -> dict:
+    """The lens distortion for ``meta["camera"]``: the division model's ``k`` and the camera's OpenCV
+    ``coefficients`` (8)."""
     if k == 0.0:
         return {"value": 0.0, "source": LENS_NONE, "opencv": [0.0] * 5}
     return {
         "value": k,
         "model": "division: undistorted = distorted / (1 + k r^2), r over half the image diagonal",
         "source": LENS_SOURCE,
-        "opencv": opencv_coefficients(k, size, focal_px).tolist(),
+        "opencv": coefficients.tolist(),
     }
 
 
