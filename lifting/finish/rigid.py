@@ -265,10 +265,16 @@ def answer_arms(answer: np.ndarray, flexion: np.ndarray, fps: float, views: floa
     return np.where(frames[:, None, None], within_limits(np.where(frames[:, None, None], steady, 0.0)), answer)
 
 
-def person_shape(motions: np.ndarray, views: int) -> RigidShape:
-    """The rigid shape of motions ``(K, T, 17, 3)`` (:func:`lifting.finish.rigid_shape.clip_shape`); from one view, its
+def person_shape(motions: np.ndarray, views: int, measured: np.ndarray | None = None) -> RigidShape:
+    """The rigid shape of motions ``(K, T, 17, 3)`` (:func:`lifting.finish.rigid_shape.clip_shape`) over the
+    ``measured`` ``(T,)`` frames, those some view sees (None, or none measured: every frame); from one view, its
     limb bones held to adult lengths (:mod:`lifting.anatomy.lengths`): a camera alone cannot measure them, and
-    the sampler's guesses ran to 12 cm forearms. Several views measure every bone: their lengths stand."""
+    the sampler's guesses ran to 12 cm forearms. Several views measure every bone: their lengths stand.
+
+    Frames of a gap no view sees are the prior's guess: a shape taken over them too moved every seen frame of
+    a one-view eval window with a 1 s gap by 2 mm more than the gap itself does (docs/results.md, issue 49)."""
+    if measured is not None and measured.any():
+        motions = np.where(measured[:, None, None], motions, np.nan)
     shape = clip_shape(motions)
     return shape if views > 1 else RigidShape(clamp_to_adult(shape.lengths), shape.bodies)
 
@@ -295,13 +301,14 @@ def rigid_person(
     N, T = hypotheses.shape[1:3]
     centres = np.stack([cam.center for cam in cameras])
     seen = np.moveaxis(keypoints[:, :, person, :, 2] > 0, 0, -1)  # (T, 17, C)
+    measured = seen.any(axis=(1, 2))  # frames some view sees: the shape is theirs
     before = np.array(median[person], np.float64)  # (T, 17, 3)
     stretch = np.abs(bone_lengths(before) - clip_shape(before).lengths)
     shift = 0.0 if len(cameras) < 2 else steady_shift(before, measure(keypoints[:, :, person], cameras), fps)
     for start in range(0, N, HYPOTHESES_AT_ONCE):
         n = slice(start, min(start + HYPOTHESES_AT_ONCE, N))
         motions = np.asarray(hypotheses[person, n], np.float64) + shift
-        shape = person_shape(motions, len(cameras))
+        shape = person_shape(motions, len(cameras), measured)
         hypotheses[person, n] = rigid_paths(motions, shape, centres, seen, fps, floor, limits=False)
     members = np.zeros((N, T), dtype=bool)
     for start in range(0, T, MEDIAN_CHUNK):
@@ -321,7 +328,7 @@ def rigid_person(
         ]
     )
     middle = np.asarray(median[person], np.float64)[None]
-    middle = rigid_paths(middle, person_shape(middle, len(cameras)), centres, seen, fps, floor)[0]
+    middle = rigid_paths(middle, person_shape(middle, len(cameras), measured), centres, seen, fps, floor)[0]
     median[person] = answer_arms(middle, flexion, fps, typical_views(seen, np.isfinite(middle).all(axis=(1, 2))))
     moved = np.linalg.norm(np.asarray(median[person], np.float64) - before, axis=-1)
     moved = moved[np.isfinite(moved)]

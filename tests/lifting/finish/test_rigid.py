@@ -15,7 +15,7 @@ from platypose.lifting.anatomy.limits import hinge_coordinates, limit_excess
 from platypose.lifting.calibration import load_calibration
 from platypose.lifting.camera import project
 from platypose.lifting.checks.plausibility import stance_slides
-from platypose.lifting.finish.rigid import place_on_sphere, rigid_motion, rigid_paths, rigid_person
+from platypose.lifting.finish.rigid import person_shape, place_on_sphere, rigid_motion, rigid_paths, rigid_person
 from platypose.lifting.finish.rigid_shape import RigidShape, body_frames, body_offsets, clip_shape
 from platypose.lifting.finish.smoothing import smooth_over_time
 from platypose.lifting.finish.stance_legs import two_bone_limb
@@ -155,6 +155,31 @@ def test_rigid_paths_are_rigid_smooth_and_above_the_floor(real_clips):
     np.testing.assert_allclose(bone_lengths(four[on]), np.broadcast_to(lengths, (on.sum(), 16)), atol=1e-9)
     assert limit_excess(*hinge_coordinates(four[on])).max() < 1e-3
     assert np.linalg.norm(four[on] - truth[on], axis=-1).mean() < np.linalg.norm(noisy[on] - truth[on], axis=-1).mean()
+
+
+def test_a_gaps_guessed_frames_do_not_shape_the_body_the_seen_frames_measure(real_clips):
+    """A real walk seen by one camera except in a gap of 35 of its 60 frames, where the prior's guess has shins 15 %
+    longer: the body's shape is the seen frames' (shape over every frame: shins a centimetre and more off), so
+    the seen frames keep their true bones and their image."""
+    truth = _walk(real_clips)
+    (camera,) = ring_cameras(4)[:1]
+    gap = np.zeros(len(truth), bool)
+    gap[15:50] = True
+    guessed = truth.copy()
+    for knee, ankle in ((2, 3), (5, 6)):
+        guessed[gap, ankle] = truth[gap, knee] + 1.15 * (truth[gap, ankle] - truth[gap, knee])
+    true_shape = person_shape(truth[None, ~gap], 1)  # the shape the seen frames measure
+    np.testing.assert_allclose(person_shape(guessed[None], 1, ~gap).lengths, true_shape.lengths, atol=1e-12)
+    assert np.abs(person_shape(guessed[None], 1).lengths - true_shape.lengths)[0, [2, 5]].min() > 0.01
+
+    keypoints = np.concatenate([project(truth, camera), np.ones(truth.shape[:2] + (1,))], axis=-1)
+    keypoints[gap, :, 2] = 0.0
+    hypotheses, median = guessed[None, None].copy(), guessed[None].copy()
+    rigid_person(hypotheses, median, keypoints[None, :, None], [camera], 0, 30.0)
+    seen_lengths = bone_lengths(hypotheses[0, 0, ~gap])
+    np.testing.assert_allclose(seen_lengths, np.broadcast_to(true_shape.lengths, seen_lengths.shape), atol=1e-6)
+    moved_px = np.linalg.norm(project(hypotheses[0, 0, ~gap], camera) - keypoints[~gap, :, :2], axis=-1)
+    assert np.median(moved_px) < 0.5, np.median(moved_px)
 
 
 def test_two_bone_limb_reaches_its_target_with_exact_bones():
