@@ -4,8 +4,8 @@ The sampler's motions stretch: a bone of one hypothesis changes its length betwe
 centimetres with several views and by decimetres with one (docs/results.md), and the hips, spine,
 shoulders and neck move against each other, while a person's bones do not. After lifting, each
 hypothesis gets one rigid shape (:mod:`lifting.finish.rigid_shape`: one length per bone, one shape per rigid
-body, the medians over the frames where the person is present; one camera leaves every hypothesis its
-own size, so shapes are per hypothesis), and every frame is moved onto it from the pelvis outwards,
+body, the medians over the frames some view sees the person in, not a gap's guessed ones; one camera leaves
+every hypothesis its own size, so shapes are per hypothesis), and every frame is moved onto it from the pelvis outwards,
 each joint moving as little as it can *across the rays* of the views that see it, that is, in the
 images. Where several views see a person, the sampler's lasting offsets from what they measure are first
 corrected (:mod:`lifting.finish.measured`). Then
