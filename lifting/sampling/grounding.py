@@ -8,8 +8,9 @@ Given a floor ``n . x + d = 0`` (world metres, ``n`` up; :mod:`lifting.floor`):
   ankles (the lower ankle of slow frames, median over the window) at their stance height above the
   floor fixes both, and follows their own scales' line over the window (:func:`scale_trend`, at most
   ``TREND_LIMIT``): the size prior places each frame by the person's size in the image. The stance
-  height is ``ANKLE_HEIGHT`` plus a draw of ``support_spread`` per hypothesis: shoes, mats, force plates and where a detector puts the ankle differ by centimetres,
-  and each centimetre moves a one-view placement by several.
+  height is ``ANKLE_HEIGHT`` plus a draw of ``support_spread`` per hypothesis: shoes, mats, force plates
+  and where a detector puts the ankle differ by centimetres, and each centimetre moves a one-view
+  placement by several.
   Support is a prior, not a clamp: where one image cannot tell a near person on the floor from a far
   one on a step, both readings are kept as hypotheses. Every hypothesis takes the floor reading where
   it brings the person nearer (the size prior's feet were under the floor) or sizes them up by less
