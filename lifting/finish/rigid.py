@@ -271,8 +271,8 @@ def person_shape(motions: np.ndarray, views: int, measured: np.ndarray | None = 
     limb bones held to adult lengths (:mod:`lifting.anatomy.lengths`): a camera alone cannot measure them, and
     the sampler's guesses ran to 12 cm forearms. Several views measure every bone: their lengths stand.
 
-    Frames of a gap no view sees are the prior's guess: a shape taken over them too moved every seen frame of
-    a one-view eval window with a 1 s gap by 2 mm more than the gap itself does (docs/results.md, issue 49)."""
+    Frames of a gap no view sees are the prior's guess: a shape taken over them too added 1-2 mm to the seen frames
+    of one-view eval windows with a 1 s gap (docs/results.md, issue 49)."""
     if measured is not None and measured.any():
         motions = np.where(measured[:, None, None], motions, np.nan)
     shape = clip_shape(motions)

@@ -283,7 +283,7 @@ def scale_trend(stance_scales: torch.Tensor) -> torch.Tensor:
     reading per window left the feet rising off the floor by 10 cm within it; the line lets the stance feet's rays
     meet the floor in every frame, and keeps the size prior's frame-to-frame placement around it. The line's own
     level (its mean over the stance frames) replaces the median: keeping the median and only tilting it measured
-    0.4-0.6 mm worse in ``eval`` and left the walker's feet less level (docs/results.md)."""
+    0.1-1.1 mm worse on every ``eval`` row and left the walker's feet less level (docs/results.md)."""
     logs = stance_scales.log()
     F = logs.shape[2]
     stands = torch.isfinite(logs)
