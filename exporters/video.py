@@ -17,7 +17,7 @@ import numpy as np
 
 from platypose.lifting.camera import SIZE_TOLERANCE
 from platypose.lifting.errors import InputError
-from platypose.media import iter_timed_frames, open_video, video_info
+from platypose.media import converted, iter_timed_frames, open_video, video_info
 
 # Codecs rerun's viewers decode from an MP4 asset everywhere; others are re-encoded to H.264.
 PLAYABLE_CODECS = frozenset({"h264", "av1"})
@@ -65,7 +65,7 @@ def reencode_h264(src: Path, dst: Path, crf: int = 23, stop: threading.Event | N
                     return False
                 frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image[:height, :width]), "rgb24")
                 frame.pts, frame.time_base = int(round(time / TIME_BASE)), TIME_BASE
-                out.mux(stream.encode(frame.reformat(format="yuv420p")))
+                out.mux(stream.encode(converted(frame, "yuv420p")))
             out.mux(stream.encode())
         except av.FFmpegError as err:
             raise InputError(f"{src}: cannot re-encode video ({getattr(err, 'strerror', None) or err})") from None

@@ -8,12 +8,15 @@ rate video keeps its true timing. One frame is in memory at a time.
 
 from __future__ import annotations
 
+import os
+import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import av
 import numpy as np
+from av.video.reformatter import VideoReformatter
 
 from platypose.lifting.errors import InputError
 
@@ -51,12 +54,31 @@ def open_video(path: str | Path) -> av.container.InputContainer:
     return container
 
 
+_CONVERTERS = threading.local()
+_INHERITED: list[VideoReformatter] = []  # a forked process's copies of its parent's converters: never freed (below)
+
+
+def converted(frame: av.VideoFrame, fmt: str) -> av.VideoFrame:
+    """``frame`` in pixel format ``fmt``, converted by this thread's own converter (FFmpeg's swscale).
+
+    PyAV 18.1.1 converts with one converter it keeps per process, running FFmpeg's slice threads. A process forked
+    from one that had used it (the recording's watched writer, :mod:`platypose.exporters.watched_writer`) found those
+    threads gone and waited for them forever: ``platypose demo`` hung. Each thread of each process makes its own,
+    and a forked process keeps the copy of its parent's: freeing it would wait for those threads too.
+    """
+    if getattr(_CONVERTERS, "pid", None) != os.getpid():
+        if hasattr(_CONVERTERS, "converter"):
+            _INHERITED.append(_CONVERTERS.converter)
+        _CONVERTERS.pid, _CONVERTERS.converter = os.getpid(), VideoReformatter()
+    return _CONVERTERS.converter.reformat(frame, format=fmt)
+
+
 def upright(frame: av.VideoFrame, fmt: str = "bgr24") -> np.ndarray:
     """The frame as an (H, W, 3) uint8 array in ``fmt`` (``bgr24`` or ``rgb24``), turned by its display rotation.
 
     The colour conversion is FFmpeg's, so the pixels equal what OpenCV's reader gives.
     """
-    image = frame.to_ndarray(format=fmt)
+    image = converted(frame, fmt).to_ndarray()
     turns = int(round(getattr(frame, "rotation", 0) / 90.0)) % 4
     return np.ascontiguousarray(np.rot90(image, k=turns)) if turns else image
 
