@@ -122,12 +122,15 @@ def posterior_shrink(curvature: torch.Tensor, weight: torch.Tensor) -> torch.Ten
     B, _, F = curvature.shape[1:4]
     if F < 3:  # nothing was smoothed
         return torch.ones(B, F, 17, dtype=curvature.dtype, device=curvature.device)
-    h = (curvature[0] + curvature[3] + curvature[5]).nanmean(dim=(1, 2)) / 3  # (B, 17): mean over hypotheses, frames
+    h = (curvature[0] + curvature[3] + curvature[5]).nanmean(dim=(1, 2)).double() / 3  # (B, 17): mean, hyps, frames
+    measured = h > 0  # a joint no camera sees in the window has no fit to shrink (and a singular system)
+    h = torch.where(measured, h, torch.ones_like(h))
     penalty = acceleration_penalty(F, torch.float64, curvature.device)
-    system = h.double()[..., None, None] * torch.eye(F, dtype=torch.float64, device=curvature.device)
+    system = h[..., None, None] * torch.eye(F, dtype=torch.float64, device=curvature.device)
     system = system + 2 * weight.double()[..., None, None] * penalty  # (B, 17, F, F)
     variance = torch.linalg.inv(system).diagonal(dim1=-2, dim2=-1)  # (B, 17, F)
-    return (h.double()[..., None] * variance).clamp(max=1.0).transpose(1, 2).to(curvature.dtype)
+    shrink = torch.where(measured[..., None], (h[..., None] * variance).clamp(max=1.0), torch.ones_like(variance))
+    return shrink.transpose(1, 2).to(curvature.dtype)
 
 
 def _acceleration_gradient(joints: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:

@@ -123,14 +123,17 @@ def test_a_persons_lift_does_not_depend_on_who_else_is_lifted(tiny_prior, sports
     """Each window's noise is keyed by the person's identity and the window's start on the clock, not by its place in
     the network's batch: the woman of the Sports2D demo lifted alone (as ``--persons id:1`` or a piece of a split
     take holding only her) is bit for bit the woman lifted beside the man (before, her windows took the noise of
-    whichever batch place they had, and her median pelvis moved by 5 cm median, 28 cm at most)."""
+    whichever batch place they had, and her median pelvis moved by 5 cm median, 28 cm at most). Bit for bit where the
+    network runs in bfloat16 (CPUs with AMX); in float32 a matrix product's rounding depends on its batch's size, which
+    moves joints by hundredths of a millimetre, so there the test allows 0.1 mm."""
     keypoints, times, camera = sports_demo
     config, settings = SamplerConfig(samples=3, seed=2), WindowSettings(window=16, overlap=4, max_gap=1.0)
     both = lift_tracks(tiny_prior, [camera], keypoints, times, config, settings).hypotheses
     alone = lift_stream(tiny_prior, [camera], keypoints[:, :, 1:], times, config, settings, identities=[1])
     woman = np.concatenate([c.hypotheses for c in alone], axis=2)[0]
     present = np.isfinite(woman).all(axis=(0, 2, 3))
-    assert present.sum() == 160 and np.array_equal(woman[:, present], both[1][:, present])
+    assert present.sum() == 160
+    np.testing.assert_allclose(woman[:, present], both[1][:, present], rtol=0, atol=1e-4)
     renamed = lift_stream(tiny_prior, [camera], keypoints[:, :, 1:], times, config, settings, identities=[7])
     other = np.concatenate([c.hypotheses for c in renamed], axis=2)[0]
     assert not np.allclose(other[:, present], woman[:, present])  # another identity draws other noise
