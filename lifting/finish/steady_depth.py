@@ -11,14 +11,18 @@ camera's optical axis) is smoothed over the person's whole track, gaps included:
 
 over the track's frames from first to last present (absent frames have no data term, so the path crosses a gap
 continuously from where it was, and the hypotheses keep their own paths: those whose depth the gap leaves open
-spread as they did). ``w_t`` is 1 where the hypothesis's lower ankle stands (within ``STANDING_BAND`` of its
-standing height there, :func:`lifting.stance.standing_heights`: on the floor, a roof or a step; a grounded
-foot fixes depth) and the frame is trusted (:func:`trusted_frames`: most joints seen, not a blip),
-``AIRBORNE_WEIGHT`` elsewhere, and ``lam``
+spread as they did). ``w_t`` is 1 where the hypothesis's lower ankle stands on the floor (within
+``STANDING_BAND`` of its standing height there, :func:`lifting.stance.standing_heights`, and that height the
+floor's: :func:`on_floor`) and the frame is trusted (:func:`trusted_frames`: most joints seen, not a blip): a
+stance foot's ray meeting the known floor fixes depth. Elsewhere only the size prior placed the frame, and
+``w_t`` is ``UNMEASURED_WEIGHT``: in the air, and standing on a raised support, whose height is the hypothesis's
+own guess and moves with its depth (the Sports2D roof man, weighed 1 there, wandered 2 m to and fro along his
+rays in 4 s on the roof: 4.3 m of his pelvis path of 12.8 m). ``lam``
 and ``mu`` (a prior on the root's speed and acceleration along the ray) pass changes slower than ``CUTOFF_HZ`` where
-the data weigh 1. Each frame is then scaled about the camera centre
-by the ratio of the smoothed to the raw depth: every joint moves along its own ray, so the image is unchanged. A
-scale never takes a joint under the floor that was not under it.
+the data weigh 1, and slower than about 0.5 Hz where they weigh ``UNMEASURED_WEIGHT`` (a walk at a steady speed
+along the ray passes whatever the weight: only its changes of speed are smoothed). Each frame is then scaled about
+the camera centre by the ratio of the smoothed to the raw depth: every joint moves along its own ray, so the image
+is unchanged. A scale never takes a joint under the floor that was not under it.
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ from platypose.lifting.stance import ANKLE_HEIGHT, ANKLES, lower_height, standin
 from platypose.lifting.tracks.roots import MIN_SEEN_JOINTS
 
 CUTOFF_HZ = 3.0  # depth changes slower than this pass where the feet stand (they hold depth: barely touched)
-AIRBORNE_WEIGHT = 0.005  # data weight of frames whose feet do not stand (changes over about 0.8 Hz smoothed)
+UNMEASURED_WEIGHT = 5e-4  # data weight of frames no floor contact places (changes over about 0.5 Hz smoothed)
 STANDING_BAND = 0.1  # metres: a lower ankle within this of the floor (or its own low level) stands
 MIN_SEEN = 10  # joints the camera must see in a frame for its placement to count fully
 MIN_RUN = 0.2  # seconds: a shorter run of such frames is a blip, placed by the prior alone
@@ -111,18 +115,30 @@ def steady_scales(
     if trusted is not None:
         standing &= trusted[span]
     spacing = None if times is None else np.diff(np.asarray(times, np.float64)[span]) * fps
-    weights = np.where(standing, 1.0, AIRBORNE_WEIGHT)
     log_depth = np.where(present, np.log(np.where(present, depth, 1.0)), np.nan)[:, span]
-    targets = log_depth
-    if unseen is not None:  # the depth the prior carried across a gap only bridges it
-        weights = np.where(unseen[span], 0.0, weights)
-    if unseen is not None and camera_height is not None:
+    targets, measured = log_depth, standing
+    if camera_height is not None:
+        measured = standing & on_floor(levels, camera_height)
+    if unseen is not None and camera_height is not None:  # after a gap, a stance at a new level: on the floor
         contact = floor_contact_depths(log_depth, np.where(standing, levels, np.nan), unseen[span], camera_height, fps)
         targets = np.where(np.isfinite(contact), contact, log_depth)
+        measured = measured | np.isfinite(contact)
+    weights = np.where(measured, 1.0, UNMEASURED_WEIGHT)
+    if unseen is not None:  # the depth the prior carried across a gap only bridges it
+        weights = np.where(unseen[span], 0.0, weights)
     for n in range(len(depth)):
         smooth = smooth_path(targets[n], weights[n], lam, mu, spacing)
         scales[n, span] = np.where(np.isfinite(log_depth[n]), np.exp(smooth - np.nan_to_num(log_depth[n])), 1.0)
     return scales
+
+
+def on_floor(levels: np.ndarray, camera_height: float) -> np.ndarray:
+    """Where standing heights ``levels`` (any shape, of the lower ankle; NaN: not standing) are the floor's (an ankle
+    ``ANKLE_HEIGHT`` above it, within ``STANDING_BAND``) and the camera at least ``MIN_DROP`` above the floor: a
+    stance whose ray meets the known floor. A raised support's height is the hypothesis's own guess, which its
+    depth moves with; a floor seen edge-on fixes nothing."""
+    on = np.abs(np.nan_to_num(levels, nan=np.inf) - ANKLE_HEIGHT) < STANDING_BAND
+    return on & (camera_height > MIN_DROP)
 
 
 def gap_runs(unseen: np.ndarray, fps: float) -> list[tuple[int, int]]:

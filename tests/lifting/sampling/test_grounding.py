@@ -17,7 +17,7 @@ from platypose.lifting.checks.flags import person_lines
 from platypose.lifting.checks.plausibility import lowest_ankle, plausibility, stance_slides
 from platypose.lifting.errors import InputError
 from platypose.lifting.floor import CALIBRATED_FLOOR, FloorToEstimate, estimate_floor, parse_floor
-from platypose.lifting.sampling.grounding import Grounding, image_still_ankles
+from platypose.lifting.sampling.grounding import TREND_LIMIT, Grounding, image_still_ankles, scale_trend
 from platypose.lifting.sampling.sampler import cameras_and_rays
 from platypose.lifting.settings import SamplerConfig, WindowSettings
 from platypose.lifting.stance import lasting, stance_ankles
@@ -82,6 +82,35 @@ def test_stance_lasts_at_least_a_tenth_of_a_second(real_clips):
         stance = stance_ankles(joints, None, 30.0)
         assert stance.sum() >= 0.2 * stance.size, name  # one foot or the other stands 40 % of the time or more
         assert np.median(stance_slides(joints, None, 30.0)) < 0.005, name
+
+
+def test_a_windows_floor_reading_follows_its_stance_feet_along_a_line():
+    """Stance scales drifting 15 % over a window (the feet's rays meeting the floor ever nearer), read on alternate
+    feet with swing frames between: the trend is that line, relative to their median, whatever the noise; a steady
+    person's is 1, and so is that of a window with too few stance frames; a steeper drift is held to
+    ``TREND_LIMIT`` over the window."""
+    F = 64
+    frames = torch.arange(F, dtype=torch.float64)
+    rng = np.random.default_rng(0)
+
+    def stance_scales(drift: float, stance: np.ndarray, noise: float = 0.0) -> torch.Tensor:
+        logs = 0.1 + drift * (frames / (F - 1) - 0.5) + torch.as_tensor(rng.normal(0.0, noise, F))
+        scales = torch.full((1, 1, F, 2), torch.nan, dtype=torch.float64)
+        foot = torch.as_tensor((np.arange(F) // 8) % 2)  # the left foot stands, then the right
+        scales[0, 0, torch.as_tensor(stance), foot[stance]] = logs[stance].exp()
+        return scales
+
+    walking = np.flatnonzero((np.arange(F) % 8) < 5)  # 5 of every 8 frames stand
+    line = 0.15 * (frames / (F - 1) - 0.5)
+    for noise in (0.0, 0.01):
+        scales = stance_scales(0.15, walking, noise)
+        median = float(scales.log().flatten().nanmedian())
+        trend = scale_trend(scales)[0, 0].log()
+        np.testing.assert_allclose((trend + median - 0.1).numpy(), line.numpy(), atol=0.004 + noise)
+    np.testing.assert_allclose(scale_trend(stance_scales(0.0, walking)).numpy(), 1.0, atol=1e-12)
+    assert torch.equal(scale_trend(stance_scales(0.15, walking[:8])), torch.ones(1, 1, F, dtype=torch.float64))
+    steep = scale_trend(stance_scales(1.0, walking))[0, 0].log()
+    assert abs(float(steep[-1] - steep[0]) - TREND_LIMIT * (F - 1) / F) < 1e-9
 
 
 def test_floor_specifications():
