@@ -21,8 +21,11 @@ def test_three_good_one_view_videos_print_no_warning_lines(run_cli, data_dir: Pa
     assert code == 0, err
     assert [line for line in err.splitlines() if "warning" in line] == [], err
     # The one-view answer's forearms still swing faster than a body turns them (the rigid step, docs/results.md):
-    # said as the body's flags, never as a floor, depth, camera or reprojection problem.
-    body_flags = {"hinge jumps", "joint angles"}
+    # said as the body's flags, never as a floor, camera or reprojection problem. One view leaves the athlete's
+    # depth open by about a metre: cam01's hypotheses lie 0.71-1.02 m from their median (seeds 0-2; 0.73-1.00 m
+    # before one view's raised-support frames were steadied as unmeasured, 0.82-1.19 m with 20 hypotheses), on
+    # the 1 m at which "spread" is flagged: a property of one view, said as a flag.
+    body_flags = {"hinge jumps", "joint angles", "spread"}
     summary = json.loads((tmp_path / "summary.json").read_text())
     for entry in summary["inputs"]:
         assert entry["warnings"] == [] and entry["plausibility"][0]["one_view"]  # a property, not a warning
