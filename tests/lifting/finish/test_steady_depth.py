@@ -20,6 +20,11 @@ def pelvis_path(pelvis: np.ndarray) -> tuple[float, float]:
     return float(steps.sum()), float(steps.max())
 
 
+def pelvis_depths(motion: np.ndarray, camera) -> np.ndarray:
+    """Pelvis depths ``(...,)`` along ``camera``'s optical axis of joints ``(..., 17, 3)``."""
+    return (np.asarray(motion, np.float64)[..., 0, :] - camera.center) @ camera.R[2]
+
+
 def test_a_gap_and_a_too_near_airborne_return_are_bridged_from_where_the_person_was():
     camera = default_camera("cam", 1080, 1920)
     pose = standing(90) + [0.0, 10.0, -1.7]  # on the floor, 10 m in front of the camera
@@ -109,9 +114,8 @@ def test_a_person_who_drops_from_a_roof_while_unseen_lands_on_the_floor(data_dir
 
     assert (landed(before) > ANKLE_HEIGHT + 0.4).all(), landed(before)
     assert ((landed(hypotheses) > -0.05) & (landed(hypotheses) < ANKLE_HEIGHT + 0.05)).all(), landed(hypotheses)
-    depth = (hypotheses[0, :, :110, 0].astype(np.float64) - camera.center) @ camera.R[2]  # (N, 110) on the roof
-    depth_before = (before[0, :, :110, 0].astype(np.float64) - camera.center) @ camera.R[2]
-    moved = np.abs(depth.mean(axis=1) - depth_before.mean(axis=1))
+    roof_after, roof_before = (pelvis_depths(h[0, :, :110], camera) for h in (hypotheses, before))  # (N, 110)
+    moved = np.abs(roof_after.mean(axis=1) - roof_before.mean(axis=1))
     assert (moved < 0.5).all(), moved  # the roof keeps its mean depth (the size prior's wander there smoothed)
     steps = np.linalg.norm(np.diff(hypotheses[0, :, :, 0], axis=1), axis=-1)
     assert steps.max() < 0.5, steps.max()
@@ -134,12 +138,9 @@ def test_a_person_on_a_roof_keeps_one_depth_where_only_the_size_prior_placed_the
     hypotheses = hypotheses.astype(np.float32)
     before = hypotheses.copy()
     steady_person(hypotheses, 0, camera, 30.0, CALIBRATED_FLOOR, np.full(123, 17))
-
-    def depths(motion: np.ndarray) -> np.ndarray:
-        return (np.asarray(motion, np.float64)[..., 0, :] - camera.center) @ camera.R[2]
-
-    path_before, path_after = (np.abs(np.diff(depths(h[0, 0]))).sum() for h in (before, hypotheses))
+    path_before, path_after = (np.abs(np.diff(pelvis_depths(h[0, 0], camera))).sum() for h in (before, hypotheses))
     assert path_before > 5.0 and path_after < 0.1 * path_before, (path_before, path_after)
-    off_before, off_after = (np.median(np.abs(depths(h[0, 0]) - depths(man))) for h in (before, hypotheses))
+    own = pelvis_depths(man, camera)
+    off_before, off_after = (np.median(np.abs(pelvis_depths(h[0, 0], camera) - own)) for h in (before, hypotheses))
     assert off_after < 0.7 * off_before, (off_before, off_after)
     assert np.allclose(project(hypotheses, camera), project(before, camera), atol=0.05)
