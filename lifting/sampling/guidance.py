@@ -25,6 +25,7 @@ from platypose.lifting.sampling.grounding import Grounding
 from platypose.lifting.sampling.linalg import SYMMETRIC_PAIRS, add_to_diagonal_, rotate_translate, solve_symmetric3
 from platypose.lifting.sampling.placement import Anchor, continuation_ramp, continued_offset, typical_size
 from platypose.lifting.sampling.translation import RayConstraints, solve_translation
+from platypose.lifting.sampling.unseen import FADE_S, bridged_moves
 from platypose.lifting.sampling.views import OneView, SeveralViews, views_for
 from platypose.lifting.settings import SamplerConfig
 
@@ -136,6 +137,22 @@ class GuidedProblem:
         features = joints_to_features(joints).reshape(x0.shape) / self.std
         return x0 + features, offset + joints[:, :, :1, 0, :]
 
+    def known_joints(self) -> torch.Tensor:
+        """Joints ``(B, F, 17)`` that guidance measures: seen by a camera, or in an anchored frame."""
+        known = (self.obs.confidence > 0).any(dim=0)
+        if self.anchor is not None:
+            known = known | (self.anchor.mask > 0)[..., None]
+        return known
+
+    def unseen_moves(self, moved: torch.Tensor, anchored: torch.Tensor | None) -> torch.Tensor:
+        """What guidance's joint moves ``moved`` ``(3, B, N, F, 17)`` add on the joints no camera sees between seen
+        ones (:func:`lifting.sampling.unseen.bridged_moves`): the pose's part of the moves (the pelvis is placement's),
+        none from anchored frames (``anchored`` ``(B, F)``: the previous window's motion, blended in as it is)."""
+        relative = moved - moved[..., :1]
+        if anchored is not None:
+            relative = relative * (anchored[None, :, None, :, None] == 0)
+        return bridged_moves(relative, self.known_joints(), FADE_S * self.prior.fps)
+
     def camera_frame(self) -> tuple[torch.Tensor, torch.Tensor] | None:
         """The camera's ``(R, t)`` (world -> camera) when guidance runs in its frame, else None (world frame).
 
@@ -204,13 +221,16 @@ class GuidedProblem:
             curvature = add_to_diagonal_(curvature, 2 * self.anchor.weight * mask[..., None])
         return energy, grad, curvature
 
-    def guide(self, x0: torch.Tensor, iterations: int) -> tuple[torch.Tensor, torch.Tensor]:
+    def guide(
+        self, x0: torch.Tensor, iterations: int, bridge_unseen: bool = False
+    ) -> tuple[torch.Tensor, torch.Tensor]:
         """At most k guidance steps on ``x0`` ``(B*N, F, D)`` and its offset with the configured step rule.
 
         The steps move the joints (component-first, decoded once, in the guidance frame); the
         windows and offsets take the accepted move at the end. Guidance stops early once every
         hypothesis took a step gaining less than ``guidance_tol`` of its energy at the start (or
-        cannot step any more).
+        cannot step any more). ``bridge_unseen``: the joints no camera sees between seen ones take the moves of
+        their seen neighbours (:meth:`unseen_moves`; the sampler's last step).
         """
         c = self.config
         offset = self.solve_offset(x0)
@@ -247,13 +267,16 @@ class GuidedProblem:
                 break  # every hypothesis took a step that gained less than the tolerance (or cannot step)
         anchored = None if self.anchor is None else self.anchor.mask
         smoothed_move = self.views.depth_smoothed_move(start, moved, frame is not None, anchored, c)
+        held = torch.zeros_like(moved[:1], dtype=torch.bool)  # joints the floor holds where guidance put them
         if self.floor_state is not None:  # standing ankles stay where guidance held them, no joint sinks further
             stance, normal, level = self.floor_state
-            kept = self.grounding.standing_joints(stance) | self.grounding.pushed_below_floor(
+            held = self.grounding.standing_joints(stance) | self.grounding.pushed_below_floor(
                 start, moved, smoothed_move, normal, level
             )
-            smoothed_move = torch.where(kept, moved, smoothed_move)
+            smoothed_move = torch.where(held, moved, smoothed_move)
         moved = smoothed_move
+        if bridge_unseen:
+            moved = moved + torch.where(held, 0.0, self.unseen_moves(moved, anchored))
         if frame is not None:  # the move back in world axes
             moved = rotate_translate(moved, frame[0].T)
         return self.apply_joint_moves(x0, offset, moved)

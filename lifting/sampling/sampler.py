@@ -143,8 +143,9 @@ def sample(
     for i, t in enumerate(steps):
         with torch.inference_mode():
             x0 = model(x_t, torch.tensor(int(t), device=device))
-        x0, offset = problem.guide(problem.inpaint(x0.clone()), config.guidance_iters)
         t_prev = int(steps[i + 1]) if i + 1 < len(steps) else None
+        # the last step carries guidance's moves over the unseen joints (:mod:`lifting.sampling.unseen`)
+        x0, offset = problem.guide(problem.inpaint(x0.clone()), config.guidance_iters, bridge_unseen=t_prev is None)
         if t_prev is not None:  # the last prediction keeps its own overlap, pulled by the anchor energy, for blending
             x0 = problem.inpaint(x0)
         fresh = window_normal(streams, shape).to(device=device, dtype=dtype) if config.eta > 0 else None
